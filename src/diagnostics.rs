@@ -1,0 +1,1 @@
+//! Energy and strain measures shared by every backend.

@@ -1,0 +1,65 @@
+//! The library's one error type.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong in the library. Every variant's message is
+/// meant to be shown to a user as is: it names what was wrong, what is
+/// allowed, and (for files) where.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A parameter is outside its admissible range.
+    #[error("`{key}`: must be {allowed}, got {got}")]
+    InvalidParameter {
+        /// Dotted key, scene-file spelling (`springs.stretch.stiffness`).
+        key: String,
+        /// What is allowed, with units.
+        allowed: String,
+        /// What was given.
+        got: String,
+    },
+
+    /// A scene file could not be read, parsed or validated.
+    #[error("scene file {}: {message}", path.display())]
+    Scene {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, naming the key and what is allowed.
+        message: String,
+    },
+
+    /// A built-in scene name that does not exist.
+    #[error("no scene file or built-in scene named `{name}` (built-in scenes: {available})")]
+    UnknownScene {
+        /// The name asked for.
+        name: String,
+        /// Comma-separated built-in names.
+        available: String,
+    },
+
+    /// The simulation state became NaN or infinite.
+    #[error(
+        "simulation blew up at step {step} (t = {time:.6} s): particle {particle} is not finite; \
+         try a smaller dt, softer springs or another integrator"
+    )]
+    NonFinite {
+        /// The step (1-based) after which the state was first non-finite.
+        step: u64,
+        /// Simulated time at that step [s].
+        time: f64,
+        /// The first non-finite particle.
+        particle: usize,
+    },
+
+    /// An I/O error on an output or input file.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file involved.
+        path: PathBuf,
+        /// The underlying error.
+        source: std::io::Error,
+    },
+}
+
+/// `Result` with the library's [`Error`].
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,30 @@
+//! # wgcloth
+//!
+//! Mass-spring cloth with three integrators — explicit (symplectic Euler +
+//! Provot fix-up), implicit (Baraff–Witkin with filtered PCG) and
+//! semi-implicit (Desbrun's constant filter) — on a CPU reference solver that
+//! runs in `f64` (ground truth) or `f32` (the GPU's arithmetic).
+//!
+//! The pieces, each its own module:
+//! - [`model`]: topology, rest lengths, masses, pins, adjacency (built once);
+//! - [`params`]: every other parameter, validated in one place;
+//! - [`scene`]: TOML scene files and the built-in scenes;
+//! - [`cpu`]: the reference solver and its state;
+//! - [`diagnostics`]: energy and strain, shared by every backend.
+//!
+//! Units are SI throughout (m, kg, s, N), y is up.
+#![deny(missing_docs)]
+
+pub mod cpu;
+pub mod diagnostics;
+pub mod error;
+pub mod model;
+pub mod params;
+pub mod real;
+pub mod scene;
+
+pub use error::{Error, Result};
+pub use model::{ClothSpec, Model};
+pub use params::{Integrator, Params};
+pub use real::{Real, Vec3};
+pub use scene::Scene;

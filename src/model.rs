@@ -1,0 +1,491 @@
+//! The cloth model: particles, springs, triangles and the per-particle
+//! adjacency the solvers gather over. Built once; stepping never changes it.
+//!
+//! # Particle order
+//!
+//! Particles are numbered row-major: particle `row * nx + col`, with
+//! `0 ≤ col < nx` along the cloth's width and `0 ≤ row < ny` along its
+//! height. Row 0 is the **top** edge, column 0 the **left** edge, so the
+//! `top-left` corner is particle 0 and `bottom-right` is `nx * ny - 1`.
+//!
+//! Rest positions are `origin + col·Δw·u + row·Δh·v` with `Δw = w/(nx−1)`,
+//! `Δh = h/(ny−1)` and
+//! - `horizontal`: `u = +x`, `v = +z` (a patch in the xz-plane at height
+//!   `origin.y`, like a tablecloth held above the floor);
+//! - `vertical`: `u = +x`, `v = −y` (a curtain hanging down from its top
+//!   edge at `origin`).
+
+use std::ops::Range;
+
+use crate::error::{Error, Result};
+use crate::params::{SpringKind, SpringParams};
+
+/// Largest particle count a cloth may have. Far above what fits in a GPU
+/// storage buffer binding on common devices; the GPU solver checks the
+/// device's real limits separately.
+pub const MAX_PARTICLES: usize = 1 << 24;
+
+/// Cloth orientation at rest.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Orientation {
+    /// In the xz-plane (normal +y).
+    Horizontal,
+    /// In the xy-plane, hanging down from the top edge (normal +z).
+    Vertical,
+}
+
+/// A corner of the grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Corner {
+    /// Row 0, column 0.
+    TopLeft,
+    /// Row 0, column nx−1.
+    TopRight,
+    /// Row ny−1, column 0.
+    BottomLeft,
+    /// Row ny−1, column nx−1.
+    BottomRight,
+}
+
+/// An edge of the grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Edge {
+    /// Row 0.
+    Top,
+    /// Row ny−1.
+    Bottom,
+    /// Column 0.
+    Left,
+    /// Column nx−1.
+    Right,
+}
+
+/// Which particles are pinned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pin {
+    /// One corner particle.
+    Corner(Corner),
+    /// Every particle of one edge.
+    Edge(Edge),
+    /// A particle by index (row-major, see the module docs).
+    Index(usize),
+}
+
+impl Pin {
+    /// Parses the scene-file names `top-left`, `top`, … .
+    pub fn parse(name: &str) -> Option<Pin> {
+        Some(match name {
+            "top-left" => Pin::Corner(Corner::TopLeft),
+            "top-right" => Pin::Corner(Corner::TopRight),
+            "bottom-left" => Pin::Corner(Corner::BottomLeft),
+            "bottom-right" => Pin::Corner(Corner::BottomRight),
+            "top" => Pin::Edge(Edge::Top),
+            "bottom" => Pin::Edge(Edge::Bottom),
+            "left" => Pin::Edge(Edge::Left),
+            "right" => Pin::Edge(Edge::Right),
+            _ => return None,
+        })
+    }
+
+    /// The names [`Pin::parse`] accepts.
+    pub const NAMES: &'static str =
+        "top-left, top-right, bottom-left, bottom-right, top, bottom, left, right, or a particle index";
+}
+
+/// The geometry and mass of a rectangular cloth.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClothSpec {
+    /// Particles along the width (columns), `≥ 2`.
+    pub nx: usize,
+    /// Particles along the height (rows), `≥ 2`.
+    pub ny: usize,
+    /// Width and height [m], both `> 0`.
+    pub size: [f64; 2],
+    /// Position of the top-left particle [m].
+    pub origin: [f64; 3],
+    /// Rest orientation.
+    pub orientation: Orientation,
+    /// Total mass [kg], `> 0`, shared equally by all particles (pinned ones
+    /// included).
+    pub mass: f64,
+    /// Pinned particles.
+    pub pins: Vec<Pin>,
+}
+
+impl Default for ClothSpec {
+    fn default() -> Self {
+        ClothSpec {
+            nx: 33,
+            ny: 33,
+            size: [1.0, 1.0],
+            origin: [-0.5, 1.0, -0.5],
+            orientation: Orientation::Horizontal,
+            mass: 0.3,
+            pins: vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)],
+        }
+    }
+}
+
+fn invalid(key: &str, allowed: &str, got: impl std::fmt::Display) -> Error {
+    Error::InvalidParameter {
+        key: key.to_string(),
+        allowed: allowed.to_string(),
+        got: got.to_string(),
+    }
+}
+
+impl ClothSpec {
+    /// Refuses a cloth that cannot be built: fewer than 2 × 2 particles, more
+    /// than [`MAX_PARTICLES`], a non-positive or non-finite size or mass, a
+    /// pin index out of range.
+    pub fn validate(&self) -> Result<()> {
+        for (key, n) in [("cloth.resolution[0]", self.nx), ("cloth.resolution[1]", self.ny)] {
+            if n < 2 {
+                return Err(invalid(key, "≥ 2 particles", n));
+            }
+        }
+        let count = self.nx.checked_mul(self.ny).unwrap_or(usize::MAX);
+        if count > MAX_PARTICLES {
+            return Err(invalid(
+                "cloth.resolution",
+                &format!("at most {MAX_PARTICLES} particles in all"),
+                format!("{} × {}", self.nx, self.ny),
+            ));
+        }
+        for (key, s) in [("cloth.size[0]", self.size[0]), ("cloth.size[1]", self.size[1])] {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(invalid(key, "> 0 (m)", s));
+            }
+        }
+        for (c, v) in self.origin.iter().enumerate() {
+            if !v.is_finite() {
+                return Err(invalid(&format!("cloth.origin[{c}]"), "a finite number (m)", v));
+            }
+        }
+        if !(self.mass.is_finite() && self.mass > 0.0) {
+            return Err(invalid("cloth.mass", "> 0 (kg, total)", self.mass));
+        }
+        for pin in &self.pins {
+            if let Pin::Index(i) = *pin {
+                if i >= count {
+                    return Err(invalid(
+                        "cloth.pins",
+                        &format!("a particle index below {count}, or {}", Pin::NAMES),
+                        i,
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.nx * self.ny
+    }
+
+    /// The particle indices a pin selects.
+    pub fn pin_indices(&self, pin: Pin) -> Vec<usize> {
+        let (nx, ny) = (self.nx, self.ny);
+        match pin {
+            Pin::Corner(Corner::TopLeft) => vec![0],
+            Pin::Corner(Corner::TopRight) => vec![nx - 1],
+            Pin::Corner(Corner::BottomLeft) => vec![(ny - 1) * nx],
+            Pin::Corner(Corner::BottomRight) => vec![ny * nx - 1],
+            Pin::Edge(Edge::Top) => (0..nx).collect(),
+            Pin::Edge(Edge::Bottom) => ((ny - 1) * nx..ny * nx).collect(),
+            Pin::Edge(Edge::Left) => (0..ny).map(|r| r * nx).collect(),
+            Pin::Edge(Edge::Right) => (0..ny).map(|r| r * nx + nx - 1).collect(),
+            Pin::Index(i) => vec![i],
+        }
+    }
+}
+
+/// One spring between particles `i` and `j`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spring {
+    /// First particle.
+    pub i: u32,
+    /// Second particle.
+    pub j: u32,
+    /// Rest length [m].
+    pub rest: f64,
+    /// Which kind (selects stiffness, damping and max stretch).
+    pub kind: SpringKind,
+}
+
+/// A compressed per-particle list (CSR): the entries of particle `p` are
+/// `entries[offsets[p]..offsets[p + 1]]`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Adjacency {
+    /// `particle_count + 1` offsets into `entries`.
+    pub offsets: Vec<u32>,
+    /// The entries, grouped by particle, in ascending order within a group.
+    pub entries: Vec<u32>,
+}
+
+impl Adjacency {
+    /// The entries of particle `p`.
+    #[inline]
+    pub fn of(&self, p: usize) -> &[u32] {
+        &self.entries[self.offsets[p] as usize..self.offsets[p + 1] as usize]
+    }
+
+    /// Builds the list from `(particle, entry)` pairs, keeping each
+    /// particle's entries in ascending order so every consumer (CPU twin and
+    /// GPU kernel) sums in the same, fixed order.
+    fn build(particles: usize, pairs: impl Iterator<Item = (usize, u32)> + Clone) -> Self {
+        let mut counts = vec![0u32; particles + 1];
+        for (p, _) in pairs.clone() {
+            counts[p + 1] += 1;
+        }
+        for p in 0..particles {
+            counts[p + 1] += counts[p];
+        }
+        let offsets = counts.clone();
+        let mut entries = vec![0u32; offsets[particles] as usize];
+        let mut cursor = counts;
+        for (p, e) in pairs {
+            entries[cursor[p] as usize] = e;
+            cursor[p] += 1;
+        }
+        for p in 0..particles {
+            entries[offsets[p] as usize..offsets[p + 1] as usize].sort_unstable();
+        }
+        Adjacency { offsets, entries }
+    }
+}
+
+/// An incident-spring entry encodes the spring index and which end the
+/// particle is: `spring << 1 | end`, `end = 0` for `i` (the force `f_i` acts
+/// on it) and `1` for `j` (it receives `−f_i`). The same encoding is used by
+/// the GPU buffers.
+#[inline]
+pub fn decode_incidence(entry: u32) -> (usize, bool) {
+    ((entry >> 1) as usize, entry & 1 == 1)
+}
+
+/// The cloth: built once from a [`ClothSpec`] and the spring materials.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Model {
+    /// The spec it was built from.
+    pub spec: ClothSpec,
+    /// Rest (and initial) positions [m], particle order.
+    pub rest_positions: Vec<[f64; 3]>,
+    /// Mass of each particle [kg] (equal for all).
+    pub mass: Vec<f64>,
+    /// Whether each particle is pinned.
+    pub pinned: Vec<bool>,
+    /// Springs, grouped by kind (stretch, shear, bend).
+    pub springs: Vec<Spring>,
+    /// The index range of each kind in `springs`, by [`SpringKind::index`].
+    pub kind_ranges: [Range<usize>; 3],
+    /// Triangles (counter-clockwise seen from the normal side: +y for a
+    /// horizontal cloth, +z for a vertical one).
+    pub triangles: Vec<[u32; 3]>,
+    /// For each particle, its incident springs (see [`decode_incidence`]).
+    pub particle_springs: Adjacency,
+    /// For each particle, the indices of its incident triangles.
+    pub particle_triangles: Adjacency,
+}
+
+impl Model {
+    /// Builds the cloth. A spring kind whose stiffness is zero gets no
+    /// springs.
+    pub fn new(spec: &ClothSpec, materials: &[SpringParams; 3]) -> Result<Model> {
+        spec.validate()?;
+        let (nx, ny) = (spec.nx, spec.ny);
+        let n = nx * ny;
+        let dw = spec.size[0] / (nx - 1) as f64;
+        let dh = spec.size[1] / (ny - 1) as f64;
+        let (u, v) = match spec.orientation {
+            Orientation::Horizontal => ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+            Orientation::Vertical => ([1.0, 0.0, 0.0], [0.0, -1.0, 0.0]),
+        };
+        let o = spec.origin;
+        let mut rest_positions = Vec::with_capacity(n);
+        for row in 0..ny {
+            for col in 0..nx {
+                let (a, b) = (col as f64 * dw, row as f64 * dh);
+                rest_positions.push([
+                    o[0] + a * u[0] + b * v[0],
+                    o[1] + a * u[1] + b * v[1],
+                    o[2] + a * u[2] + b * v[2],
+                ]);
+            }
+        }
+        let idx = |row: usize, col: usize| (row * nx + col) as u32;
+        let mut springs = Vec::new();
+        let mut kind_ranges: [Range<usize>; 3] = [0..0, 0..0, 0..0];
+        for kind in SpringKind::ALL {
+            let start = springs.len();
+            if materials[kind.index()].stiffness > 0.0 {
+                let mut pairs = Vec::new();
+                for row in 0..ny {
+                    for col in 0..nx {
+                        match kind {
+                            SpringKind::Stretch => {
+                                if col + 1 < nx {
+                                    pairs.push((idx(row, col), idx(row, col + 1)));
+                                }
+                                if row + 1 < ny {
+                                    pairs.push((idx(row, col), idx(row + 1, col)));
+                                }
+                            }
+                            SpringKind::Shear => {
+                                if col + 1 < nx && row + 1 < ny {
+                                    pairs.push((idx(row, col), idx(row + 1, col + 1)));
+                                    pairs.push((idx(row, col + 1), idx(row + 1, col)));
+                                }
+                            }
+                            SpringKind::Bend => {
+                                if col + 2 < nx {
+                                    pairs.push((idx(row, col), idx(row, col + 2)));
+                                }
+                                if row + 2 < ny {
+                                    pairs.push((idx(row, col), idx(row + 2, col)));
+                                }
+                            }
+                        }
+                    }
+                }
+                for (i, j) in pairs {
+                    let (a, b) = (rest_positions[i as usize], rest_positions[j as usize]);
+                    let rest = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+                        .sqrt();
+                    springs.push(Spring { i, j, rest, kind });
+                }
+            }
+            kind_ranges[kind.index()] = start..springs.len();
+        }
+        let mut triangles = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
+        for row in 0..ny - 1 {
+            for col in 0..nx - 1 {
+                let (a, b) = (idx(row, col), idx(row, col + 1));
+                let (c, d) = (idx(row + 1, col), idx(row + 1, col + 1));
+                triangles.push([a, c, b]);
+                triangles.push([b, c, d]);
+            }
+        }
+        let particle_springs = Adjacency::build(
+            n,
+            springs.iter().enumerate().flat_map(|(s, sp)| {
+                [
+                    (sp.i as usize, (s as u32) << 1),
+                    (sp.j as usize, (s as u32) << 1 | 1),
+                ]
+            }),
+        );
+        let particle_triangles = Adjacency::build(
+            n,
+            triangles
+                .iter()
+                .enumerate()
+                .flat_map(|(t, tri)| tri.map(|p| (p as usize, t as u32))),
+        );
+        let mut pinned = vec![false; n];
+        for &pin in &spec.pins {
+            for p in spec.pin_indices(pin) {
+                pinned[p] = true;
+            }
+        }
+        Ok(Model {
+            spec: spec.clone(),
+            rest_positions,
+            mass: vec![spec.mass / n as f64; n],
+            pinned,
+            springs,
+            kind_ranges,
+            triangles,
+            particle_springs,
+            particle_triangles,
+        })
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.rest_positions.len()
+    }
+
+    /// Number of pinned particles.
+    pub fn pinned_count(&self) -> usize {
+        self.pinned.iter().filter(|&&p| p).count()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::params::Params;
+
+    fn model(nx: usize, ny: usize) -> Model {
+        let spec = ClothSpec {
+            nx,
+            ny,
+            ..ClothSpec::default()
+        };
+        Model::new(&spec, &Params::default().springs).expect("valid spec")
+    }
+
+    #[test]
+    fn spring_counts_match_the_grid_formulas() {
+        let (nx, ny) = (5, 4);
+        let m = model(nx, ny);
+        let stretch = (nx - 1) * ny + nx * (ny - 1);
+        let shear = 2 * (nx - 1) * (ny - 1);
+        let bend = (nx - 2) * ny + nx * (ny - 2);
+        assert_eq!(m.kind_ranges[0].len(), stretch);
+        assert_eq!(m.kind_ranges[1].len(), shear);
+        assert_eq!(m.kind_ranges[2].len(), bend);
+        assert_eq!(m.triangles.len(), 2 * (nx - 1) * (ny - 1));
+    }
+
+    #[test]
+    fn every_spring_appears_once_at_each_end() {
+        let m = model(4, 6);
+        let mut seen = vec![[false; 2]; m.springs.len()];
+        for p in 0..m.particle_count() {
+            for &e in m.particle_springs.of(p) {
+                let (s, is_j) = decode_incidence(e);
+                let sp = m.springs[s];
+                assert_eq!(if is_j { sp.j } else { sp.i } as usize, p);
+                assert!(!seen[s][is_j as usize]);
+                seen[s][is_j as usize] = true;
+            }
+        }
+        assert!(seen.iter().all(|s| s[0] && s[1]));
+    }
+
+    #[test]
+    fn horizontal_triangles_face_up() {
+        let m = model(3, 3);
+        for t in &m.triangles {
+            let [a, b, c] = t.map(|p| m.rest_positions[p as usize]);
+            let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+            let ny = e1[2] * e2[0] - e1[0] * e2[2];
+            assert!(ny > 0.0, "triangle {t:?} normal y = {ny}");
+        }
+    }
+
+    #[test]
+    fn zero_stiffness_kind_has_no_springs() {
+        let mut materials = Params::default().springs;
+        materials[SpringKind::Bend.index()].stiffness = 0.0;
+        let m = Model::new(&ClothSpec::default(), &materials).expect("valid spec");
+        assert!(m.kind_ranges[SpringKind::Bend.index()].is_empty());
+        assert!(m.springs.iter().all(|s| s.kind != SpringKind::Bend));
+    }
+
+    #[test]
+    fn corner_and_edge_pins_select_the_documented_particles() {
+        let spec = ClothSpec {
+            nx: 4,
+            ny: 3,
+            ..ClothSpec::default()
+        };
+        assert_eq!(spec.pin_indices(Pin::Corner(Corner::BottomRight)), vec![11]);
+        assert_eq!(spec.pin_indices(Pin::Edge(Edge::Left)), vec![0, 4, 8]);
+        assert_eq!(spec.pin_indices(Pin::Edge(Edge::Bottom)), vec![8, 9, 10, 11]);
+    }
+}

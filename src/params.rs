@@ -1,0 +1,401 @@
+//! Simulation parameters: everything that is not topology or state.
+//!
+//! These are the validated, in-memory form of a scene file's
+//! `[simulation]`, `[springs.*]`, `[fixup]`, `[implicit]`, `[semi_implicit]`,
+//! `[ground]`, `[[sphere]]` and `[wind]` tables. [`Params::validate`] is the
+//! single place that decides what is physically admissible; the scene loader
+//! and the library API both go through it, so a parameter that passes here
+//! never needs re-checking inside a solver.
+
+use std::fmt;
+
+use crate::error::{Error, Result};
+
+/// Which time integrator steps the cloth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Integrator {
+    /// Symplectic Euler plus Provot deformation constraints.
+    Explicit,
+    /// Baraff–Witkin linearised backward Euler solved by filtered PCG.
+    Implicit,
+    /// Desbrun's constant-filter split with torque compensation and fix-up.
+    SemiImplicit,
+}
+
+impl Integrator {
+    /// All integrators, in a fixed order (for tables and sweeps).
+    pub const ALL: [Integrator; 3] = [
+        Integrator::Explicit,
+        Integrator::Implicit,
+        Integrator::SemiImplicit,
+    ];
+
+    /// The scene-file / CLI spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Integrator::Explicit => "explicit",
+            Integrator::Implicit => "implicit",
+            Integrator::SemiImplicit => "semi-implicit",
+        }
+    }
+
+    /// Parses the scene-file / CLI spelling.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|i| i.as_str() == s)
+    }
+}
+
+impl fmt::Display for Integrator {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// The three kinds of spring a grid cloth has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SpringKind {
+    /// 4-neighbourhood (rows and columns).
+    Stretch = 0,
+    /// Diagonals of each grid cell.
+    Shear = 1,
+    /// Skip-one along rows and columns.
+    Bend = 2,
+}
+
+impl SpringKind {
+    /// All kinds, in index order.
+    pub const ALL: [SpringKind; 3] = [SpringKind::Stretch, SpringKind::Shear, SpringKind::Bend];
+
+    /// Index into per-kind tables.
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The scene-file spelling (`[springs.<name>]`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SpringKind::Stretch => "stretch",
+            SpringKind::Shear => "shear",
+            SpringKind::Bend => "bend",
+        }
+    }
+}
+
+/// Material of one spring kind.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringParams {
+    /// Stiffness `k` [N/m]. Zero means this kind has no springs at all.
+    pub stiffness: f64,
+    /// Damping `kd` [N·s/m] along the spring (Baraff–Witkin form).
+    pub damping: f64,
+    /// Largest allowed length as a multiple of the rest length (e.g. `1.1`
+    /// for 10 % stretch). `None`: springs of this kind are not fixed up.
+    pub max_stretch: Option<f64>,
+}
+
+impl SpringParams {
+    /// No springs of this kind.
+    pub const NONE: SpringParams = SpringParams {
+        stiffness: 0.0,
+        damping: 0.0,
+        max_stretch: None,
+    };
+}
+
+/// How the Provot fix-up visits the springs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FixupMethod {
+    /// Springs in sequence, each seeing the previous one's corrections
+    /// (the article's method; converges fastest, inherently serial).
+    GaussSeidel,
+    /// Every particle averages the corrections of its over-stretched springs
+    /// computed from one snapshot (what the GPU does).
+    Jacobi,
+}
+
+impl FixupMethod {
+    /// The scene-file spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FixupMethod::GaussSeidel => "gauss-seidel",
+            FixupMethod::Jacobi => "jacobi",
+        }
+    }
+}
+
+/// Deformation-constraint (fix-up) settings, used by the explicit and
+/// semi-implicit integrators.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixupParams {
+    /// Maximum number of passes over the springs; the fix-up stops earlier
+    /// once no constrained spring is over its limit. `0` disables it.
+    pub iterations: u32,
+    /// Gauss–Seidel or Jacobi.
+    pub method: FixupMethod,
+    /// Jacobi over-relaxation factor `ω` (dimensionless, `0 < ω < 2`);
+    /// ignored by Gauss–Seidel.
+    pub omega: f64,
+}
+
+/// Conjugate-gradient settings of the implicit integrator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImplicitParams {
+    /// Relative tolerance on the preconditioned residual norm
+    /// (`sqrt(rᵀP⁻¹r / r₀ᵀP⁻¹r₀)`), dimensionless.
+    pub tolerance: f64,
+    /// Hard cap on CG iterations per step.
+    pub max_iterations: u32,
+}
+
+/// How the semi-implicit integrator applies its constant filter `W`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FilterMethod {
+    /// Dense when the free particle count is at most
+    /// [`crate::cpu::DENSE_FILTER_MAX_PARTICLES`], banded otherwise.
+    Auto,
+    /// The explicit inverse `W`, `N²` numbers: the article's method.
+    Dense,
+    /// A banded Cholesky factor of `W⁻¹`, `O(N·bandwidth)` numbers.
+    Banded,
+}
+
+impl FilterMethod {
+    /// The scene-file spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            FilterMethod::Auto => "auto",
+            FilterMethod::Dense => "dense",
+            FilterMethod::Banded => "banded",
+        }
+    }
+}
+
+/// Semi-implicit (Desbrun) settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SemiImplicitParams {
+    /// How the filter is stored and applied.
+    pub filter: FilterMethod,
+    /// Remove the spurious net torque the linear split adds to a free cloth.
+    pub torque_compensation: bool,
+}
+
+/// A horizontal ground plane `y = height`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ground {
+    /// Height of the plane [m].
+    pub height: f64,
+    /// Coulomb friction coefficient (dimensionless, `≥ 0`).
+    pub friction: f64,
+}
+
+/// A static sphere collider.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    /// Centre [m].
+    pub center: [f64; 3],
+    /// Radius [m], `> 0`.
+    pub radius: f64,
+    /// Coulomb friction coefficient (dimensionless, `≥ 0`).
+    pub friction: f64,
+}
+
+/// A uniform wind acting on the cloth's triangles.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wind {
+    /// Air velocity [m/s].
+    pub velocity: [f64; 3],
+    /// Drag coefficient along the triangle normal [kg/m³]
+    /// (`½ ρ_air C_d`; air is about 1.2 kg/m³).
+    pub drag: f64,
+    /// Lift coefficient [kg/m³], perpendicular to the relative flow.
+    pub lift: f64,
+}
+
+/// Every parameter of a simulation that is not the cloth's topology.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Params {
+    /// Time integrator.
+    pub integrator: Integrator,
+    /// Time step [s], `> 0`.
+    pub dt: f64,
+    /// Gravitational acceleration [m/s²].
+    pub gravity: [f64; 3],
+    /// Per spring kind, indexed by [`SpringKind::index`].
+    pub springs: [SpringParams; 3],
+    /// Deformation constraints.
+    pub fixup: FixupParams,
+    /// Implicit CG settings.
+    pub implicit: ImplicitParams,
+    /// Semi-implicit filter settings.
+    pub semi_implicit: SemiImplicitParams,
+    /// Optional ground plane.
+    pub ground: Option<Ground>,
+    /// Sphere colliders, any number.
+    pub spheres: Vec<Sphere>,
+    /// Optional wind.
+    pub wind: Option<Wind>,
+}
+
+impl Default for Params {
+    /// A modest cloth material under standard gravity, explicit integration,
+    /// no colliders and no wind.
+    fn default() -> Self {
+        Params {
+            integrator: Integrator::Explicit,
+            dt: 1.0 / 600.0,
+            gravity: [0.0, -9.81, 0.0],
+            springs: [
+                SpringParams {
+                    stiffness: 50.0,
+                    damping: 0.05,
+                    max_stretch: Some(1.1),
+                },
+                SpringParams {
+                    stiffness: 20.0,
+                    damping: 0.02,
+                    max_stretch: None,
+                },
+                SpringParams {
+                    stiffness: 5.0,
+                    damping: 0.005,
+                    max_stretch: None,
+                },
+            ],
+            fixup: FixupParams {
+                iterations: 10,
+                method: FixupMethod::GaussSeidel,
+                omega: 1.0,
+            },
+            implicit: ImplicitParams {
+                tolerance: 1e-4,
+                max_iterations: 200,
+            },
+            semi_implicit: SemiImplicitParams {
+                filter: FilterMethod::Auto,
+                torque_compensation: true,
+            },
+            ground: None,
+            spheres: Vec::new(),
+            wind: None,
+        }
+    }
+}
+
+/// Checks `value` against a predicate and builds the standard error.
+fn check(key: &str, value: f64, ok: bool, allowed: &str) -> Result<()> {
+    if ok && value.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::InvalidParameter {
+            key: key.to_string(),
+            allowed: allowed.to_string(),
+            got: format!("{value}"),
+        })
+    }
+}
+
+fn check_vec(key: &str, v: [f64; 3]) -> Result<()> {
+    for (c, name) in v.iter().zip(["x", "y", "z"]) {
+        check(&format!("{key}[{name}]"), *c, true, "a finite number")?;
+    }
+    Ok(())
+}
+
+impl Params {
+    /// Refuses anything a solver could not run: non-positive or non-finite
+    /// time step, negative stiffness, NaN anywhere, a `max_stretch` below 1,
+    /// a zero CG tolerance, and so on. The error names the key (scene-file
+    /// spelling), what is allowed and what was given.
+    pub fn validate(&self) -> Result<()> {
+        check(
+            "simulation.dt",
+            self.dt,
+            self.dt > 0.0 && self.dt <= 1.0,
+            "0 < dt ≤ 1 (seconds)",
+        )?;
+        check_vec("simulation.gravity", self.gravity)?;
+        for kind in SpringKind::ALL {
+            let s = &self.springs[kind.index()];
+            let name = kind.as_str();
+            check(
+                &format!("springs.{name}.stiffness"),
+                s.stiffness,
+                (0.0..=1e9).contains(&s.stiffness),
+                "0 ≤ stiffness ≤ 1e9 (N/m)",
+            )?;
+            check(
+                &format!("springs.{name}.damping"),
+                s.damping,
+                (0.0..=1e6).contains(&s.damping),
+                "0 ≤ damping ≤ 1e6 (N·s/m)",
+            )?;
+            if let Some(m) = s.max_stretch {
+                check(
+                    &format!("springs.{name}.max_stretch"),
+                    m,
+                    (1.0..=10.0).contains(&m),
+                    "1 ≤ max_stretch ≤ 10 (multiple of the rest length)",
+                )?;
+            }
+        }
+        check(
+            "fixup.iterations",
+            f64::from(self.fixup.iterations),
+            self.fixup.iterations <= 10_000,
+            "0 ≤ iterations ≤ 10000",
+        )?;
+        check(
+            "fixup.omega",
+            self.fixup.omega,
+            self.fixup.omega > 0.0 && self.fixup.omega < 2.0,
+            "0 < omega < 2",
+        )?;
+        check(
+            "implicit.tolerance",
+            self.implicit.tolerance,
+            self.implicit.tolerance > 0.0 && self.implicit.tolerance < 1.0,
+            "0 < tolerance < 1 (relative)",
+        )?;
+        check(
+            "implicit.max_iterations",
+            f64::from(self.implicit.max_iterations),
+            (1..=100_000).contains(&self.implicit.max_iterations),
+            "1 ≤ max_iterations ≤ 100000",
+        )?;
+        if let Some(g) = &self.ground {
+            check("ground.height", g.height, true, "a finite number (m)")?;
+            check(
+                "ground.friction",
+                g.friction,
+                g.friction >= 0.0,
+                "friction ≥ 0",
+            )?;
+        }
+        for (n, s) in self.spheres.iter().enumerate() {
+            check_vec(&format!("sphere[{n}].center"), s.center)?;
+            check(
+                &format!("sphere[{n}].radius"),
+                s.radius,
+                s.radius > 0.0,
+                "radius > 0 (m)",
+            )?;
+            check(
+                &format!("sphere[{n}].friction"),
+                s.friction,
+                s.friction >= 0.0,
+                "friction ≥ 0",
+            )?;
+        }
+        if let Some(w) = &self.wind {
+            check_vec("wind.velocity", w.velocity)?;
+            check("wind.drag", w.drag, w.drag >= 0.0, "drag ≥ 0 (kg/m³)")?;
+            check("wind.lift", w.lift, w.lift >= 0.0, "lift ≥ 0 (kg/m³)")?;
+        }
+        Ok(())
+    }
+
+    /// The parameters of one spring kind.
+    pub fn spring(&self, kind: SpringKind) -> &SpringParams {
+        &self.springs[kind.index()]
+    }
+}
