@@ -139,7 +139,10 @@ impl ClothSpec {
     /// than [`MAX_PARTICLES`], a non-positive or non-finite size or mass, a
     /// pin index out of range.
     pub fn validate(&self) -> Result<()> {
-        for (key, n) in [("cloth.resolution[0]", self.nx), ("cloth.resolution[1]", self.ny)] {
+        for (key, n) in [
+            ("cloth.resolution[0]", self.nx),
+            ("cloth.resolution[1]", self.ny),
+        ] {
             if n < 2 {
                 return Err(invalid(key, "≥ 2 particles", n));
             }
@@ -152,14 +155,21 @@ impl ClothSpec {
                 format!("{} × {}", self.nx, self.ny),
             ));
         }
-        for (key, s) in [("cloth.size[0]", self.size[0]), ("cloth.size[1]", self.size[1])] {
+        for (key, s) in [
+            ("cloth.size[0]", self.size[0]),
+            ("cloth.size[1]", self.size[1]),
+        ] {
             if !(s.is_finite() && s > 0.0) {
                 return Err(invalid(key, "> 0 (m)", s));
             }
         }
         for (c, v) in self.origin.iter().enumerate() {
             if !v.is_finite() {
-                return Err(invalid(&format!("cloth.origin[{c}]"), "a finite number (m)", v));
+                return Err(invalid(
+                    &format!("cloth.origin[{c}]"),
+                    "a finite number (m)",
+                    v,
+                ));
             }
         }
         if !(self.mass.is_finite() && self.mass > 0.0) {
@@ -268,8 +278,9 @@ pub fn decode_incidence(entry: u32) -> (usize, bool) {
 /// The cloth: built once from a [`ClothSpec`] and the spring materials.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Model {
-    /// The spec it was built from.
-    pub spec: ClothSpec,
+    /// The grid spec it was built from (`None` for a model built with
+    /// [`Model::from_parts`]).
+    pub grid: Option<ClothSpec>,
     /// Rest (and initial) positions [m], particle order.
     pub rest_positions: Vec<[f64; 3]>,
     /// Mass of each particle [kg] (equal for all).
@@ -316,9 +327,7 @@ impl Model {
         }
         let idx = |row: usize, col: usize| (row * nx + col) as u32;
         let mut springs = Vec::new();
-        let mut kind_ranges: [Range<usize>; 3] = [0..0, 0..0, 0..0];
         for kind in SpringKind::ALL {
-            let start = springs.len();
             if materials[kind.index()].stiffness > 0.0 {
                 let mut pairs = Vec::new();
                 for row in 0..ny {
@@ -351,12 +360,12 @@ impl Model {
                 }
                 for (i, j) in pairs {
                     let (a, b) = (rest_positions[i as usize], rest_positions[j as usize]);
-                    let rest = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
-                        .sqrt();
+                    let rest =
+                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
+                            .sqrt();
                     springs.push(Spring { i, j, rest, kind });
                 }
             }
-            kind_ranges[kind.index()] = start..springs.len();
         }
         let mut triangles = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
         for row in 0..ny - 1 {
@@ -367,6 +376,66 @@ impl Model {
                 triangles.push([b, c, d]);
             }
         }
+        let mut pinned = vec![false; n];
+        for &pin in &spec.pins {
+            for p in spec.pin_indices(pin) {
+                pinned[p] = true;
+            }
+        }
+        let mut model = Model::from_parts(
+            rest_positions,
+            vec![spec.mass / n as f64; n],
+            pinned,
+            springs,
+            triangles,
+        )?;
+        model.grid = Some(spec.clone());
+        Ok(model)
+    }
+
+    /// Builds a model from explicit parts: any particle set, any springs and
+    /// any triangles. Used for non-grid tests such as a single spring.
+    /// Springs are stably reordered by kind.
+    pub fn from_parts(
+        rest_positions: Vec<[f64; 3]>,
+        mass: Vec<f64>,
+        pinned: Vec<bool>,
+        mut springs: Vec<Spring>,
+        triangles: Vec<[u32; 3]>,
+    ) -> Result<Model> {
+        let n = rest_positions.len();
+        if n == 0 || n > MAX_PARTICLES || mass.len() != n || pinned.len() != n {
+            return Err(invalid(
+                "particles",
+                &format!("1..={MAX_PARTICLES} particles with one mass and pin flag each"),
+                format!(
+                    "{n} positions, {} masses, {} pin flags",
+                    mass.len(),
+                    pinned.len()
+                ),
+            ));
+        }
+        if let Some(m) = mass.iter().find(|m| !(m.is_finite() && **m > 0.0)) {
+            return Err(invalid("mass", "> 0 (kg) for every particle", m));
+        }
+        let in_range = |p: u32| (p as usize) < n;
+        let bad_spring = springs
+            .iter()
+            .any(|s| !in_range(s.i) || !in_range(s.j) || s.i == s.j || !(s.rest >= 0.0));
+        let bad_triangle = triangles.iter().any(|t| !t.iter().all(|&p| in_range(p)));
+        if bad_spring || bad_triangle {
+            return Err(invalid(
+                "springs",
+                "distinct particle indices below the particle count and rest ≥ 0",
+                "an out-of-range spring or triangle",
+            ));
+        }
+        springs.sort_by_key(|s| s.kind.index());
+        let kind_ranges = SpringKind::ALL.map(|kind| {
+            let start = springs.partition_point(|s| s.kind.index() < kind.index());
+            let end = springs.partition_point(|s| s.kind.index() <= kind.index());
+            start..end
+        });
         let particle_springs = Adjacency::build(
             n,
             springs.iter().enumerate().flat_map(|(s, sp)| {
@@ -383,16 +452,10 @@ impl Model {
                 .enumerate()
                 .flat_map(|(t, tri)| tri.map(|p| (p as usize, t as u32))),
         );
-        let mut pinned = vec![false; n];
-        for &pin in &spec.pins {
-            for p in spec.pin_indices(pin) {
-                pinned[p] = true;
-            }
-        }
         Ok(Model {
-            spec: spec.clone(),
+            grid: None,
             rest_positions,
-            mass: vec![spec.mass / n as f64; n],
+            mass,
             pinned,
             springs,
             kind_ranges,
@@ -486,6 +549,9 @@ mod tests {
         };
         assert_eq!(spec.pin_indices(Pin::Corner(Corner::BottomRight)), vec![11]);
         assert_eq!(spec.pin_indices(Pin::Edge(Edge::Left)), vec![0, 4, 8]);
-        assert_eq!(spec.pin_indices(Pin::Edge(Edge::Bottom)), vec![8, 9, 10, 11]);
+        assert_eq!(
+            spec.pin_indices(Pin::Edge(Edge::Bottom)),
+            vec![8, 9, 10, 11]
+        );
     }
 }
