@@ -1,1 +1,535 @@
-//! The CPU reference solver.
+//! The CPU reference solver: all three integrators, generic over the scalar
+//! ([`f64`] is the ground truth, [`f32`] mirrors the GPU's arithmetic).
+//!
+//! ```
+//! use wgcloth::{cpu::CpuSolver, Scene};
+//! # fn main() -> wgcloth::Result<()> {
+//! let scene = Scene::builtin("hanging")?;
+//! let mut solver = CpuSolver::<f64>::new(&scene.model()?, &scene.params)?;
+//! solver.step_n(10)?;
+//! assert_eq!(solver.steps(), 10);
+//! # Ok(()) }
+//! ```
+
+pub mod collide;
+pub mod explicit;
+pub mod filter;
+pub mod fixup;
+pub mod forces;
+pub mod implicit;
+pub mod mat3;
+pub mod semi_implicit;
+
+use std::ops::Range;
+
+use crate::error::{Error, Result};
+use crate::model::{Adjacency, Model};
+use crate::params::{FilterMethod, FixupMethod, Integrator, Params};
+use crate::real::{Real, Vec3};
+use filter::{BandedFilter, ConstantFilter, DenseFilter, FilterSystem};
+use implicit::{Filter, SpringBlock};
+use mat3::Sym3;
+
+/// Largest free-particle count for which [`FilterMethod::Auto`] picks the
+/// dense filter. A dense `W` of this size is 8 MiB in `f32` and 32 MiB in
+/// `f64`; beyond it the banded factor is both smaller and faster to apply on
+/// the CPU (see the README's crossover table). The article's sizes (15², 25²,
+/// 33²) all stay dense.
+pub const DENSE_FILTER_MAX_PARTICLES: usize = 1 << 11;
+
+/// Positions and velocities: what a step changes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct State<R> {
+    /// Positions [m], particle order.
+    pub x: Vec<Vec3<R>>,
+    /// Velocities [m/s], particle order.
+    pub v: Vec<Vec3<R>>,
+}
+
+/// What one step did besides moving the cloth.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepStats {
+    /// CG iterations used (implicit only).
+    pub cg_iterations: u32,
+    /// Final relative preconditioned residual of CG (implicit only).
+    pub cg_residual: f64,
+    /// Fix-up passes that moved something (explicit and semi-implicit).
+    pub fixup_passes: u32,
+}
+
+/// One spring in the solver's precision.
+#[derive(Clone, Copy, Debug)]
+pub struct SpringR<R> {
+    /// First particle.
+    pub i: u32,
+    /// Second particle.
+    pub j: u32,
+    /// Rest length [m].
+    pub rest: R,
+    /// Stiffness [N/m].
+    pub k: R,
+    /// Damping [N·s/m].
+    pub kd: R,
+}
+
+/// The ground plane in the solver's precision.
+#[derive(Clone, Copy, Debug)]
+pub struct GroundR<R> {
+    /// Height [m].
+    pub height: R,
+    /// Friction coefficient.
+    pub friction: R,
+}
+
+/// A sphere in the solver's precision.
+#[derive(Clone, Copy, Debug)]
+pub struct SphereR<R> {
+    /// Centre [m].
+    pub center: Vec3<R>,
+    /// Radius [m].
+    pub radius: R,
+    /// Friction coefficient.
+    pub friction: R,
+}
+
+/// Wind in the solver's precision.
+#[derive(Clone, Copy, Debug)]
+pub struct WindR<R> {
+    /// Air velocity [m/s].
+    pub velocity: Vec3<R>,
+    /// Drag coefficient [kg/m³].
+    pub drag: R,
+    /// Lift coefficient [kg/m³].
+    pub lift: R,
+}
+
+/// Everything a step reads but does not change: the model and parameters,
+/// converted once to the solver's precision.
+#[derive(Clone, Debug)]
+pub struct System<R> {
+    /// Springs.
+    pub springs: Vec<SpringR<R>>,
+    /// Maximum length per spring [m]; zero = not constrained.
+    pub max_len: Vec<R>,
+    /// Spring index ranges of the constrained kinds.
+    pub constrained_ranges: Vec<Range<usize>>,
+    /// Incident springs per particle.
+    pub spring_adj: Adjacency,
+    /// Triangles.
+    pub triangles: Vec<[u32; 3]>,
+    /// Incident triangles per particle.
+    pub triangle_adj: Adjacency,
+    /// Mass per particle [kg].
+    pub mass: Vec<R>,
+    /// Inverse mass per particle [1/kg]; zero = pinned.
+    pub inv_mass: Vec<R>,
+    /// Number of pinned particles.
+    pub pinned_count: usize,
+    /// Grid shape `(nx, ny)` if the model is a grid.
+    pub grid: Option<(usize, usize)>,
+    /// Time step [s].
+    pub dt: R,
+    /// Gravity [m/s²].
+    pub gravity: Vec3<R>,
+    /// Ground plane.
+    pub ground: Option<GroundR<R>>,
+    /// Spheres.
+    pub spheres: Vec<SphereR<R>>,
+    /// Wind.
+    pub wind: Option<WindR<R>>,
+    /// Fix-up passes (0 = off).
+    pub fixup_iterations: u32,
+    /// Fix-up order.
+    pub fixup_method: FixupMethod,
+    /// Jacobi over-relaxation.
+    pub fixup_omega: R,
+    /// CG relative tolerance.
+    pub cg_tolerance: f64,
+    /// CG iteration cap.
+    pub cg_max_iterations: u32,
+    /// Semi-implicit torque compensation on/off.
+    pub torque_compensation: bool,
+}
+
+impl<R: Real> System<R> {
+    fn new(model: &Model, params: &Params) -> Self {
+        let springs = model
+            .springs
+            .iter()
+            .map(|s| {
+                let m = params.spring(s.kind);
+                SpringR {
+                    i: s.i,
+                    j: s.j,
+                    rest: R::from_f64(s.rest),
+                    k: R::from_f64(m.stiffness),
+                    kd: R::from_f64(m.damping),
+                }
+            })
+            .collect();
+        let max_len = model
+            .springs
+            .iter()
+            .map(|s| match params.spring(s.kind).max_stretch {
+                Some(f) if params.fixup.iterations > 0 => R::from_f64(f * s.rest),
+                _ => R::ZERO,
+            })
+            .collect();
+        let constrained_ranges = model
+            .kind_ranges
+            .iter()
+            .enumerate()
+            .filter(|(k, r)| {
+                !r.is_empty()
+                    && params.springs[*k].max_stretch.is_some()
+                    && params.fixup.iterations > 0
+            })
+            .map(|(_, r)| r.clone())
+            .collect();
+        let mass: Vec<R> = model.mass.iter().map(|&m| R::from_f64(m)).collect();
+        let inv_mass = model
+            .mass
+            .iter()
+            .zip(&model.pinned)
+            .map(|(&m, &pinned)| {
+                if pinned {
+                    R::ZERO
+                } else {
+                    R::from_f64(1.0 / m)
+                }
+            })
+            .collect();
+        System {
+            springs,
+            max_len,
+            constrained_ranges,
+            spring_adj: model.particle_springs.clone(),
+            triangles: model.triangles.clone(),
+            triangle_adj: model.particle_triangles.clone(),
+            mass,
+            inv_mass,
+            pinned_count: model.pinned_count(),
+            grid: model.grid.as_ref().map(|g| (g.nx, g.ny)),
+            dt: R::from_f64(params.dt),
+            gravity: Vec3::from_f64(params.gravity),
+            ground: params.ground.map(|g| GroundR {
+                height: R::from_f64(g.height),
+                friction: R::from_f64(g.friction),
+            }),
+            spheres: params
+                .spheres
+                .iter()
+                .map(|s| SphereR {
+                    center: Vec3::from_f64(s.center),
+                    radius: R::from_f64(s.radius),
+                    friction: R::from_f64(s.friction),
+                })
+                .collect(),
+            wind: params.wind.map(|w| WindR {
+                velocity: Vec3::from_f64(w.velocity),
+                drag: R::from_f64(w.drag),
+                lift: R::from_f64(w.lift),
+            }),
+            fixup_iterations: params.fixup.iterations,
+            fixup_method: params.fixup.method,
+            fixup_omega: R::from_f64(params.fixup.omega),
+            cg_tolerance: params.implicit.tolerance,
+            cg_max_iterations: params.implicit.max_iterations,
+            torque_compensation: params.semi_implicit.torque_compensation,
+        }
+    }
+
+    /// `true` when there is a ground plane or at least one sphere.
+    pub fn has_colliders(&self) -> bool {
+        self.ground.is_some() || !self.spheres.is_empty()
+    }
+}
+
+/// Scratch buffers, allocated once per solver.
+#[derive(Clone, Debug)]
+pub struct Workspace<R> {
+    /// Per-spring vectors.
+    pub per_spring: Vec<Vec3<R>>,
+    /// Per-spring flags (Jacobi fix-up).
+    pub active: Vec<bool>,
+    /// Per-triangle vectors.
+    pub per_triangle: Vec<Vec3<R>>,
+    /// Per-particle forces.
+    pub force: Vec<Vec3<R>>,
+    /// Right-hand side.
+    pub rhs: Vec<Vec3<R>>,
+    /// Velocity change (kept between steps: CG warm start).
+    pub dv: Vec<Vec3<R>>,
+    /// Positions before the step.
+    pub x_old: Vec<Vec3<R>>,
+    /// CG residual.
+    pub r: Vec<Vec3<R>>,
+    /// CG search direction.
+    pub c: Vec<Vec3<R>>,
+    /// CG `A c`.
+    pub q: Vec<Vec3<R>>,
+    /// CG preconditioned residual.
+    pub s: Vec<Vec3<R>>,
+    /// CG prescribed constrained velocity changes.
+    pub z: Vec<Vec3<R>>,
+    /// CG constraint filter.
+    pub filter: Vec<Filter<R>>,
+    /// CG block-diagonal preconditioner.
+    pub precond: Vec<Sym3<R>>,
+    /// Per-spring linearisation.
+    pub blocks: Vec<SpringBlock<R>>,
+    /// The semi-implicit constant filter (built on demand).
+    pub constant_filter: Option<ConstantFilter<R>>,
+    /// Scratch for the constant filter.
+    pub scratch: Vec<Vec3<R>>,
+}
+
+impl<R: Real> Workspace<R> {
+    fn new(particles: usize, springs: usize, triangles: usize) -> Self {
+        let pv = || vec![Vec3::ZERO; particles];
+        Workspace {
+            per_spring: vec![Vec3::ZERO; springs],
+            active: vec![false; springs],
+            per_triangle: vec![Vec3::ZERO; triangles],
+            force: pv(),
+            rhs: pv(),
+            dv: pv(),
+            x_old: pv(),
+            r: pv(),
+            c: pv(),
+            q: pv(),
+            s: pv(),
+            z: pv(),
+            filter: vec![Filter::Free; particles],
+            precond: vec![Sym3::default(); particles],
+            blocks: vec![SpringBlock::default(); springs],
+            constant_filter: None,
+            scratch: Vec::new(),
+        }
+    }
+}
+
+/// Shared tail of the explicit and semi-implicit steps: `x* = x + dt v`,
+/// fix-up, velocity rebuild if the fix-up moved anything, collisions.
+/// Pinned particles keep their position and zero velocity.
+pub(crate) fn finish_with_fixup<R: Real>(
+    sys: &System<R>,
+    st: &mut State<R>,
+    w: &mut Workspace<R>,
+) -> StepStats {
+    let dt = sys.dt;
+    w.x_old.copy_from_slice(&st.x);
+    for p in 0..st.x.len() {
+        if sys.inv_mass[p] > R::ZERO {
+            st.x[p] += st.v[p] * dt;
+        } else {
+            st.v[p] = Vec3::ZERO;
+        }
+    }
+    let passes = match sys.fixup_method {
+        _ if sys.constrained_ranges.is_empty() => 0,
+        FixupMethod::GaussSeidel => fixup::gauss_seidel(sys, &mut st.x, sys.fixup_iterations),
+        FixupMethod::Jacobi => fixup::jacobi(
+            sys,
+            &mut st.x,
+            sys.fixup_iterations,
+            sys.fixup_omega,
+            &mut w.per_spring,
+            &mut w.active,
+        ),
+    };
+    if passes > 0 {
+        let inv_dt = R::ONE / dt;
+        for p in 0..st.x.len() {
+            if sys.inv_mass[p] > R::ZERO {
+                st.v[p] = (st.x[p] - w.x_old[p]) * inv_dt;
+            }
+        }
+    }
+    collide::collide(sys, &mut st.x, &mut st.v);
+    StepStats {
+        fixup_passes: passes,
+        ..StepStats::default()
+    }
+}
+
+/// The CPU reference solver for one cloth.
+#[derive(Clone, Debug)]
+pub struct CpuSolver<R: Real> {
+    integrator: Integrator,
+    filter_method: FilterMethod,
+    sys: System<R>,
+    state: State<R>,
+    work: Workspace<R>,
+    steps: u64,
+    time: f64,
+    last: StepStats,
+}
+
+impl<R: Real> CpuSolver<R> {
+    /// A solver for `model` with `params`, starting at rest in the model's
+    /// rest positions. Refuses invalid parameters before anything runs.
+    pub fn new(model: &Model, params: &Params) -> Result<Self> {
+        params.validate()?;
+        let sys = System::new(model, params);
+        let n = model.particle_count();
+        let state = State {
+            x: model
+                .rest_positions
+                .iter()
+                .map(|&p| Vec3::from_f64(p))
+                .collect(),
+            v: vec![Vec3::ZERO; n],
+        };
+        let work = Workspace::new(n, model.springs.len(), model.triangles.len());
+        let mut solver = CpuSolver {
+            integrator: params.integrator,
+            filter_method: params.semi_implicit.filter,
+            sys,
+            state,
+            work,
+            steps: 0,
+            time: 0.0,
+            last: StepStats::default(),
+        };
+        if solver.integrator == Integrator::SemiImplicit {
+            solver.build_filter()?;
+        }
+        Ok(solver)
+    }
+
+    /// (Re)builds the semi-implicit filter for the current `dt`, stiffness,
+    /// masses and pins. Called by [`CpuSolver::new`] and by every setter that
+    /// changes one of those — never per step.
+    fn build_filter(&mut self) -> Result<()> {
+        let fs = FilterSystem::new(&self.sys, self.sys.grid);
+        let dense = match self.filter_method {
+            FilterMethod::Dense => true,
+            FilterMethod::Banded => false,
+            FilterMethod::Auto => fs.len() <= DENSE_FILTER_MAX_PARTICLES,
+        };
+        let not_spd = |_| Error::InvalidParameter {
+            key: "semi_implicit".into(),
+            allowed: "a filter matrix M − dt²H that is positive definite".into(),
+            got: "a matrix that is not (non-finite stiffness or mass?)".into(),
+        };
+        self.work.constant_filter = Some(if dense {
+            ConstantFilter::Dense(DenseFilter::new(&fs).map_err(not_spd)?)
+        } else {
+            ConstantFilter::Banded(BandedFilter::new(&fs).map_err(not_spd)?)
+        });
+        Ok(())
+    }
+
+    /// Advances one step. A state that becomes non-finite is an error naming
+    /// the step; the state is left as it was computed (for inspection).
+    pub fn step(&mut self) -> Result<StepStats> {
+        let stats = match self.integrator {
+            Integrator::Explicit => explicit::step(&self.sys, &mut self.state, &mut self.work),
+            Integrator::Implicit => implicit::step(&self.sys, &mut self.state, &mut self.work),
+            Integrator::SemiImplicit => {
+                semi_implicit::step(&self.sys, &mut self.state, &mut self.work)
+            }
+        };
+        self.steps += 1;
+        self.time += self.sys.dt.to_f64();
+        self.last = stats;
+        if let Some(p) = self.first_non_finite() {
+            return Err(Error::NonFinite {
+                step: self.steps,
+                time: self.time,
+                particle: p,
+            });
+        }
+        Ok(stats)
+    }
+
+    /// Advances `n` steps; returns the last step's stats.
+    pub fn step_n(&mut self, n: u64) -> Result<StepStats> {
+        for _ in 0..n {
+            self.step()?;
+        }
+        Ok(self.last)
+    }
+
+    fn first_non_finite(&self) -> Option<usize> {
+        (0..self.state.x.len())
+            .find(|&p| !(self.state.x[p].is_finite() && self.state.v[p].is_finite()))
+    }
+
+    /// The current state.
+    pub fn state(&self) -> &State<R> {
+        &self.state
+    }
+
+    /// Replaces the state (positions and velocities, particle order). The
+    /// lengths must match the model.
+    pub fn set_state(&mut self, state: State<R>) -> Result<()> {
+        let n = self.state.x.len();
+        if state.x.len() != n || state.v.len() != n {
+            return Err(Error::InvalidParameter {
+                key: "state".into(),
+                allowed: format!("{n} positions and {n} velocities"),
+                got: format!("{} and {}", state.x.len(), state.v.len()),
+            });
+        }
+        self.state = state;
+        Ok(())
+    }
+
+    /// Positions [m].
+    pub fn positions(&self) -> &[Vec3<R>] {
+        &self.state.x
+    }
+
+    /// Velocities [m/s].
+    pub fn velocities(&self) -> &[Vec3<R>] {
+        &self.state.v
+    }
+
+    /// Steps taken.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+
+    /// Simulated time [s] (accumulated in `f64`).
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+
+    /// The integrator in use.
+    pub fn integrator(&self) -> Integrator {
+        self.integrator
+    }
+
+    /// Stats of the last step.
+    pub fn last_stats(&self) -> StepStats {
+        self.last
+    }
+
+    /// `"dense"` / `"banded"` for a semi-implicit solver, else `None`.
+    pub fn filter_name(&self) -> Option<&'static str> {
+        self.work.constant_filter.as_ref().map(ConstantFilter::name)
+    }
+
+    /// The system the solver steps (read-only; for diagnostics and tests).
+    pub fn system(&self) -> &System<R> {
+        &self.sys
+    }
+
+    /// Changes the time step [s]; a semi-implicit solver rebuilds its filter.
+    pub fn set_dt(&mut self, dt: f64) -> Result<()> {
+        if !(dt.is_finite() && dt > 0.0 && dt <= 1.0) {
+            return Err(Error::InvalidParameter {
+                key: "simulation.dt".into(),
+                allowed: "0 < dt ≤ 1 (seconds)".into(),
+                got: dt.to_string(),
+            });
+        }
+        self.sys.dt = R::from_f64(dt);
+        if self.integrator == Integrator::SemiImplicit {
+            self.build_filter()?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,285 @@
+//! Desbrun's constant filter `W = (M − dt² H)⁻¹` restricted to the free
+//! particles, stored two ways.
+//!
+//! `H` is the `k`-weighted graph Laplacian of the springs (`H_pq = k` for a
+//! spring `p–q`, `H_pp = −Σ k`), so `A = M − dt² H` is symmetric positive
+//! definite and one scalar per particle pair serves all three coordinates.
+//! Pinned particles are removed from `A` (their rows and columns), but the
+//! springs that tie a free particle to a pin still add to its diagonal —
+//! that is what makes the filter hold the cloth up by its pins instead of
+//! leaking motion into them.
+//!
+//! - [`DenseFilter`]: the explicit inverse, `N_free²` numbers; applying it
+//!   is one dense matrix-vector product per coordinate. The article's method.
+//! - [`BandedFilter`]: a Cholesky factor of `A` in band storage,
+//!   `N_free · (bw + 1)` numbers where `bw` is the bandwidth of the particle
+//!   ordering (about `2 · min(nx, ny)` with bend springs: the grid is
+//!   numbered along its shorter side); applying it is a forward and a back
+//!   substitution. No `N²` memory, so a 257 × 257 cloth fits.
+//!
+//! Both are factored in `f64` whatever the solver's precision — as a GPU
+//! host would build them before uploading — and applied in the solver's
+//! precision.
+
+use super::System;
+use crate::real::{Real, Vec3};
+
+/// The free particles in filter order and the matrix `A` in sparse form.
+#[derive(Clone, Debug)]
+pub struct FilterSystem {
+    /// Free particle indices, in filter order.
+    pub order: Vec<u32>,
+    /// `A_pp` for each position in `order`.
+    pub diag: Vec<f64>,
+    /// Off-diagonal entries `(row, col, value)` with `row > col`, positions
+    /// in `order`.
+    pub off: Vec<(u32, u32, f64)>,
+}
+
+impl FilterSystem {
+    /// Assembles `A = M − dt² H` over the free particles of `sys`, ordered
+    /// row-major when the grid is at least as tall as it is wide and
+    /// column-major otherwise (the smaller bandwidth).
+    pub fn new<R: Real>(sys: &System<R>, grid: Option<(usize, usize)>) -> FilterSystem {
+        let n = sys.mass.len();
+        let mut particles: Vec<u32> = (0..n as u32).collect();
+        if let Some((nx, ny)) = grid {
+            if nx > ny {
+                particles.sort_by_key(|&p| ((p as usize) % nx, (p as usize) / nx));
+            }
+        }
+        let order: Vec<u32> = particles
+            .into_iter()
+            .filter(|&p| sys.inv_mass[p as usize] > R::ZERO)
+            .collect();
+        let mut position = vec![u32::MAX; n];
+        for (k, &p) in order.iter().enumerate() {
+            position[p as usize] = k as u32;
+        }
+        let dt2 = sys.dt.to_f64() * sys.dt.to_f64();
+        let mut diag: Vec<f64> = order
+            .iter()
+            .map(|&p| sys.mass[p as usize].to_f64())
+            .collect();
+        let mut off = Vec::new();
+        for sp in &sys.springs {
+            let k = sp.k.to_f64() * dt2;
+            let (pi, pj) = (position[sp.i as usize], position[sp.j as usize]);
+            if pi != u32::MAX {
+                diag[pi as usize] += k;
+            }
+            if pj != u32::MAX {
+                diag[pj as usize] += k;
+            }
+            if pi != u32::MAX && pj != u32::MAX {
+                off.push((pi.max(pj), pi.min(pj), -k));
+            }
+        }
+        FilterSystem { order, diag, off }
+    }
+
+    /// Number of free particles.
+    pub fn len(&self) -> usize {
+        self.order.len()
+    }
+
+    /// `true` when every particle is pinned.
+    pub fn is_empty(&self) -> bool {
+        self.order.is_empty()
+    }
+
+    /// Largest `row − col` among the off-diagonal entries.
+    pub fn bandwidth(&self) -> usize {
+        self.off
+            .iter()
+            .map(|&(r, c, _)| (r - c) as usize)
+            .max()
+            .unwrap_or(0)
+    }
+}
+
+/// Banded Cholesky factor `A = L Lᵀ`; row `i` stores `L[i][i−bw..=i]`.
+#[derive(Clone, Debug)]
+pub struct BandedFilter<R> {
+    order: Vec<u32>,
+    bw: usize,
+    band: Vec<R>,
+}
+
+/// Failure to factor: `A` was not positive definite (cannot happen for
+/// positive masses and non-negative stiffness, but a NaN can).
+#[derive(Clone, Copy, Debug)]
+pub struct NotPositiveDefinite;
+
+fn banded_cholesky(sys: &FilterSystem) -> Result<(usize, Vec<f64>), NotPositiveDefinite> {
+    let n = sys.len();
+    let bw = sys.bandwidth();
+    let w = bw + 1;
+    let mut band = vec![0.0f64; n * w];
+    for (i, &d) in sys.diag.iter().enumerate() {
+        band[i * w + bw] = d;
+    }
+    for &(r, c, v) in &sys.off {
+        let (r, c) = (r as usize, c as usize);
+        band[r * w + (c + bw - r)] += v;
+    }
+    // Row-oriented (Cholesky–Crout) factorisation: L[i][j] for j ≤ i uses
+    // the dot product of rows i and j over their common band.
+    for i in 0..n {
+        let i0 = i.saturating_sub(bw);
+        for j in i0..=i {
+            let j0 = j.saturating_sub(bw).max(i0);
+            let mut s = band[i * w + (j + bw - i)];
+            let row_i = &band[i * w + (j0 + bw - i)..i * w + (j + bw - i)];
+            let row_j = &band[j * w + (j0 + bw - j)..j * w + bw];
+            for (a, b) in row_i.iter().zip(row_j) {
+                s -= a * b;
+            }
+            if j == i {
+                if !(s > 0.0) {
+                    return Err(NotPositiveDefinite);
+                }
+                band[i * w + bw] = s.sqrt();
+            } else {
+                band[i * w + (j + bw - i)] = s / band[j * w + bw];
+            }
+        }
+    }
+    Ok((bw, band))
+}
+
+impl<R: Real> BandedFilter<R> {
+    /// Factors `A`.
+    pub fn new(sys: &FilterSystem) -> Result<Self, NotPositiveDefinite> {
+        let (bw, band) = banded_cholesky(sys)?;
+        Ok(BandedFilter {
+            order: sys.order.clone(),
+            bw,
+            band: band.into_iter().map(R::from_f64).collect(),
+        })
+    }
+
+    /// Solves `A y = b` for all three coordinates; `b` and `out` are indexed
+    /// by particle, `scratch` by filter position.
+    pub fn apply(&self, b: &[Vec3<R>], out: &mut [Vec3<R>], scratch: &mut Vec<Vec3<R>>) {
+        let n = self.order.len();
+        let (bw, w) = (self.bw, self.bw + 1);
+        scratch.clear();
+        scratch.extend(self.order.iter().map(|&p| b[p as usize]));
+        let y = scratch;
+        // Forward: L y = b.
+        for i in 0..n {
+            let i0 = i.saturating_sub(bw);
+            let row = &self.band[i * w + (i0 + bw - i)..i * w + bw];
+            let mut s = y[i];
+            for (l, yj) in row.iter().zip(&y[i0..i]) {
+                s -= *yj * *l;
+            }
+            y[i] = s / self.band[i * w + bw];
+        }
+        // Backward: Lᵀ x = y, column-oriented so rows stay contiguous.
+        for i in (0..n).rev() {
+            let xi = y[i] / self.band[i * w + bw];
+            y[i] = xi;
+            let i0 = i.saturating_sub(bw);
+            let row = &self.band[i * w + (i0 + bw - i)..i * w + bw];
+            for (l, yj) in row.iter().zip(&mut y[i0..i]) {
+                *yj -= xi * *l;
+            }
+        }
+        for (k, &p) in self.order.iter().enumerate() {
+            out[p as usize] = y[k];
+        }
+    }
+
+    /// Numbers stored.
+    pub fn stored(&self) -> usize {
+        self.band.len()
+    }
+}
+
+/// The explicit inverse `W = A⁻¹`, row-major over filter positions.
+#[derive(Clone, Debug)]
+pub struct DenseFilter<R> {
+    order: Vec<u32>,
+    w: Vec<R>,
+}
+
+impl<R: Real> DenseFilter<R> {
+    /// Inverts `A` through its (banded) Cholesky factor, one column at a
+    /// time; `W` is symmetric so column `j` is also row `j`.
+    pub fn new(sys: &FilterSystem) -> Result<Self, NotPositiveDefinite> {
+        let factor = BandedFilter::<f64>::new(sys)?;
+        let n = sys.len();
+        let mut w = vec![R::ZERO; n * n];
+        let mut e = vec![Vec3::<f64>::ZERO; n];
+        let mut col = vec![Vec3::<f64>::ZERO; n];
+        let mut scratch = Vec::new();
+        // `apply` works in particle indices; use an identity order copy so
+        // positions and indices coincide while building.
+        let by_position = BandedFilter {
+            order: (0..n as u32).collect(),
+            bw: factor.bw,
+            band: factor.band,
+        };
+        for j in 0..n {
+            e[j] = Vec3::new(1.0, 0.0, 0.0);
+            by_position.apply(&e, &mut col, &mut scratch);
+            e[j] = Vec3::ZERO;
+            for (i, c) in col.iter().enumerate() {
+                w[j * n + i] = R::from_f64(c.x);
+            }
+        }
+        Ok(DenseFilter {
+            order: sys.order.clone(),
+            w,
+        })
+    }
+
+    /// `out = W b` for all three coordinates; `b` and `out` by particle.
+    pub fn apply(&self, b: &[Vec3<R>], out: &mut [Vec3<R>], scratch: &mut Vec<Vec3<R>>) {
+        let n = self.order.len();
+        scratch.clear();
+        scratch.extend(self.order.iter().map(|&p| b[p as usize]));
+        for (k, &p) in self.order.iter().enumerate() {
+            let row = &self.w[k * n..(k + 1) * n];
+            let mut acc = Vec3::ZERO;
+            for (wv, bv) in row.iter().zip(scratch.iter()) {
+                acc += *bv * *wv;
+            }
+            out[p as usize] = acc;
+        }
+    }
+
+    /// Numbers stored.
+    pub fn stored(&self) -> usize {
+        self.w.len()
+    }
+}
+
+/// The filter a semi-implicit solver holds.
+#[derive(Clone, Debug)]
+pub enum ConstantFilter<R> {
+    /// Explicit inverse.
+    Dense(DenseFilter<R>),
+    /// Banded Cholesky factor.
+    Banded(BandedFilter<R>),
+}
+
+impl<R: Real> ConstantFilter<R> {
+    /// `out = W b` on the free particles (others untouched).
+    pub fn apply(&self, b: &[Vec3<R>], out: &mut [Vec3<R>], scratch: &mut Vec<Vec3<R>>) {
+        match self {
+            ConstantFilter::Dense(f) => f.apply(b, out, scratch),
+            ConstantFilter::Banded(f) => f.apply(b, out, scratch),
+        }
+    }
+
+    /// `"dense"` or `"banded"`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            ConstantFilter::Dense(_) => "dense",
+            ConstantFilter::Banded(_) => "banded",
+        }
+    }
+}
