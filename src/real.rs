@@ -43,6 +43,8 @@ pub trait Real:
     /// as degenerate (its direction is undefined). Chosen far below any
     /// physical cloth feature and far above the type's underflow.
     const TINY: Self;
+    /// Machine epsilon (spacing of representable numbers at 1).
+    const EPSILON: Self;
     /// Name used in reports (`"f32"` / `"f64"`).
     const NAME: &'static str;
 
@@ -88,6 +90,7 @@ impl Real for f64 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
     const TINY: Self = 1e-12;
+    const EPSILON: Self = f64::EPSILON;
     const NAME: &'static str = "f64";
     #[inline]
     fn from_f64(v: f64) -> Self {
@@ -115,6 +118,7 @@ impl Real for f32 {
     const ZERO: Self = 0.0;
     const ONE: Self = 1.0;
     const TINY: Self = 1e-9;
+    const EPSILON: Self = f32::EPSILON;
     const NAME: &'static str = "f32";
     #[inline]
     fn from_f64(v: f64) -> Self {

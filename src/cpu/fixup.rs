@@ -16,6 +16,13 @@
 use super::System;
 use crate::real::{Real, Vec3};
 
+/// Relative amount, in units of the scalar's epsilon, by which a spring may
+/// exceed its limit and still count as satisfied. A corrected spring lands
+/// on its limit only up to rounding (a few ulps of its length); without this
+/// slack that rounding would count as "over-stretched" forever and the early
+/// exit would never fire.
+const SLACK_ULPS: f64 = 64.0;
+
 /// The correction for spring `s` at positions `x`: the vector `c` such that
 /// end `i` moves by `−w_i c` and end `j` by `+w_j c`. `None` when the spring
 /// is unconstrained, within its limit, degenerate or fully pinned.
@@ -30,7 +37,8 @@ fn correction<R: Real>(sys: &System<R>, s: usize, x: &[Vec3<R>]) -> Option<Vec3<
     let d = x[i] - x[j];
     let l = d.length();
     let w = sys.inv_mass[i] + sys.inv_mass[j];
-    if l > max_len && w > R::ZERO {
+    let slack = R::ONE + R::EPSILON * R::from_f64(SLACK_ULPS);
+    if l > max_len * slack && w > R::ZERO {
         Some(d * ((l - max_len) / (l * w)))
     } else {
         None
