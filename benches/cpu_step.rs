@@ -1,1 +1,111 @@
-fn main() {}
+//! CPU step time per integrator and cloth size, and a table of steps per
+//! second beside the figures of the article the project grew from.
+//!
+//! `cargo bench --bench cpu_step` runs criterion over the article's sizes
+//! (15², 25², 33²) and 65², 129² for each integrator, on the `hanging`
+//! scene's material resized to each resolution, at the article's
+//! dt = 0.02 s where the integrator is stable there and at the scene's own
+//! dt otherwise. Set `WGCLOTH_BENCH_QUICK=1` for a short run.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
+use wgcloth::cpu::CpuSolver;
+use wgcloth::model::Model;
+use wgcloth::params::Integrator;
+use wgcloth::Scene;
+
+/// Sizes benchmarked (particles per side).
+const SIZES: [usize; 5] = [15, 25, 33, 65, 129];
+
+/// The article's frame rates (Pentium III 600 MHz, dt = 0.02 s, rendering
+/// included), by size and integrator (explicit, implicit, semi-implicit).
+const ARTICLE_FPS: [(usize, [f64; 3]); 3] = [
+    (15, [142.0, 28.0, 90.0]),
+    (25, [52.0, 6.0, 19.0]),
+    (33, [30.0, 2.0, 7.0]),
+];
+
+fn solver(integrator: Integrator, n: usize) -> CpuSolver<f64> {
+    let Ok(mut scene) = Scene::builtin("hanging") else {
+        panic!("the hanging scene is built in");
+    };
+    scene.cloth.nx = n;
+    scene.cloth.ny = n;
+    scene.params.integrator = integrator;
+    let model = match scene.model() {
+        Ok(m) => m,
+        Err(e) => panic!("hanging at {n}²: {e}"),
+    };
+    let mut s = match CpuSolver::new(&model, &scene.params) {
+        Ok(s) => s,
+        Err(e) => panic!("hanging at {n}²: {e}"),
+    };
+    // Start from a moving, deformed cloth, not the flat rest state where
+    // CG converges trivially.
+    if let Err(e) = s.step_n(10) {
+        panic!("hanging at {n}² {integrator}: {e}");
+    }
+    s
+}
+
+fn quick() -> bool {
+    std::env::var_os("WGCLOTH_BENCH_QUICK").is_some()
+}
+
+fn step_time(c: &mut Criterion) {
+    let mut group = c.benchmark_group("cpu_step");
+    group.sample_size(if quick() { 10 } else { 20 });
+    group.measurement_time(Duration::from_secs(if quick() { 1 } else { 3 }));
+    for integrator in Integrator::ALL {
+        for n in SIZES {
+            let mut s = solver(integrator, n);
+            group.throughput(Throughput::Elements((n * n) as u64));
+            group.bench_function(BenchmarkId::new(integrator.as_str(), n * n), |b| {
+                b.iter(|| black_box(s.step()))
+            });
+        }
+    }
+    group.finish();
+}
+
+/// Median seconds per step over `samples` timed batches.
+fn median_step(s: &mut CpuSolver<f64>, samples: usize) -> f64 {
+    let mut times: Vec<f64> = (0..samples)
+        .map(|_| {
+            let t = Instant::now();
+            let _ = black_box(s.step());
+            t.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn article_table() {
+    println!("\nCPU steps per second (median), hanging scene material, f64, one thread");
+    println!("{:>6} {:>14} {:>10} {:>10} {:>8}", "size", "integrator", "steps/s", "article", "ratio");
+    for (n, fps) in ARTICLE_FPS {
+        for (k, integrator) in Integrator::ALL.into_iter().enumerate() {
+            let mut s = solver(integrator, n);
+            let rate = 1.0 / median_step(&mut s, if quick() { 15 } else { 101 });
+            println!(
+                "{:>6} {:>14} {:>10.0} {:>10.0} {:>7.0}×",
+                format!("{n}²"),
+                integrator.as_str(),
+                rate,
+                fps[k],
+                rate / fps[k]
+            );
+        }
+    }
+}
+
+criterion_group!(benches, step_time);
+
+fn main() {
+    article_table();
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
