@@ -318,6 +318,11 @@ fn resolve_prefers_files_then_builtins() {
         "a missing .toml must be reported as a missing file, got: {message}"
     );
 
+    // A directory is not a scene file, so it is looked up as a name.
+    let scenes_dir = repo_path("scenes");
+    let err = Scene::resolve(scenes_dir.to_str().expect("utf-8 path")).expect_err("a directory");
+    assert!(matches!(err, Error::UnknownScene { .. }), "{err}");
+
     let err = Scene::resolve("no-such-scene").expect_err("unknown name");
     let message = err.to_string();
     assert!(matches!(err, Error::UnknownScene { .. }), "{message}");

@@ -51,9 +51,11 @@ impl Scene {
         let (cloth, params, duration) = parsed.into_parts();
         // The key names in `InvalidParameter` are already the file's
         // spelling, so its message is the scene message as is.
-        params.validate().map_err(|e| fail(e.to_string()))?;
-        check_duration(duration).map_err(fail)?;
-        cloth.validate().map_err(|e| fail(e.to_string()))?;
+        params
+            .validate()
+            .and_then(|()| check_duration(duration))
+            .and_then(|()| cloth.validate())
+            .map_err(|e| fail(e.to_string()))?;
         let name = path
             .file_stem()
             .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
@@ -103,7 +105,9 @@ impl Scene {
     /// file name reports the missing file rather than an unknown built-in.
     pub fn resolve(name_or_path: &str) -> Result<Scene> {
         let path = Path::new(name_or_path);
-        if path.exists() || name_or_path.ends_with(".toml") {
+        // `is_file`, not `exists`: a directory that happens to be called
+        // `flag` must not hide the built-in scene.
+        if path.is_file() || name_or_path.ends_with(".toml") {
             Scene::load(path)
         } else {
             Scene::builtin(name_or_path)
@@ -117,14 +121,16 @@ impl Scene {
 }
 
 /// `[simulation] duration` is the one key `Params` does not hold, so the
-/// scene checks it, in the same words `validate` uses.
-fn check_duration(duration: f64) -> Result<(), String> {
+/// scene checks it, with the error `validate` would give.
+fn check_duration(duration: f64) -> Result<()> {
     if duration.is_finite() && duration > 0.0 && duration <= 1e6 {
         Ok(())
     } else {
-        Err(format!(
-            "`simulation.duration`: must be 0 < duration ≤ 1e6 (seconds), got {duration}"
-        ))
+        Err(Error::InvalidParameter {
+            key: "simulation.duration".to_string(),
+            allowed: "0 < duration ≤ 1e6 (seconds)".to_string(),
+            got: duration.to_string(),
+        })
     }
 }
 
