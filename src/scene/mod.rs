@@ -146,7 +146,8 @@ fn location(text: &str, err: &toml::de::Error) -> String {
     format!("line {line}, column {column}: ")
 }
 
-/// A schema error as `line L, column C: `key`: what is wrong; write …`.
+/// A schema error as "line L, column C: \`key\`: what is wrong; write
+/// <the value's form>", each part where known.
 fn describe(text: &str, err: &serde_path_to_error::Error<toml::de::Error>) -> String {
     let key = err.path().to_string();
     let mut out = location(text, err.inner());
