@@ -3,10 +3,18 @@
 //! A [`Scene`] is a validated cloth spec plus parameters: loading one either
 //! succeeds completely or fails with an error that names the file, the key
 //! and what is allowed. Nothing partial is ever returned.
+//!
+//! The format is described key by key in `docs/scene-format.md`. The schema
+//! lives in `file.rs`; ranges are checked by [`ClothSpec::validate`] and
+//! [`Params::validate`] only, so a file and the library API accept exactly
+//! the same values.
 
+mod file;
+
+use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::model::{ClothSpec, Model};
 use crate::params::Params;
 
@@ -25,14 +33,47 @@ pub struct Scene {
 
 impl Scene {
     /// Parses and validates a scene from TOML text; `path` is used in error
-    /// messages only.
+    /// messages (and its stem as the scene's name) only.
     pub fn from_toml(text: &str, path: &Path) -> Result<Scene> {
-        todo!("scene helper: {text} {path:?}")
+        let fail = |message: String| Error::Scene {
+            path: path.to_path_buf(),
+            message,
+        };
+        let de = toml::Deserializer::parse(text).map_err(|e| {
+            fail(format!(
+                "{}TOML syntax error: {}",
+                location(text, &e),
+                e.message().trim_end()
+            ))
+        })?;
+        let parsed: file::SceneFile =
+            serde_path_to_error::deserialize(de).map_err(|e| fail(describe(text, &e)))?;
+        let (cloth, params, duration) = parsed.into_parts();
+        // The key names in `InvalidParameter` are already the file's
+        // spelling, so its message is the scene message as is.
+        params
+            .validate()
+            .and_then(|()| check_duration(duration))
+            .and_then(|()| cloth.validate())
+            .map_err(|e| fail(e.to_string()))?;
+        let name = path
+            .file_stem()
+            .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
+        Ok(Scene {
+            name,
+            cloth,
+            params,
+            duration,
+        })
     }
 
     /// Reads, parses and validates a scene file.
     pub fn load(path: &Path) -> Result<Scene> {
-        todo!("scene helper: {path:?}")
+        let text = std::fs::read_to_string(path).map_err(|e| Error::Scene {
+            path: path.to_path_buf(),
+            message: format!("cannot read the file: {e}"),
+        })?;
+        Scene::from_toml(&text, path)
     }
 
     /// The names of the built-in scenes.
@@ -42,16 +83,130 @@ impl Scene {
 
     /// A built-in scene by name.
     pub fn builtin(name: &str) -> Result<Scene> {
-        todo!("scene helper: {name}")
+        // Embedded so a built-in scene works from any working directory.
+        let text = match name {
+            "hanging" => include_str!("../../scenes/hanging.toml"),
+            "curtain" => include_str!("../../scenes/curtain.toml"),
+            "flag" => include_str!("../../scenes/flag.toml"),
+            "drape" => include_str!("../../scenes/drape.toml"),
+            _ => {
+                return Err(Error::UnknownScene {
+                    name: name.to_string(),
+                    available: Scene::builtin_names().join(", "),
+                })
+            }
+        };
+        Scene::from_toml(text, &Path::new("scenes").join(format!("{name}.toml")))
     }
 
     /// A path to a scene file if one exists there, else a built-in name.
+    ///
+    /// A name ending in `.toml` is always taken as a path, so a mistyped
+    /// file name reports the missing file rather than an unknown built-in.
     pub fn resolve(name_or_path: &str) -> Result<Scene> {
-        todo!("scene helper: {name_or_path}")
+        let path = Path::new(name_or_path);
+        // `is_file`, not `exists`: a directory that happens to be called
+        // `flag` must not hide the built-in scene.
+        if path.is_file() || name_or_path.ends_with(".toml") {
+            Scene::load(path)
+        } else {
+            Scene::builtin(name_or_path)
+        }
     }
 
     /// Builds the model this scene describes.
     pub fn model(&self) -> Result<Model> {
         Model::new(&self.cloth, &self.params.springs)
     }
+}
+
+/// `[simulation] duration` is the one key `Params` does not hold, so the
+/// scene checks it, with the error `validate` would give.
+fn check_duration(duration: f64) -> Result<()> {
+    if duration.is_finite() && duration > 0.0 && duration <= 1e6 {
+        Ok(())
+    } else {
+        Err(Error::InvalidParameter {
+            key: "simulation.duration".to_string(),
+            allowed: "0 < duration ≤ 1e6 (seconds)".to_string(),
+            got: duration.to_string(),
+        })
+    }
+}
+
+/// `line L, column C: ` for an error toml could place, else nothing.
+fn location(text: &str, err: &toml::de::Error) -> String {
+    let Some(span) = err.span() else {
+        return String::new();
+    };
+    let before = text.get(..span.start).unwrap_or(text);
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let column = before[line_start..].chars().count() + 1;
+    format!("line {line}, column {column}: ")
+}
+
+/// A schema error as "line L, column C: \`key\`: what is wrong; write
+/// <the value's form>", each part where known.
+fn describe(text: &str, err: &serde_path_to_error::Error<toml::de::Error>) -> String {
+    let key = err.path().to_string();
+    let mut out = location(text, err.inner());
+    if key != "." {
+        let _ = write!(out, "`{key}`: ");
+    }
+    // serde speaks of fields; a scene file has keys.
+    let message = err
+        .inner()
+        .message()
+        .replace("unknown field", "unknown key")
+        .replace("missing field", "missing key");
+    out.push_str(&message);
+    if let Some(shape) = expected_shape(&key) {
+        let _ = write!(out, "; write {shape}");
+    }
+    out
+}
+
+/// What a key's value looks like, with its unit, to follow serde's terse
+/// "expected f64". Ranges are left to `validate`'s messages.
+fn expected_shape(key: &str) -> Option<&'static str> {
+    if key.starts_with("cloth.pins[") {
+        // The pin parser's own message already lists every allowed entry.
+        return None;
+    }
+    // `sphere[1].radius` → `sphere.radius`; `gravity[2]` → `gravity`.
+    let mut bare = String::with_capacity(key.len());
+    let mut in_index = false;
+    for c in key.chars() {
+        match c {
+            '[' => in_index = true,
+            ']' => in_index = false,
+            _ if !in_index => bare.push(c),
+            _ => {}
+        }
+    }
+    // The three spring kinds share their keys.
+    for kind in ["stretch.", "shear.", "bend."] {
+        bare = bare.replace(&format!("springs.{kind}"), "springs.");
+    }
+    Some(match bare.as_str() {
+        "simulation.dt" | "simulation.duration" => "a number of seconds",
+        "simulation.gravity" => "[x, y, z], three numbers in m/s²",
+        "cloth.resolution" => "[nx, ny], two whole numbers of particles",
+        "cloth.size" => "[width, height], two numbers in m",
+        "cloth.origin" | "sphere.center" => "[x, y, z], three numbers in m",
+        "cloth.mass" => "a number of kg (the whole cloth)",
+        "cloth.pins" => "an array of pin names and particle indices, e.g. [\"top-left\", 5]",
+        "springs.stiffness" => "a number in N/m",
+        "springs.damping" => "a number in N·s/m",
+        "springs.max_stretch" => "a number, a multiple of the rest length",
+        "fixup.iterations" | "implicit.max_iterations" => "a whole number",
+        "fixup.omega" | "implicit.tolerance" => "a number",
+        "semi_implicit.torque_compensation" => "true or false",
+        "ground.height" | "sphere.radius" => "a number in m",
+        "ground.friction" | "sphere.friction" => "a number (friction coefficient)",
+        "wind.velocity" => "[x, y, z], three numbers in m/s",
+        "wind.drag" | "wind.lift" => "a number in kg/m³",
+        _ => return None,
+    })
 }

@@ -1,0 +1,635 @@
+//! Scene files through the public API: the built-in scenes, a file with every
+//! key, the defaults of partial tables, and one bad file per kind of error.
+
+use std::path::{Path, PathBuf};
+
+use wgcloth::model::{ClothSpec, Corner, Edge, Orientation, Pin};
+use wgcloth::params::{
+    FilterMethod, FixupMethod, FixupParams, Ground, ImplicitParams, Integrator, Params,
+    SemiImplicitParams, Sphere, SpringKind, SpringParams, Wind,
+};
+use wgcloth::{Error, Scene};
+
+fn repo_path(relative: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(relative)
+}
+
+fn parse(text: &str) -> Scene {
+    Scene::from_toml(text, Path::new("test.toml"))
+        .unwrap_or_else(|e| panic!("scene should load, got: {e}\n--- text ---\n{text}"))
+}
+
+#[test]
+fn every_builtin_scene_loads_validates_and_builds() {
+    for &name in Scene::builtin_names() {
+        let scene = Scene::builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(scene.name, name);
+        scene.params.validate().expect("params valid");
+        scene.cloth.validate().expect("cloth valid");
+        let model = scene.model().unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(model.particle_count(), scene.cloth.nx * scene.cloth.ny);
+        // The embedded text and the file on disk are the same scene.
+        let on_disk = Scene::load(&repo_path(&format!("scenes/{name}.toml"))).expect("loads");
+        assert_eq!(on_disk, scene, "{name}: file and built-in differ");
+    }
+}
+
+#[test]
+fn builtin_names_match_the_files_in_scenes() {
+    let mut on_disk: Vec<String> = std::fs::read_dir(repo_path("scenes"))
+        .expect("scenes/ exists")
+        .map(|entry| entry.expect("readable entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .map(|p| p.file_stem().expect("stem").to_string_lossy().into_owned())
+        .collect();
+    on_disk.sort();
+    let mut names: Vec<&str> = Scene::builtin_names().to_vec();
+    names.sort_unstable();
+    assert_eq!(on_disk, names);
+}
+
+#[test]
+fn builtin_scenes_are_the_ones_described() {
+    let hanging = Scene::builtin("hanging").expect("loads");
+    assert_eq!(hanging.params.integrator, Integrator::Explicit);
+    assert_eq!((hanging.cloth.nx, hanging.cloth.ny), (33, 33));
+    assert_eq!(
+        hanging.cloth.pins,
+        [Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)]
+    );
+    assert_eq!(hanging.cloth.origin[1], 1.0);
+    assert_eq!(hanging.params.ground.map(|g| g.height), Some(0.0));
+
+    let curtain = Scene::builtin("curtain").expect("loads");
+    assert_eq!(curtain.params.integrator, Integrator::Implicit);
+    assert_eq!(curtain.cloth.orientation, Orientation::Vertical);
+    assert_eq!(curtain.cloth.pins, [Pin::Edge(Edge::Top)]);
+
+    let flag = Scene::builtin("flag").expect("loads");
+    assert_eq!(flag.params.integrator, Integrator::SemiImplicit);
+    assert_eq!((flag.cloth.nx, flag.cloth.ny), (33, 21));
+    assert_eq!(flag.cloth.pins, [Pin::Edge(Edge::Left)]);
+    let wind = flag.params.wind.expect("the flag has wind");
+    assert!(wind.velocity[0] > 0.0 && wind.velocity[2] != 0.0);
+
+    let drape = Scene::builtin("drape").expect("loads");
+    assert_eq!(drape.params.integrator, Integrator::Implicit);
+    assert!(drape.cloth.pins.is_empty());
+    assert_eq!(drape.params.spheres.len(), 1);
+    assert_eq!(drape.params.spheres[0].radius, 0.35);
+    assert_eq!(drape.params.spheres[0].center, [0.0; 3]);
+    assert!(drape.params.ground.is_some());
+}
+
+const FULL: &str = r#"
+[simulation]
+integrator = "semi-implicit"
+dt = 0.004
+gravity = [0.0, -9.0, 0.5]
+duration = 7.5
+
+[cloth]
+resolution = [17, 9]
+size = [2.0, 1.5]
+origin = [1.0, 3.0, -2.0]
+orientation = "vertical"
+mass = 0.8
+pins = ["top-left", "right", 20]
+
+[springs.stretch]
+stiffness = 400.0
+damping = 0.4
+max_stretch = 1.05
+
+[springs.shear]
+stiffness = 100
+damping = 0.1
+max_stretch = 1.2
+
+[springs.bend]
+stiffness = 0
+damping = 0
+max_stretch = 1.5
+
+[fixup]
+iterations = 25
+method = "jacobi"
+omega = 1.5
+
+[implicit]
+tolerance = 1e-6
+max_iterations = 500
+
+[semi_implicit]
+filter = "banded"
+torque_compensation = false
+
+[ground]
+height = -1.0
+friction = 0.25
+
+[[sphere]]
+center = [0.0, 1.0, 0.0]
+radius = 0.5
+friction = 0.1
+
+[[sphere]]
+center = [1.0, 0.5, 0.0]
+radius = 0.25
+friction = 0.0
+
+[wind]
+velocity = [3.0, 0.0, -1.0]
+drag = 0.7
+lift = 0.2
+"#;
+
+#[test]
+fn a_file_with_every_key_gives_exactly_those_values() {
+    let scene = Scene::from_toml(FULL, Path::new("dir/full.toml")).expect("loads");
+    assert_eq!(scene.name, "full");
+    assert_eq!(scene.duration, 7.5);
+    // Struct literals without `..Default::default()`: a new field fails to
+    // compile here until the format (and this test) covers it.
+    let cloth = ClothSpec {
+        nx: 17,
+        ny: 9,
+        size: [2.0, 1.5],
+        origin: [1.0, 3.0, -2.0],
+        orientation: Orientation::Vertical,
+        mass: 0.8,
+        pins: vec![
+            Pin::Corner(Corner::TopLeft),
+            Pin::Edge(Edge::Right),
+            Pin::Index(20),
+        ],
+    };
+    let params = Params {
+        integrator: Integrator::SemiImplicit,
+        dt: 0.004,
+        gravity: [0.0, -9.0, 0.5],
+        springs: [
+            SpringParams {
+                stiffness: 400.0,
+                damping: 0.4,
+                max_stretch: Some(1.05),
+            },
+            SpringParams {
+                stiffness: 100.0,
+                damping: 0.1,
+                max_stretch: Some(1.2),
+            },
+            SpringParams {
+                stiffness: 0.0,
+                damping: 0.0,
+                max_stretch: Some(1.5),
+            },
+        ],
+        fixup: FixupParams {
+            iterations: 25,
+            method: FixupMethod::Jacobi,
+            omega: 1.5,
+        },
+        implicit: ImplicitParams {
+            tolerance: 1e-6,
+            max_iterations: 500,
+        },
+        semi_implicit: SemiImplicitParams {
+            filter: FilterMethod::Banded,
+            torque_compensation: false,
+        },
+        ground: Some(Ground {
+            height: -1.0,
+            friction: 0.25,
+        }),
+        spheres: vec![
+            Sphere {
+                center: [0.0, 1.0, 0.0],
+                radius: 0.5,
+                friction: 0.1,
+            },
+            Sphere {
+                center: [1.0, 0.5, 0.0],
+                radius: 0.25,
+                friction: 0.0,
+            },
+        ],
+        wind: Some(Wind {
+            velocity: [3.0, 0.0, -1.0],
+            drag: 0.7,
+            lift: 0.2,
+        }),
+    };
+    assert_eq!(scene.cloth, cloth);
+    assert_eq!(scene.params, params);
+    scene.model().expect("builds");
+}
+
+#[test]
+fn an_empty_file_is_the_library_defaults() {
+    let scene = parse("");
+    assert_eq!(scene.cloth, ClothSpec::default());
+    assert_eq!(scene.params, Params::default());
+    assert_eq!(scene.duration, 2.0);
+}
+
+#[test]
+fn a_partial_table_keeps_the_defaults_of_its_own_kind() {
+    let defaults = Params::default();
+    let scene = parse("[springs.bend]\nstiffness = 9\n[springs.stretch]\ndamping = 1\n");
+    let bend = scene.params.spring(SpringKind::Bend);
+    let bend_default = defaults.spring(SpringKind::Bend);
+    assert_eq!(bend.stiffness, 9.0);
+    assert_eq!(bend.damping, bend_default.damping);
+    assert_eq!(bend.max_stretch, None);
+    let stretch = scene.params.spring(SpringKind::Stretch);
+    assert_eq!(stretch.damping, 1.0);
+    assert_eq!(
+        stretch.stiffness,
+        defaults.spring(SpringKind::Stretch).stiffness
+    );
+    assert_eq!(stretch.max_stretch, Some(1.1));
+    assert_eq!(
+        scene.params.spring(SpringKind::Shear),
+        defaults.spring(SpringKind::Shear)
+    );
+}
+
+#[test]
+fn empty_collider_and_wind_tables_take_the_documented_defaults() {
+    let scene = parse("[ground]\n[[sphere]]\nradius = 1\n[wind]\nvelocity = [1, 2, 3]\n");
+    assert_eq!(
+        scene.params.ground,
+        Some(Ground {
+            height: 0.0,
+            friction: 0.5
+        })
+    );
+    assert_eq!(
+        scene.params.spheres,
+        [Sphere {
+            center: [0.0; 3],
+            radius: 1.0,
+            friction: 0.5
+        }]
+    );
+    assert_eq!(
+        scene.params.wind,
+        Some(Wind {
+            velocity: [1.0, 2.0, 3.0],
+            drag: 0.6,
+            lift: 0.0
+        })
+    );
+}
+
+#[test]
+fn pins_can_be_emptied_and_fixup_switched_off() {
+    let scene = parse("[cloth]\npins = []\n[fixup]\niterations = 0\n");
+    assert!(scene.cloth.pins.is_empty());
+    assert_eq!(scene.params.fixup.iterations, 0);
+}
+
+#[test]
+fn every_toml_block_in_the_format_reference_loads() {
+    let doc = std::fs::read_to_string(repo_path("docs/scene-format.md")).expect("doc exists");
+    let mut blocks = 0;
+    for (n, block) in doc.split("```toml\n").skip(1).enumerate() {
+        let text = block.split("```").next().expect("closed block");
+        if let Err(e) = Scene::from_toml(text, Path::new("doc.toml")) {
+            panic!("TOML block {n} of docs/scene-format.md: {e}\n--- block ---\n{text}");
+        }
+        blocks += 1;
+    }
+    assert!(blocks > 0, "docs/scene-format.md has no ```toml block");
+}
+
+#[test]
+fn resolve_prefers_files_then_builtins() {
+    let path = repo_path("scenes/flag.toml");
+    let by_path = Scene::resolve(path.to_str().expect("utf-8 path")).expect("file loads");
+    assert_eq!(by_path, Scene::builtin("flag").expect("builtin"));
+    assert_eq!(Scene::resolve("drape").expect("builtin").name, "drape");
+
+    let err = Scene::resolve("no-such-scene.toml").expect_err("missing file");
+    let message = err.to_string();
+    assert!(
+        matches!(err, Error::Scene { .. }) && message.contains("cannot read the file"),
+        "a missing .toml must be reported as a missing file, got: {message}"
+    );
+
+    // A directory is not a scene file, so it is looked up as a name.
+    let scenes_dir = repo_path("scenes");
+    let err = Scene::resolve(scenes_dir.to_str().expect("utf-8 path")).expect_err("a directory");
+    assert!(matches!(err, Error::UnknownScene { .. }), "{err}");
+
+    let err = Scene::resolve("no-such-scene").expect_err("unknown name");
+    let message = err.to_string();
+    assert!(matches!(err, Error::UnknownScene { .. }), "{message}");
+    for name in Scene::builtin_names() {
+        assert!(message.contains(name), "{message} should list `{name}`");
+    }
+}
+
+/// Where a bad scene comes from.
+enum Source {
+    /// Parsed by `Scene::from_toml` under the name `bad_scene.toml`.
+    Text(&'static str),
+    /// A file that does not exist, read by `Scene::load`.
+    MissingFile,
+}
+
+struct Row {
+    what: &'static str,
+    source: Source,
+    /// Substrings the message must contain besides the file name: the key,
+    /// what is allowed, and what was given.
+    expect: &'static [&'static str],
+}
+
+const fn row(what: &'static str, text: &'static str, expect: &'static [&'static str]) -> Row {
+    Row {
+        what,
+        source: Source::Text(text),
+        expect,
+    }
+}
+
+const BAD_SCENES: &[Row] = &[
+    row(
+        "unknown top-level table",
+        "[simulaton]\ndt = 0.01\n",
+        &[
+            "`simulaton`",
+            "unknown key",
+            "`simulation`",
+            "`wind`",
+            "line 1",
+        ],
+    ),
+    row(
+        "unknown key inside a table",
+        "[springs.stretch]\nstifness = 5\n",
+        &[
+            "`springs.stretch.stifness`",
+            "`stiffness`",
+            "`max_stretch`",
+            "line 2",
+        ],
+    ),
+    row(
+        "unknown spring kind",
+        "[springs.strech]\nstiffness = 5\n",
+        &["`springs.strech`", "`stretch`", "`shear`", "`bend`"],
+    ),
+    row(
+        "unknown key in the second sphere",
+        "[[sphere]]\nradius = 1\n[[sphere]]\nradus = 1\n",
+        &["`sphere[1].radus`", "`radius`", "line 4"],
+    ),
+    row(
+        "wrong type",
+        "[simulation]\ndt = \"fast\"\n",
+        &[
+            "`simulation.dt`",
+            "invalid type",
+            "\"fast\"",
+            "seconds",
+            "line 2",
+        ],
+    ),
+    row(
+        "wrong type for a flag",
+        "[semi_implicit]\ntorque_compensation = 1\n",
+        &["`semi_implicit.torque_compensation`", "true or false"],
+    ),
+    row(
+        "wrong array length",
+        "[simulation]\ngravity = [0, -9.8]\n",
+        &["`simulation.gravity`", "length 2", "length 3", "m/s²"],
+    ),
+    row(
+        "unknown integrator name",
+        "[simulation]\nintegrator = \"rk4\"\n",
+        &[
+            "`simulation.integrator`",
+            "`rk4`",
+            "`explicit`",
+            "`implicit`",
+            "`semi-implicit`",
+        ],
+    ),
+    row(
+        "unknown fix-up method",
+        "[fixup]\nmethod = \"sor\"\n",
+        &["`fixup.method`", "`sor`", "`gauss-seidel`", "`jacobi`"],
+    ),
+    row(
+        "unknown orientation",
+        "[cloth]\norientation = \"diagonal\"\n",
+        &[
+            "`cloth.orientation`",
+            "`diagonal`",
+            "`horizontal`",
+            "`vertical`",
+        ],
+    ),
+    row(
+        "unknown filter",
+        "[semi_implicit]\nfilter = \"sparse\"\n",
+        &[
+            "`semi_implicit.filter`",
+            "`sparse`",
+            "`auto`",
+            "`dense`",
+            "`banded`",
+        ],
+    ),
+    row(
+        "unknown pin name",
+        "[cloth]\npins = [\"top-left\", \"middle\"]\n",
+        &[
+            "`cloth.pins[1]`",
+            "`middle`",
+            "top-right",
+            "bottom-left",
+            "particle index",
+        ],
+    ),
+    row(
+        "negative pin index",
+        "[cloth]\npins = [-3]\n",
+        &["`cloth.pins[0]`", "-3", "≥ 0"],
+    ),
+    row(
+        "pin index out of range",
+        "[cloth]\nresolution = [10, 10]\npins = [5000]\n",
+        &["`cloth.pins`", "below 100", "5000"],
+    ),
+    row(
+        "resolution below 2",
+        "[cloth]\nresolution = [1, 10]\n",
+        &["`cloth.resolution[0]`", "≥ 2", "got 1"],
+    ),
+    row(
+        "negative resolution",
+        "[cloth]\nresolution = [8, -4]\n",
+        &["`cloth.resolution[1]`", "-4", "whole numbers of particles"],
+    ),
+    row(
+        "negative stiffness",
+        "[springs.bend]\nstiffness = -1\n",
+        &[
+            "`springs.bend.stiffness`",
+            "0 ≤ stiffness ≤ 1e9",
+            "N/m",
+            "got -1",
+        ],
+    ),
+    row(
+        "dt = 0",
+        "[simulation]\ndt = 0\n",
+        &["`simulation.dt`", "0 < dt ≤ 1", "seconds", "got 0"],
+    ),
+    row(
+        "dt negative",
+        "[simulation]\ndt = -0.01\n",
+        &["`simulation.dt`", "0 < dt ≤ 1", "got -0.01"],
+    ),
+    row(
+        "NaN in gravity",
+        "[simulation]\ngravity = [0, nan, 0]\n",
+        &["`simulation.gravity", "finite", "NaN"],
+    ),
+    row(
+        "duration = 0",
+        "[simulation]\nduration = 0\n",
+        &[
+            "`simulation.duration`",
+            "0 < duration ≤ 1e6",
+            "seconds",
+            "got 0",
+        ],
+    ),
+    row(
+        "max_stretch below 1",
+        "[springs.shear]\nmax_stretch = 0.9\n",
+        &[
+            "`springs.shear.max_stretch`",
+            "1 ≤ max_stretch",
+            "rest length",
+            "got 0.9",
+        ],
+    ),
+    row(
+        "negative fix-up iterations",
+        "[fixup]\niterations = -1\n",
+        &["`fixup.iterations`", "-1", "whole number"],
+    ),
+    row(
+        "omega out of range",
+        "[fixup]\nomega = 2\n",
+        &["`fixup.omega`", "0 < omega < 2", "got 2"],
+    ),
+    row(
+        "zero CG tolerance",
+        "[implicit]\ntolerance = 0\n",
+        &["`implicit.tolerance`", "0 < tolerance < 1", "got 0"],
+    ),
+    row(
+        "sphere radius 0",
+        "[[sphere]]\nradius = 1\n[[sphere]]\nradius = 0\n",
+        &["`sphere[1].radius`", "radius > 0", "(m)", "got 0"],
+    ),
+    row(
+        "sphere radius negative",
+        "[[sphere]]\nradius = -0.5\n",
+        &["`sphere[0].radius`", "radius > 0", "got -0.5"],
+    ),
+    row(
+        "sphere without radius",
+        "[[sphere]]\ncenter = [0, 0, 0]\n",
+        &["`sphere[0]`", "missing key `radius`"],
+    ),
+    row(
+        "wind without velocity",
+        "[wind]\ndrag = 1\n",
+        &["`wind`", "missing key `velocity`"],
+    ),
+    row(
+        "negative ground friction",
+        "[ground]\nfriction = -0.1\n",
+        &["`ground.friction`", "friction ≥ 0", "got -0.1"],
+    ),
+    row(
+        "mass 0",
+        "[cloth]\nmass = 0\n",
+        &["`cloth.mass`", "> 0", "kg", "got 0"],
+    ),
+    row(
+        "mass negative",
+        "[cloth]\nmass = -1\n",
+        &["`cloth.mass`", "> 0", "kg", "got -1"],
+    ),
+    row(
+        "TOML syntax error",
+        "[simulation\ndt = 0.01\n",
+        &["TOML syntax error", "line 1"],
+    ),
+    row(
+        "duplicate key",
+        "[simulation]\ndt = 0.01\ndt = 0.02\n",
+        &["TOML syntax error", "duplicate key", "line 3"],
+    ),
+    Row {
+        what: "missing file",
+        source: Source::MissingFile,
+        expect: &["cannot read the file"],
+    },
+];
+
+#[test]
+fn bad_scene_files_are_refused_with_a_message_naming_key_and_allowed_values() {
+    let missing = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_scene.toml");
+    let mut failures = Vec::new();
+    for row in BAD_SCENES {
+        let result = match row.source {
+            Source::Text(text) => Scene::from_toml(text, Path::new("bad_scene.toml")),
+            Source::MissingFile => {
+                assert!(!missing.exists(), "{} must not exist", missing.display());
+                Scene::load(&missing)
+            }
+        };
+        let err = match result {
+            Ok(scene) => {
+                failures.push(format!(
+                    "{}: loaded, should have failed: {scene:?}",
+                    row.what
+                ));
+                continue;
+            }
+            Err(err) => err,
+        };
+        let message = err.to_string();
+        if !matches!(err, Error::Scene { .. }) {
+            failures.push(format!("{}: not Error::Scene: {message}", row.what));
+        }
+        let absent: Vec<&str> = std::iter::once("bad_scene.toml")
+            .chain(row.expect.iter().copied())
+            .filter(|s| !message.contains(s))
+            .collect();
+        if !absent.is_empty() {
+            failures.push(format!(
+                "{}: message lacks {absent:?}\n    message: {message}",
+                row.what
+            ));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} rows failed:\n{}",
+        failures.len(),
+        BAD_SCENES.len(),
+        failures.join("\n")
+    );
+}
