@@ -12,7 +12,6 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
 use wgcloth::cpu::CpuSolver;
-use wgcloth::model::Model;
 use wgcloth::params::Integrator;
 use wgcloth::Scene;
 
@@ -85,7 +84,10 @@ fn median_step(s: &mut CpuSolver<f64>, samples: usize) -> f64 {
 
 fn article_table() {
     println!("\nCPU steps per second (median), hanging scene material, f64, one thread");
-    println!("{:>6} {:>14} {:>10} {:>10} {:>8}", "size", "integrator", "steps/s", "article", "ratio");
+    println!(
+        "{:>6} {:>14} {:>10} {:>10} {:>8}",
+        "size", "integrator", "steps/s", "article", "ratio"
+    );
     for (n, fps) in ARTICLE_FPS {
         for (k, integrator) in Integrator::ALL.into_iter().enumerate() {
             let mut s = solver(integrator, n);

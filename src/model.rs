@@ -89,7 +89,7 @@ impl Pin {
 
     /// The names [`Pin::parse`] accepts.
     pub const NAMES: &'static str =
-        "top-left, top-right, bottom-left, bottom-right, top, bottom, left, right, or a particle index";
+        "top-left, top-right, bottom-left, bottom-right, top, bottom, left, right";
 }
 
 /// The geometry and mass of a rectangular cloth.
@@ -147,7 +147,7 @@ impl ClothSpec {
                 return Err(invalid(key, "≥ 2 particles", n));
             }
         }
-        let count = self.nx.checked_mul(self.ny).unwrap_or(usize::MAX);
+        let count = self.nx.saturating_mul(self.ny);
         if count > MAX_PARTICLES {
             return Err(invalid(
                 "cloth.resolution",
@@ -175,12 +175,12 @@ impl ClothSpec {
         if !(self.mass.is_finite() && self.mass > 0.0) {
             return Err(invalid("cloth.mass", "> 0 (kg, total)", self.mass));
         }
-        for pin in &self.pins {
+        for (k, pin) in self.pins.iter().enumerate() {
             if let Pin::Index(i) = *pin {
                 if i >= count {
                     return Err(invalid(
-                        "cloth.pins",
-                        &format!("a particle index below {count}, or {}", Pin::NAMES),
+                        &format!("cloth.pins[{k}]"),
+                        &format!("a particle index below {count} or one of {}", Pin::NAMES),
                         i,
                     ));
                 }
@@ -419,9 +419,9 @@ impl Model {
             return Err(invalid("mass", "> 0 (kg) for every particle", m));
         }
         let in_range = |p: u32| (p as usize) < n;
-        let bad_spring = springs
-            .iter()
-            .any(|s| !in_range(s.i) || !in_range(s.j) || s.i == s.j || !(s.rest >= 0.0));
+        let bad_spring = springs.iter().any(|s| {
+            !in_range(s.i) || !in_range(s.j) || s.i == s.j || s.rest.is_nan() || s.rest < 0.0
+        });
         let bad_triangle = triangles.iter().any(|t| !t.iter().all(|&p| in_range(p)));
         if bad_spring || bad_triangle {
             return Err(invalid(

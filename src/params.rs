@@ -295,8 +295,8 @@ fn check(key: &str, value: f64, ok: bool, allowed: &str) -> Result<()> {
 }
 
 fn check_vec(key: &str, v: [f64; 3]) -> Result<()> {
-    for (c, name) in v.iter().zip(["x", "y", "z"]) {
-        check(&format!("{key}[{name}]"), *c, true, "a finite number")?;
+    for (c, value) in v.iter().enumerate() {
+        check(&format!("{key}[{c}]"), *value, true, "a finite number")?;
     }
     Ok(())
 }

@@ -464,7 +464,7 @@ const BAD_SCENES: &[Row] = &[
     row(
         "pin index out of range",
         "[cloth]\nresolution = [10, 10]\npins = [5000]\n",
-        &["`cloth.pins`", "below 100", "5000"],
+        &["`cloth.pins[0]`", "below 100", "5000"],
     ),
     row(
         "resolution below 2",

@@ -136,7 +136,7 @@ fn banded_cholesky(sys: &FilterSystem) -> Result<(usize, Vec<f64>), NotPositiveD
                 s -= a * b;
             }
             if j == i {
-                if !(s > 0.0) {
+                if !(s.is_finite() && s > 0.0) {
                     return Err(NotPositiveDefinite);
                 }
                 band[i * w + bw] = s.sqrt();

@@ -71,7 +71,7 @@ pub fn wind_triangle_force<R: Real>(
     let [a, b, c] = sys.triangles[t].map(|p| p as usize);
     let cross = (x[b] - x[a]).cross(x[c] - x[a]);
     let twice_area = cross.length();
-    if !(twice_area > R::TINY) {
+    if !(twice_area.is_finite() && twice_area > R::TINY) {
         return Vec3::ZERO;
     }
     let third = R::ONE / R::from_f64(3.0);

@@ -205,7 +205,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         let cq = dot(&w.c, &w.q);
         // A is positive definite on the filtered subspace, so cq > 0 unless
         // c vanished to rounding: then the solve is as good as it gets.
-        if !(cq > R::ZERO) {
+        if !(cq.is_finite() && cq > R::ZERO) {
             break;
         }
         let alpha = delta / cq;

@@ -61,7 +61,7 @@ impl<R: Real> Sym3<R> {
         let det = xx * c_xx + xy * c_xy + xz * c_xz;
         let scale = xx.abs().max(yy.abs()).max(zz.abs());
         let floor = R::TINY * scale * scale * scale;
-        if !(det > floor) || !det.is_finite() {
+        if !(det.is_finite() && det > floor) {
             return None;
         }
         let inv = R::ONE / det;

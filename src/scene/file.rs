@@ -305,11 +305,14 @@ impl<'de> Deserialize<'de> for PinEntry {
         impl Visitor<'_> for PinVisitor {
             type Value = PinEntry;
             fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                write!(f, "one of {}", Pin::NAMES)
+                write!(f, "one of {} or a particle index", Pin::NAMES)
             }
             fn visit_str<E: de::Error>(self, s: &str) -> Result<PinEntry, E> {
                 Pin::parse(s).map(PinEntry).ok_or_else(|| {
-                    E::custom(format!("unknown pin `{s}`, expected one of {}", Pin::NAMES))
+                    E::custom(format!(
+                        "unknown pin `{s}`, expected one of {} or a particle index",
+                        Pin::NAMES
+                    ))
                 })
             }
             fn visit_u64<E: de::Error>(self, i: u64) -> Result<PinEntry, E> {
