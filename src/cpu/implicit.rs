@@ -24,7 +24,7 @@
 //! CG starts from the previous step's `Δv` (filtered) — a warm start that
 //! cuts iterations for smooth motion without changing the answer.
 
-use super::collide::{contact, CONTACT_SLOP};
+use super::collide::{collide, contact, CONTACT_SLOP};
 use super::forces::{gather_signed, spring_frame, total_forces};
 use super::mat3::Sym3;
 use super::{State, StepStats, System, Workspace};
@@ -37,8 +37,9 @@ pub enum Filter<R> {
     Free,
     /// Pinned: `S = 0`.
     Fixed,
-    /// On a surface with this normal: `S = I − n nᵀ`.
-    Plane(Vec3<R>),
+    /// On a surface with this normal and friction coefficient:
+    /// `S = I − n nᵀ`.
+    Plane(Vec3<R>, R),
 }
 
 impl<R: Real> Filter<R> {
@@ -48,7 +49,7 @@ impl<R: Real> Filter<R> {
         match self {
             Filter::Free => v,
             Filter::Fixed => Vec3::ZERO,
-            Filter::Plane(n) => v - n * v.dot(n),
+            Filter::Plane(n, _) => v - n * v.dot(n),
         }
     }
 }
@@ -88,6 +89,50 @@ pub fn apply_a<R: Real>(
     p: &[Vec3<R>],
     out: &mut [Vec3<R>],
 ) {
+    apply_a_unfiltered(sys, blocks, p, out);
+    for (o, f) in out.iter_mut().zip(filter) {
+        *o = f.apply(*o);
+    }
+}
+
+/// Coulomb friction at the contacts the filter constrained.
+///
+/// The filter removed the contacts' normal motion before anything could
+/// measure it, so friction is computed from the constraint impulse instead:
+/// the part of `A Δv − b` along the normal is the momentum the surface had to
+/// supply [N·s]. The tangential velocity then loses at most `μ` times that
+/// impulse divided by the mass — the same law the collision pass applies to
+/// a removed normal velocity.
+fn contact_friction<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) {
+    apply_a_unfiltered(sys, &w.blocks, &w.dv, &mut w.q);
+    for p in 0..st.v.len() {
+        let Filter::Plane(normal, mu) = w.filter[p] else {
+            continue;
+        };
+        let impulse = (w.q[p] - w.rhs[p]).dot(normal);
+        if impulse <= R::ZERO {
+            continue;
+        }
+        let v = st.v[p];
+        let tangential = v - normal * v.dot(normal);
+        let speed = tangential.length();
+        let loss = mu * impulse / sys.mass[p];
+        let kept = if speed > loss && speed > R::TINY {
+            (speed - loss) / speed
+        } else {
+            R::ZERO
+        };
+        st.v[p] = normal * v.dot(normal) + tangential * kept;
+    }
+}
+
+/// `out = A p` without the constraint filter.
+fn apply_a_unfiltered<R: Real>(
+    sys: &System<R>,
+    blocks: &[SpringBlock<R>],
+    p: &[Vec3<R>],
+    out: &mut [Vec3<R>],
+) {
     for ((o, &m), &pp) in out.iter_mut().zip(&sys.mass).zip(p) {
         *o = pp * m;
     }
@@ -96,9 +141,6 @@ pub fn apply_a<R: Real>(
         let y = blk.apply(p[i] - p[j]);
         out[i] += y;
         out[j] -= y;
-    }
-    for (o, f) in out.iter_mut().zip(filter) {
-        *o = f.apply(*o);
     }
 }
 
@@ -158,14 +200,14 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
                 Some(c)
                     if w.force[p].dot(c.normal) < R::ZERO || st.v[p].dot(c.normal) < R::ZERO =>
                 {
-                    Filter::Plane(c.normal)
+                    Filter::Plane(c.normal, c.friction)
                 }
                 _ => Filter::Free,
             }
         };
         // z: the prescribed Δv in constrained directions.
         w.z[p] = match w.filter[p] {
-            Filter::Plane(nrm) => nrm * (-st.v[p].dot(nrm).min(R::ZERO)),
+            Filter::Plane(nrm, _) => nrm * (-st.v[p].dot(nrm).min(R::ZERO)),
             Filter::Fixed => -st.v[p],
             Filter::Free => Vec3::ZERO,
         };
@@ -231,8 +273,16 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
 
     for p in 0..n {
         st.v[p] += w.dv[p];
+    }
+    if w.filter.iter().any(|f| matches!(f, Filter::Plane(..))) {
+        contact_friction(sys, st, w);
+    }
+    for p in 0..n {
         st.x[p] += st.v[p] * dt;
     }
+    // Particles that were not touching at the start of the step can still
+    // end it inside a collider.
+    collide(sys, &mut st.x, &mut st.v);
     StepStats {
         cg_iterations: iterations,
         cg_residual: residual,

@@ -1,0 +1,89 @@
+//! Colliders on the CPU: contacts hold and friction stops sliding, for every
+//! integrator.
+
+mod common;
+
+use common::*;
+use wgcloth::cpu::CpuSolver;
+use wgcloth::model::Model;
+use wgcloth::params::{Ground, Integrator, Params, Sphere};
+use wgcloth::Vec3;
+
+/// Collision projection is exact up to rounding of `x − n·d` (~1e-16 m in
+/// f64 near 1 m); 1e-12 m separates "on the surface" from "inside".
+const PENETRATION_TOL: f64 = 1e-12;
+
+fn dropped_cloth(integrator: Integrator, friction: f64) -> (Model, Params) {
+    let mut params = Params {
+        integrator,
+        dt: 1e-3,
+        ..Params::default()
+    };
+    params.ground = Some(Ground {
+        height: 0.0,
+        friction,
+    });
+    params.spheres = vec![Sphere {
+        center: [0.0, 0.6, 0.0],
+        radius: 0.15,
+        friction,
+    }];
+    let model = Model::new(&cloth(9, 9, vec![]), &params.springs).expect("valid");
+    (model, params)
+}
+
+#[test]
+fn no_particle_ends_a_step_inside_a_collider() {
+    for integrator in Integrator::ALL {
+        let (model, params) = dropped_cloth(integrator, 0.5);
+        let mut s = CpuSolver::<f64>::new(&model, &params).expect("valid");
+        let mut touched = 0;
+        for step in 0..800 {
+            s.step().expect("stable");
+            for (p, x) in s.positions().iter().enumerate() {
+                let sphere = (*x - Vec3::new(0.0, 0.6, 0.0)).length() - 0.15;
+                assert!(
+                    x.y >= -PENETRATION_TOL && sphere >= -PENETRATION_TOL,
+                    "{integrator}: step {step} particle {p} inside: y = {:e}, sphere distance {sphere:e}",
+                    x.y
+                );
+                touched += usize::from(x.y < 1e-9 || sphere < 1e-9);
+            }
+        }
+        assert!(
+            touched > 0,
+            "{integrator}: the cloth never reached a collider"
+        );
+    }
+}
+
+#[test]
+fn friction_stops_a_sliding_cloth_and_its_absence_does_not() {
+    for integrator in Integrator::ALL {
+        let speed_after = |friction: f64| {
+            let (model, mut params) = dropped_cloth(integrator, friction);
+            params.spheres.clear();
+            let mut s = CpuSolver::<f64>::new(&model, &params).expect("valid");
+            // Lay the cloth on the ground, sliding along +x at 1 m/s.
+            let mut st = s.state().clone();
+            for (x, v) in st.x.iter_mut().zip(st.v.iter_mut()) {
+                x.y = 0.0;
+                *v = Vec3::new(1.0, 0.0, 0.0);
+            }
+            s.set_state(st).expect("sizes match");
+            s.step_n(500).expect("stable");
+            s.velocities().iter().map(|v| v.x).sum::<f64>() / s.velocities().len() as f64
+        };
+        // μ g t = 0.5 · 9.81 · 0.5 s ≈ 2.5 m/s of braking: enough to stop.
+        let with = speed_after(0.5);
+        let without = speed_after(0.0);
+        assert!(
+            with.abs() < 1e-3,
+            "{integrator}: still sliding at {with} m/s with friction"
+        );
+        assert!(
+            without > 0.99,
+            "{integrator}: slowed to {without} m/s without friction"
+        );
+    }
+}
