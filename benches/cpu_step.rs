@@ -2,17 +2,20 @@
 //! second beside the figures of the article the project grew from.
 //!
 //! `cargo bench --bench cpu_step` runs criterion over the article's sizes
-//! (15², 25², 33²) and 65², 129² for each integrator, on the `hanging`
-//! scene's material resized to each resolution, at the article's
-//! dt = 0.02 s where the integrator is stable there and at the scene's own
-//! dt otherwise. Set `WGCLOTH_BENCH_QUICK=1` for a short run.
+//! (15², 25², 33²) and 65², 129² for each integrator on the `hanging`
+//! scene grown to each resolution at constant particle spacing and particle
+//! mass (so every size has the same local dynamics and stays stable at the
+//! same dt), at the scene's dt (1/1000 s) for the explicit integrator and
+//! the article's 0.02 s for the other two. It also times the two ways of
+//! applying the semi-implicit filter, to locate their crossover. Set
+//! `WGCLOTH_BENCH_QUICK=1` for a short run.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
 use wgcloth::cpu::CpuSolver;
-use wgcloth::params::Integrator;
+use wgcloth::params::{FilterMethod, Integrator};
 use wgcloth::Scene;
 
 /// Sizes benchmarked (particles per side).
@@ -26,13 +29,23 @@ const ARTICLE_FPS: [(usize, [f64; 3]); 3] = [
     (33, [30.0, 2.0, 7.0]),
 ];
 
-fn solver(integrator: Integrator, n: usize) -> CpuSolver<f64> {
+fn solver(integrator: Integrator, n: usize, filter: FilterMethod) -> CpuSolver<f64> {
     let Ok(mut scene) = Scene::builtin("hanging") else {
         panic!("the hanging scene is built in");
     };
+    let grow = (n - 1) as f64 / (scene.cloth.nx - 1) as f64;
+    scene.cloth.size = scene.cloth.size.map(|s| s * grow);
+    scene.cloth.origin = [-scene.cloth.size[0] / 2.0, 1.0, -scene.cloth.size[1] / 2.0];
+    scene.cloth.mass *= (n * n) as f64 / (scene.cloth.nx * scene.cloth.ny) as f64;
     scene.cloth.nx = n;
     scene.cloth.ny = n;
+    // Keep the step for timing: no ground to land on.
+    scene.params.ground = None;
     scene.params.integrator = integrator;
+    if integrator != Integrator::Explicit {
+        scene.params.dt = 0.02;
+    }
+    scene.params.semi_implicit.filter = filter;
     let model = match scene.model() {
         Ok(m) => m,
         Err(e) => panic!("hanging at {n}²: {e}"),
@@ -59,7 +72,7 @@ fn step_time(c: &mut Criterion) {
     group.measurement_time(Duration::from_secs(if quick() { 1 } else { 3 }));
     for integrator in Integrator::ALL {
         for n in SIZES {
-            let mut s = solver(integrator, n);
+            let mut s = solver(integrator, n, FilterMethod::Auto);
             group.throughput(Throughput::Elements((n * n) as u64));
             group.bench_function(BenchmarkId::new(integrator.as_str(), n * n), |b| {
                 b.iter(|| black_box(s.step()))
@@ -90,7 +103,7 @@ fn article_table() {
     );
     for (n, fps) in ARTICLE_FPS {
         for (k, integrator) in Integrator::ALL.into_iter().enumerate() {
-            let mut s = solver(integrator, n);
+            let mut s = solver(integrator, n, FilterMethod::Auto);
             let rate = 1.0 / median_step(&mut s, if quick() { 15 } else { 101 });
             println!(
                 "{:>6} {:>14} {:>10.0} {:>10.0} {:>7.0}×",
@@ -104,7 +117,26 @@ fn article_table() {
     }
 }
 
-criterion_group!(benches, step_time);
+/// Sizes at which both semi-implicit filters are timed (the dense one needs
+/// `N²` memory: 65² is 143 MB in f64, the last size tried).
+const FILTER_SIZES: [usize; 5] = [15, 25, 33, 45, 65];
+
+fn filter_crossover(c: &mut Criterion) {
+    let mut group = c.benchmark_group("semi_implicit_filter");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(if quick() { 1 } else { 2 }));
+    for n in FILTER_SIZES {
+        for filter in [FilterMethod::Dense, FilterMethod::Banded] {
+            let mut s = solver(Integrator::SemiImplicit, n, filter);
+            group.bench_function(BenchmarkId::new(filter.as_str(), n * n), |b| {
+                b.iter(|| black_box(s.step()))
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, step_time, filter_crossover);
 
 fn main() {
     article_table();
