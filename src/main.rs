@@ -1,1 +1,8 @@
-fn main() {}
+//! The `wgcloth` command-line tool: run a scene, print a summary, write the
+//! final positions and a per-step trace. See the README's "CLI reference".
+
+mod cli;
+
+fn main() -> std::process::ExitCode {
+    cli::main()
+}

@@ -1,0 +1,272 @@
+//! Command-line parsing, dispatch and exit statuses.
+//!
+//! The options and exit statuses are a stable contract (documented in the
+//! README's "CLI reference"): scripts run parameter sweeps through them.
+
+mod output;
+mod run;
+mod scenes;
+mod summary;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use wgcloth::Integrator;
+
+/// Exit status of a run that succeeded.
+const EXIT_OK: u8 = 0;
+/// An output file could not be created or written, or another failure that
+/// is neither the input's fault nor the simulation's.
+const EXIT_FAILURE: u8 = 1;
+/// The command line, the scene or a parameter was rejected; nothing ran.
+/// (clap uses the same status for its own usage errors.)
+const EXIT_INVALID: u8 = 2;
+/// The simulation became non-finite (blew up); no output file was written.
+const EXIT_BLEW_UP: u8 = 3;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "wgcloth",
+    version,
+    about = "Mass-spring cloth simulator: explicit, implicit and semi-implicit integrators \
+             on a CPU reference solver (the wgpu GPU backend is coming)",
+    propagate_version = true
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Simulate a scene and print a summary of the final state.
+    Run(RunArgs),
+    /// List the built-in scenes.
+    Scenes,
+}
+
+/// The options of `wgcloth run`.
+#[derive(Args, Debug)]
+struct RunArgs {
+    /// A scene file (`*.toml`) or the name of a built-in scene
+    /// (`wgcloth scenes` lists them).
+    #[arg(value_name = "SCENE.toml | name")]
+    scene: String,
+
+    /// Time integrator, overriding the scene's `[simulation] integrator`.
+    #[arg(long, value_enum)]
+    integrator: Option<IntegratorArg>,
+
+    /// Which solver runs the simulation.
+    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    backend: Backend,
+
+    /// Number of steps to run. Default: the scene's `[simulation] duration`,
+    /// converted like `--seconds`.
+    #[arg(long, value_name = "N", conflicts_with = "seconds")]
+    steps: Option<u64>,
+
+    /// Simulated time to run [s]: `ceil(T / dt)` steps, so the run covers at
+    /// least T (a quotient within 1e-9 of a whole number counts as that
+    /// number: 1 s at dt = 0.01 s is 100 steps).
+    #[arg(
+        long,
+        value_name = "T",
+        value_parser = parse_seconds,
+        allow_negative_numbers = true
+    )]
+    seconds: Option<f64>,
+
+    /// Time step [s], overriding the scene's `[simulation] dt` (0 < DT ≤ 1).
+    #[arg(long, value_name = "DT", allow_negative_numbers = true)]
+    dt: Option<f64>,
+
+    /// Write the final positions [m] to FILE: one line `x y z` per particle,
+    /// in particle order, every number exact as an f64.
+    #[arg(long, value_name = "FILE")]
+    positions_out: Option<PathBuf>,
+
+    /// Write a CSV trace to FILE: header `step,time,particle,x,y,z,vx,vy,vz`,
+    /// one row per particle at step 0, every K-th step and the last step.
+    #[arg(long, value_name = "FILE.csv")]
+    trace_out: Option<PathBuf>,
+
+    /// Trace every K-th step (K ≥ 1); the last step is traced whatever K.
+    #[arg(
+        long,
+        value_name = "K",
+        default_value_t = 1,
+        requires = "trace_out",
+        value_parser = clap::value_parser!(u64).range(1..)
+    )]
+    trace_every: u64,
+
+    /// Arithmetic of the solver: f64 (the reference) or f32 (what the GPU
+    /// computes).
+    #[arg(long, value_enum, default_value_t = Precision::F64)]
+    precision: Precision,
+}
+
+/// The integrators, as the CLI spells them (the scene-file spelling).
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum IntegratorArg {
+    /// Symplectic Euler with Provot's fix-up.
+    Explicit,
+    /// Baraff–Witkin backward Euler, filtered PCG.
+    Implicit,
+    /// Desbrun's constant filter with fix-up.
+    SemiImplicit,
+}
+
+impl From<IntegratorArg> for Integrator {
+    fn from(i: IntegratorArg) -> Self {
+        match i {
+            IntegratorArg::Explicit => Integrator::Explicit,
+            IntegratorArg::Implicit => Integrator::Implicit,
+            IntegratorArg::SemiImplicit => Integrator::SemiImplicit,
+        }
+    }
+}
+
+/// Solver backends. Only the CPU reference exists so far; the wgpu backend
+/// will add `gpu` here.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Backend {
+    /// The CPU reference solver.
+    Cpu,
+}
+
+impl Backend {
+    fn as_str(self) -> &'static str {
+        match self {
+            Backend::Cpu => "cpu",
+        }
+    }
+}
+
+/// Scalar type of the solver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Precision {
+    /// Double precision: the ground truth.
+    F64,
+    /// Single precision: the GPU's arithmetic.
+    F32,
+}
+
+impl Precision {
+    fn as_str(self) -> &'static str {
+        match self {
+            Precision::F64 => "f64",
+            Precision::F32 => "f32",
+        }
+    }
+}
+
+/// `--seconds`: a finite, non-negative number of seconds.
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    let t: f64 = s.parse().map_err(|e| format!("{e}"))?;
+    if t.is_finite() && t >= 0.0 {
+        Ok(t)
+    } else {
+        Err(format!("must be a finite number ≥ 0 of seconds, got {t}"))
+    }
+}
+
+/// A command-line value that clap's parser could not judge alone (it needs
+/// the scene, e.g. the step count `--seconds` implies). Exit status
+/// [`EXIT_INVALID`].
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+struct UsageError(String);
+
+/// Parses the command line, runs it and maps the outcome to an exit status.
+pub fn main() -> ExitCode {
+    // Usage errors exit with status 2 here, `--help` and `--version` with 0.
+    let cli = Cli::parse();
+    let outcome = match cli.command {
+        Command::Run(args) => run::run(&args),
+        Command::Scenes => scenes::list(),
+    };
+    match outcome {
+        Ok(()) => ExitCode::from(EXIT_OK),
+        Err(err) => {
+            eprintln!("error: {}", message(&err));
+            ExitCode::from(exit_status(&err))
+        }
+    }
+}
+
+/// The error and its causes, `: `-separated. A cause whose text its parent
+/// already ends with is not repeated (`wgcloth::Error::Io` prints its
+/// source in its own message and also returns it as `source()`).
+fn message(err: &anyhow::Error) -> String {
+    let mut text = String::new();
+    for cause in err.chain() {
+        let part = cause.to_string();
+        if text.is_empty() {
+            text = part;
+        } else if !text.ends_with(&part) {
+            text.push_str(": ");
+            text.push_str(&part);
+        }
+    }
+    text
+}
+
+/// The documented exit status for an error.
+fn exit_status(err: &anyhow::Error) -> u8 {
+    for cause in err.chain() {
+        if cause.is::<UsageError>() {
+            return EXIT_INVALID;
+        }
+        if let Some(e) = cause.downcast_ref::<wgcloth::Error>() {
+            return match e {
+                wgcloth::Error::NonFinite { .. } => EXIT_BLEW_UP,
+                wgcloth::Error::InvalidParameter { .. }
+                | wgcloth::Error::Scene { .. }
+                | wgcloth::Error::UnknownScene { .. } => EXIT_INVALID,
+                _ => EXIT_FAILURE,
+            };
+        }
+    }
+    EXIT_FAILURE
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn clap_definition_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn integrator_spellings_match_the_library() {
+        for arg in IntegratorArg::value_variants() {
+            let name = arg.to_possible_value().expect("no skipped variants");
+            assert_eq!(name.get_name(), Integrator::from(*arg).as_str());
+        }
+    }
+
+    #[test]
+    fn message_does_not_repeat_a_cause_its_parent_already_shows() {
+        let io = wgcloth::Error::Io {
+            path: "out.txt".into(),
+            source: std::io::Error::other("disk full"),
+        };
+        let err = anyhow::Error::new(io).context("writing the trace");
+        assert_eq!(message(&err), "writing the trace: out.txt: disk full");
+    }
+
+    #[test]
+    fn seconds_must_be_finite_and_non_negative() {
+        assert_eq!(parse_seconds("1.5"), Ok(1.5));
+        assert_eq!(parse_seconds("0"), Ok(0.0));
+        for bad in ["-1", "inf", "NaN", "abc"] {
+            assert!(parse_seconds(bad).is_err(), "{bad} accepted");
+        }
+    }
+}

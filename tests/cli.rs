@@ -1,0 +1,352 @@
+//! The `wgcloth` binary, run as a user runs it: exit statuses, messages and
+//! output files (the CLI contract in the README's "CLI reference").
+//!
+//! Every test works in its own fresh directory under the system temp
+//! directory, so "no file was written" can be checked by listing it.
+
+use std::ffi::OsStr;
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use wgcloth::cpu::CpuSolver;
+use wgcloth::{Real, Scene};
+
+const BIN: &str = env!("CARGO_BIN_EXE_wgcloth");
+
+/// The documented exit statuses.
+const EXIT_INVALID: i32 = 2;
+const EXIT_BLEW_UP: i32 = 3;
+
+/// A 5 × 5 explicit cloth, 5 steps by default: fast enough for a debug build.
+const SMALL_SCENE: &str = r#"
+[simulation]
+integrator = "explicit"
+dt = 0.002
+duration = 0.01
+
+[cloth]
+resolution = [5, 5]
+pins = ["top-left", "top-right"]
+"#;
+const SMALL_PARTICLES: usize = 25;
+
+/// Explicit integration far beyond its stability limit (ω·dt ≈ 10⁴ with
+/// k = 10⁹ N/m, m ≈ 0.03 kg, dt = 0.1 s). The fix-up is off because it
+/// could otherwise hold the lengths and delay the blow-up indefinitely.
+const BLOW_UP_SCENE: &str = r#"
+[simulation]
+integrator = "explicit"
+dt = 0.1
+duration = 100.0
+
+[cloth]
+resolution = [3, 3]
+pins = ["top-left"]
+
+[springs.stretch]
+stiffness = 1e9
+
+[fixup]
+iterations = 0
+"#;
+
+/// A fresh, empty directory for one test, removed afterwards.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(test: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("wgcloth-cli-{}-{test}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).expect("create the test directory");
+        TempDir(dir)
+    }
+
+    fn join(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+
+    /// Writes `text` to `name` in the directory and returns its path.
+    fn write(&self, name: &str, text: &str) -> PathBuf {
+        let path = self.join(name);
+        fs::write(&path, text).expect("write a test file");
+        path
+    }
+
+    /// Every file name in the directory, hidden temporaries included.
+    fn files(&self) -> Vec<String> {
+        let mut names: Vec<String> = fs::read_dir(&self.0)
+            .expect("list the test directory")
+            .map(|e| {
+                e.expect("directory entry")
+                    .file_name()
+                    .to_string_lossy()
+                    .into_owned()
+            })
+            .collect();
+        names.sort();
+        names
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.0);
+    }
+}
+
+fn wgcloth<S: AsRef<OsStr>>(args: &[S]) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .output()
+        .expect("run the wgcloth binary")
+}
+
+fn stdout(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Asserts the exit status, showing both streams when it is wrong.
+#[track_caller]
+fn assert_status(out: &Output, expected: i32) {
+    assert_eq!(
+        out.status.code(),
+        Some(expected),
+        "exit status\n--- stdout\n{}\n--- stderr\n{}",
+        stdout(out),
+        stderr(out)
+    );
+}
+
+/// The positions the library computes for `scene` after `steps` steps,
+/// widened to `f64`: what the binary must have written.
+fn reference_positions<R: Real>(scene: &Path, steps: u64) -> Vec<[f64; 3]> {
+    let scene = Scene::load(scene).expect("the test scene loads");
+    let model = scene.model().expect("the test scene builds");
+    let mut solver = CpuSolver::<R>::new(&model, &scene.params).expect("valid parameters");
+    solver.step_n(steps).expect("the test scene stays finite");
+    solver.positions().iter().map(|p| p.to_f64()).collect()
+}
+
+/// Parses `--positions-out`: one `x y z` line per particle.
+fn parse_positions(text: &str) -> Vec<[f64; 3]> {
+    text.lines()
+        .map(|line| {
+            let v: Vec<f64> = line
+                .split(' ')
+                .map(|s| s.parse().expect("a number"))
+                .collect();
+            assert_eq!(v.len(), 3, "line `{line}`: expected `x y z`");
+            [v[0], v[1], v[2]]
+        })
+        .collect()
+}
+
+/// Asserts bit-for-bit equality, naming the first particle that differs.
+#[track_caller]
+fn assert_same_positions(got: &[[f64; 3]], expected: &[[f64; 3]], what: &str) {
+    assert_eq!(got.len(), expected.len(), "{what}: particle count");
+    let differs = |(a, b): (&[f64; 3], &[f64; 3])| (0..3).any(|k| a[k].to_bits() != b[k].to_bits());
+    if let Some(p) = got.iter().zip(expected).position(differs) {
+        panic!(
+            "{what}: particle {p} is {:?}, the solver has {:?}",
+            got[p], expected[p]
+        );
+    }
+}
+
+/// One row of `--trace-out`.
+struct TraceRow {
+    step: u64,
+    time: f64,
+    particle: usize,
+    x: [f64; 3],
+    v: [f64; 3],
+}
+
+impl TraceRow {
+    fn parse(line: &str) -> TraceRow {
+        let cols: Vec<&str> = line.split(',').collect();
+        assert_eq!(cols.len(), 9, "row `{line}`: expected 9 columns");
+        let num = |k: usize| -> f64 { cols[k].parse().expect("a number") };
+        TraceRow {
+            step: cols[0].parse().expect("a step number"),
+            time: num(1),
+            particle: cols[2].parse().expect("a particle index"),
+            x: [num(3), num(4), num(5)],
+            v: [num(6), num(7), num(8)],
+        }
+    }
+}
+
+#[test]
+fn run_prints_a_summary() {
+    let dir = TempDir::new("summary");
+    let scene = dir.write("small.toml", SMALL_SCENE);
+    let out = wgcloth(&[OsStr::new("run"), scene.as_os_str()]);
+    assert_status(&out, 0);
+    let text = stdout(&out);
+    let steps_row = text
+        .lines()
+        .find(|l| l.starts_with("steps "))
+        .unwrap_or_else(|| panic!("no `steps` row in\n{text}"));
+    // 0.01 s of scene duration at dt = 0.002 s.
+    assert_eq!(steps_row.split_whitespace().nth(1), Some("5"), "{text}");
+    for label in ["scene", "particles", "max strain", "energy [J]", "fix-up"] {
+        assert!(text.contains(label), "no `{label}` in\n{text}");
+    }
+}
+
+#[test]
+fn positions_out_round_trips_exactly() {
+    let dir = TempDir::new("positions");
+    let scene = dir.write("small.toml", SMALL_SCENE);
+    let steps = 7;
+    for precision in ["f64", "f32"] {
+        let file = dir.join(&format!("positions-{precision}.txt"));
+        let out = wgcloth(&[
+            OsStr::new("run"),
+            scene.as_os_str(),
+            OsStr::new("--steps"),
+            OsStr::new(&steps.to_string()),
+            OsStr::new("--precision"),
+            OsStr::new(precision),
+            OsStr::new("--positions-out"),
+            file.as_os_str(),
+        ]);
+        assert_status(&out, 0);
+        let text = fs::read_to_string(&file).expect("the positions file exists");
+        assert_eq!(text.lines().count(), SMALL_PARTICLES);
+        let expected = match precision {
+            "f64" => reference_positions::<f64>(&scene, steps),
+            _ => reference_positions::<f32>(&scene, steps),
+        };
+        assert_same_positions(&parse_positions(&text), &expected, precision);
+    }
+}
+
+#[test]
+fn trace_out_has_every_kth_step_and_the_last() {
+    let dir = TempDir::new("trace");
+    let scene = dir.write("small.toml", SMALL_SCENE);
+    let (trace, positions) = (dir.join("trace.csv"), dir.join("final.txt"));
+    let out = wgcloth(&[
+        OsStr::new("run"),
+        scene.as_os_str(),
+        OsStr::new("--steps"),
+        OsStr::new("5"),
+        OsStr::new("--trace-every"),
+        OsStr::new("2"),
+        OsStr::new("--trace-out"),
+        trace.as_os_str(),
+        OsStr::new("--positions-out"),
+        positions.as_os_str(),
+    ]);
+    assert_status(&out, 0);
+    let text = fs::read_to_string(&trace).expect("the trace exists");
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("step,time,particle,x,y,z,vx,vy,vz"));
+    let rows: Vec<TraceRow> = lines.map(TraceRow::parse).collect();
+    // Steps 0, 2 and 4, and the last step 5 although 5 is not a multiple of 2.
+    let traced = [0, 2, 4, 5];
+    assert_eq!(rows.len(), SMALL_PARTICLES * traced.len());
+    for (n, row) in rows.iter().enumerate() {
+        assert_eq!(row.step, traced[n / SMALL_PARTICLES], "row {n}: step");
+        assert_eq!(row.particle, n % SMALL_PARTICLES, "row {n}: particle");
+    }
+    for row in &rows[..SMALL_PARTICLES] {
+        assert_eq!((row.time, row.v), (0.0, [0.0; 3]), "step 0 starts at rest");
+    }
+    // The last traced step is the state --positions-out wrote.
+    let last: Vec<[f64; 3]> = rows[rows.len() - SMALL_PARTICLES..]
+        .iter()
+        .map(|r| r.x)
+        .collect();
+    let written = fs::read_to_string(&positions).expect("the positions file exists");
+    assert_same_positions(&last, &parse_positions(&written), "last trace step");
+}
+
+#[test]
+fn zero_dt_is_refused_before_anything_is_written() {
+    let dir = TempDir::new("zero-dt");
+    let scene = dir.write("small.toml", SMALL_SCENE);
+    let out = wgcloth(&[
+        OsStr::new("run"),
+        scene.as_os_str(),
+        OsStr::new("--dt"),
+        OsStr::new("0"),
+        OsStr::new("--positions-out"),
+        dir.join("positions.txt").as_os_str(),
+        OsStr::new("--trace-out"),
+        dir.join("trace.csv").as_os_str(),
+    ]);
+    assert_status(&out, EXIT_INVALID);
+    assert!(stderr(&out).contains("dt"), "stderr: {}", stderr(&out));
+    assert_eq!(dir.files(), ["small.toml"]);
+}
+
+#[test]
+fn steps_and_seconds_conflict() {
+    let out = wgcloth(&["run", "hanging", "--steps", "3", "--seconds", "1"]);
+    assert_status(&out, EXIT_INVALID);
+    let err = stderr(&out);
+    assert!(err.contains("cannot be used with"), "stderr: {err}");
+}
+
+#[test]
+fn only_the_cpu_backend_exists_yet() {
+    let out = wgcloth(&["run", "hanging", "--backend", "gpu"]);
+    assert_status(&out, EXIT_INVALID);
+    assert!(stderr(&out).contains("cpu"), "stderr: {}", stderr(&out));
+}
+
+#[test]
+fn unknown_scene_lists_the_builtins() {
+    let out = wgcloth(&["run", "no-such-scene"]);
+    assert_status(&out, EXIT_INVALID);
+    let err = stderr(&out);
+    assert!(err.contains("no-such-scene"), "stderr: {err}");
+    for name in Scene::builtin_names() {
+        assert!(err.contains(name), "`{name}` missing from: {err}");
+    }
+}
+
+#[test]
+fn missing_output_directory_fails_before_running() {
+    let dir = TempDir::new("no-dir");
+    let scene = dir.write("small.toml", SMALL_SCENE);
+    let target = dir.join("missing").join("positions.txt");
+    let out = wgcloth(&[
+        OsStr::new("run"),
+        scene.as_os_str(),
+        OsStr::new("--positions-out"),
+        target.as_os_str(),
+    ]);
+    assert_status(&out, 1);
+    assert!(stderr(&out).contains("positions.txt"), "{}", stderr(&out));
+    assert!(stdout(&out).is_empty(), "a summary was printed");
+    assert_eq!(dir.files(), ["small.toml"]);
+}
+
+#[test]
+fn blow_up_names_the_step_and_leaves_no_files() {
+    let dir = TempDir::new("blow-up");
+    let scene = dir.write("stiff.toml", BLOW_UP_SCENE);
+    let out = wgcloth(&[
+        OsStr::new("run"),
+        scene.as_os_str(),
+        OsStr::new("--positions-out"),
+        dir.join("positions.txt").as_os_str(),
+        OsStr::new("--trace-out"),
+        dir.join("trace.csv").as_os_str(),
+    ]);
+    assert_status(&out, EXIT_BLEW_UP);
+    let err = stderr(&out);
+    assert!(err.contains("blew up at step "), "stderr: {err}");
+    // No positions, no trace, no temporary left behind.
+    assert_eq!(dir.files(), ["stiff.toml"]);
+}
