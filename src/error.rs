@@ -52,7 +52,7 @@ pub enum Error {
     },
 
     /// An I/O error on an output or input file.
-    #[error("{}: {source}", path.display())]
+    #[error("{}", path.display())]
     Io {
         /// The file involved.
         path: PathBuf,

@@ -191,27 +191,10 @@ pub fn main() -> ExitCode {
     match outcome {
         Ok(()) => ExitCode::from(EXIT_OK),
         Err(err) => {
-            eprintln!("error: {}", message(&err));
+            eprintln!("error: {err:#}");
             ExitCode::from(exit_status(&err))
         }
     }
-}
-
-/// The error and its causes, `: `-separated. A cause whose text its parent
-/// already ends with is not repeated (`wgcloth::Error::Io` prints its
-/// source in its own message and also returns it as `source()`).
-fn message(err: &anyhow::Error) -> String {
-    let mut text = String::new();
-    for cause in err.chain() {
-        let part = cause.to_string();
-        if text.is_empty() {
-            text = part;
-        } else if !text.ends_with(&part) {
-            text.push_str(": ");
-            text.push_str(&part);
-        }
-    }
-    text
 }
 
 /// The documented exit status for an error.
@@ -258,7 +241,7 @@ mod tests {
             source: std::io::Error::other("disk full"),
         };
         let err = anyhow::Error::new(io).context("writing the trace");
-        assert_eq!(message(&err), "writing the trace: out.txt: disk full");
+        assert_eq!(format!("{err:#}"), "writing the trace: out.txt: disk full");
     }
 
     #[test]
