@@ -30,6 +30,15 @@ const ARTICLE_FPS: [(usize, [f64; 3]); 3] = [
 ];
 
 fn solver(integrator: Integrator, n: usize, filter: FilterMethod) -> CpuSolver<f64> {
+    solver_with(integrator, n, filter, None)
+}
+
+fn solver_with(
+    integrator: Integrator,
+    n: usize,
+    filter: FilterMethod,
+    cg_tolerance: Option<f64>,
+) -> CpuSolver<f64> {
     let Ok(mut scene) = Scene::builtin("hanging") else {
         panic!("the hanging scene is built in");
     };
@@ -46,6 +55,9 @@ fn solver(integrator: Integrator, n: usize, filter: FilterMethod) -> CpuSolver<f
         scene.params.dt = 0.02;
     }
     scene.params.semi_implicit.filter = filter;
+    if let Some(tol) = cg_tolerance {
+        scene.params.implicit.tolerance = tol;
+    }
     let model = match scene.model() {
         Ok(m) => m,
         Err(e) => panic!("hanging at {n}²: {e}"),
@@ -136,10 +148,23 @@ fn filter_crossover(c: &mut Criterion) {
     group.finish();
 }
 
+/// The yardstick: a 128² implicit step at CG tolerance 1e-3 should
+/// take at most 2 × 32 ms on one core of this machine.
+fn implicit_yardstick() {
+    let mut s = solver_with(Integrator::Implicit, 128, FilterMethod::Auto, Some(1e-3));
+    let seconds = median_step(&mut s, if quick() { 9 } else { 31 });
+    println!(
+        "\n128² implicit, CG tolerance 1e-3, dt 0.02 s: median {:.1} ms per step ({} CG iterations in the last step; target ≤ 64 ms)",
+        seconds * 1e3,
+        s.last_stats().cg_iterations
+    );
+}
+
 criterion_group!(benches, step_time, filter_crossover);
 
 fn main() {
     article_table();
+    implicit_yardstick();
     benches();
     Criterion::default().configure_from_args().final_summary();
 }

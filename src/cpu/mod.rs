@@ -31,10 +31,12 @@ use implicit::{Filter, SpringBlock};
 use mat3::Sym3;
 
 /// Largest free-particle count for which [`FilterMethod::Auto`] picks the
-/// dense filter. A dense `W` of this size is 8 MiB in `f32` and 32 MiB in
-/// `f64`; beyond it the banded factor is both smaller and faster to apply on
-/// the CPU (see the README's crossover table). The article's sizes (15², 25²,
-/// 33²) all stay dense.
+/// dense filter: a dense `W` of this size is 16 MiB in `f32` (32 MiB in
+/// `f64`). This is the GPU's crossover — there a dense product is one fully
+/// parallel pass and a triangular solve is sequential — and the CPU follows
+/// it so its `f32` mirror applies the filter as the GPU does. On the CPU
+/// alone the banded factor is faster at every size (README, "Dense or banded
+/// filter"). The article's sizes (15², 25², 33²) all stay dense.
 pub const DENSE_FILTER_MAX_PARTICLES: usize = 1 << 11;
 
 /// Positions and velocities: what a step changes.
