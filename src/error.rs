@@ -51,6 +51,32 @@ pub enum Error {
         particle: usize,
     },
 
+    /// No GPU adapter could be found or opened.
+    #[error(
+        "no GPU adapter: {message}. On Linux without a GPU, Mesa's software \
+         Vulkan driver works: `apt-get install mesa-vulkan-drivers` (lavapipe); \
+         WGPU_ADAPTER_NAME selects an adapter by name"
+    )]
+    NoAdapter {
+        /// What failed.
+        message: String,
+    },
+
+    /// The device cannot hold this cloth or lacks a needed capability.
+    #[error("the GPU device's limit `{limit}` is {available}, but this cloth needs {needed}")]
+    DeviceLimit {
+        /// The wgpu limit's name.
+        limit: &'static str,
+        /// What the device offers.
+        available: u64,
+        /// What the cloth needs.
+        needed: u64,
+    },
+
+    /// A wgpu operation failed (validation, out of memory, lost device).
+    #[error("GPU error: {0}")]
+    Gpu(String),
+
     /// An I/O error on an output or input file.
     #[error("{}", path.display())]
     Io {

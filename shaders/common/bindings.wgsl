@@ -1,0 +1,142 @@
+// Shared declarations of every wgcloth kernel: the one bind group all
+// pipelines use, its Pod twins (src/gpu/layout.rs), and the section layout
+// of the scratch buffers. Included by each kernel file through
+// `#include "common/bindings.wgsl"` (src/gpu/shaders.rs).
+
+// Workgroup size of every per-particle and per-spring kernel.
+override WORKGROUP: u32 = 64u;
+// Scene features; a pipeline variant with a feature off has its code
+// removed by the compiler (constant-folded branch).
+override HAS_WIND: bool = true;
+override HAS_GROUND: bool = true;
+override HAS_SPHERES: bool = true;
+
+const MAX_SPHERES: u32 = 16u;
+
+// Twin: layout::GpuSphere.
+struct Sphere {
+    center: vec3<f32>,
+    radius: f32,
+    friction: f32,
+    _pad0: f32,
+    _pad1: f32,
+    _pad2: f32,
+}
+
+// Twin: layout::GpuParams.
+struct Params {
+    gravity: vec3<f32>,
+    dt: f32,
+    wind_velocity: vec3<f32>,
+    wind_drag: f32,
+    wind_lift: f32,
+    ground_height: f32,
+    ground_friction: f32,
+    fixup_omega: f32,
+    particle_count: u32,
+    spring_count: u32,
+    triangle_count: u32,
+    sphere_count: u32,
+    // Offsets into `topo` (u32 words).
+    spring_adj_entries: u32,
+    tri_adj_offsets: u32,
+    tri_adj_entries: u32,
+    triangles: u32,
+    cg_tolerance_sq: f32,
+    // Number of workgroups of a per-particle dispatch (= reduction partials).
+    partial_count: u32,
+    // Free particles in the dense filter.
+    filter_count: u32,
+    torque_compensation: u32,
+    spheres: array<Sphere, 16>,
+}
+
+// Twin: layout::GpuSpring.
+struct Spring {
+    i: u32,
+    j: u32,
+    rest: f32,
+    k: f32,
+    kd: f32,
+    // Largest allowed length [m]; 0 = not constrained.
+    max_len: f32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<storage, read> springs: array<Spring>;
+// Spring adjacency offsets (N + 1) at 0, then its entries
+// (spring << 1 | end), triangle adjacency offsets and entries, triangles.
+@group(0) @binding(2) var<storage, read> topo: array<u32>;
+// Positions [m]; w = inverse mass (0 = pinned). Also the vertex buffer.
+@group(0) @binding(3) var<storage, read_write> x: array<vec4<f32>>;
+// Velocities [m/s]; w = mass [kg].
+@group(0) @binding(4) var<storage, read_write> v: array<vec4<f32>>;
+// Per-particle scratch, `SECTION * particle_count + p`.
+@group(0) @binding(5) var<storage, read_write> work: array<vec4<f32>>;
+// Per-spring scratch, `SECTION * spring_count + s`.
+@group(0) @binding(6) var<storage, read_write> spring_work: array<vec4<f32>>;
+// Reduction partials, `SLOT * partial_count + workgroup`.
+@group(0) @binding(7) var<storage, read_write> partials: array<f32>;
+// Status words (see STATUS_*).
+@group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
+// Vertex normals; w unused.
+@group(0) @binding(9) var<storage, read_write> vertex_normals: array<vec4<f32>>;
+// Dense semi-implicit filter, row-major over filter positions, then the
+// filter order (particle of each position, as f32 bits).
+@group(0) @binding(10) var<storage, read> dense: array<f32>;
+
+// `work` sections. Twin: layout::section.
+const W_X_PRED: u32 = 0u;
+const W_X_ALT: u32 = 1u;
+const W_V_NEW: u32 = 2u;
+const W_DV: u32 = 3u;
+const W_R: u32 = 4u;
+const W_C: u32 = 5u;
+const W_Q: u32 = 6u;
+const W_S: u32 = 7u;
+const W_RHS: u32 = 8u;
+const W_Z: u32 = 9u;
+const W_FILTER: u32 = 10u;
+const W_PRE_DIAG: u32 = 11u;
+const W_PRE_OFF: u32 = 12u;
+const W_FORCE: u32 = 13u;
+
+// `spring_work` sections.
+const S_BLOCK: u32 = 0u;
+const S_FORCE: u32 = 1u;
+const S_KV: u32 = 2u;
+
+// `partials` slots.
+const P_CQ: u32 = 0u;
+const P_RS0: u32 = 1u;
+const P_RS1: u32 = 2u;
+const P_D0: u32 = 3u;
+const P_TORQUE: u32 = 4u; // 16 slots: torque-compensation sums
+
+// `status` words. Twin: layout::status.
+const STATUS_STEP: u32 = 0u;
+const STATUS_BAD_STEP: u32 = 1u;
+const STATUS_BAD_PARTICLE: u32 = 2u;
+const STATUS_FIXUP_MOVED: u32 = 3u;
+const STATUS_CG_ITERATIONS: u32 = 4u;
+const STATUS_CG_BREAKDOWN: u32 = 5u;
+const STATUS_CG_MAX_ITERATIONS: u32 = 6u;
+
+// Filter kinds (w of W_Z).
+const FILTER_FREE: f32 = 0.0;
+const FILTER_FIXED: f32 = 1.0;
+const FILTER_PLANE: f32 = 2.0;
+
+// A length below which a spring or triangle has no direction. Twin:
+// Real::TINY for f32.
+const TINY: f32 = 1e-9;
+
+fn wi(section: u32, p: u32) -> u32 {
+    return section * params.particle_count + p;
+}
+
+fn si(section: u32, s: u32) -> u32 {
+    return section * params.spring_count + s;
+}

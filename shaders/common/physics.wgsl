@@ -1,0 +1,178 @@
+// Physics shared by the kernels, each function the twin of a CPU function
+// in src/cpu/ with the operations written out in the same order (no
+// built-in `length`, `dot` or `cross`, whose evaluation order and fused
+// multiply-adds are the implementation's choice), so the f32 CPU mirror
+// and the GPU round the same way wherever the hardware lets them.
+
+fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+
+fn len3(a: vec3<f32>) -> f32 {
+    return sqrt(dot3(a, a));
+}
+
+// True unless NaN or infinite, from the bits (WGSL lets compilers assume
+// floats are finite, so `f == f` is not a reliable NaN test).
+fn finite1(f: f32) -> bool {
+    return (bitcast<u32>(f) & 0x7f800000u) != 0x7f800000u;
+}
+
+fn finite3(a: vec3<f32>) -> bool {
+    return finite1(a.x) && finite1(a.y) && finite1(a.z);
+}
+
+// Twin: cpu::forces::spring_force. Force on end i of spring s; end j gets
+// the negative. Both ends evaluate it from i − j, so they agree bit for bit.
+fn spring_force(s: u32, xi: vec3<f32>, xj: vec3<f32>, vi: vec3<f32>, vj: vec3<f32>) -> vec3<f32> {
+    let sp = springs[s];
+    let d = xi - xj;
+    let l = len3(d);
+    var n = vec3<f32>(0.0);
+    if (l > TINY) {
+        n = d / l;
+    }
+    let stretch = l - sp.rest;
+    let rate = dot3(vi - vj, n);
+    return n * (-(sp.k * stretch + sp.kd * rate));
+}
+
+// Twin: cpu::forces::wind_triangle_force. Wind force on triangle t, already
+// divided by three (each vertex's share).
+fn wind_triangle_force(t: u32) -> vec3<f32> {
+    let base = params.triangles + 3u * t;
+    let a = topo[base];
+    let b = topo[base + 1u];
+    let c = topo[base + 2u];
+    let cr = cross3(x[b].xyz - x[a].xyz, x[c].xyz - x[a].xyz);
+    let twice_area = len3(cr);
+    if (!(finite1(twice_area) && twice_area > TINY)) {
+        return vec3<f32>(0.0);
+    }
+    let third = 1.0 / 3.0;
+    let normal = cr / twice_area;
+    let area = twice_area * 0.5;
+    let u = (v[a].xyz + v[b].xyz + v[c].xyz) * third - params.wind_velocity;
+    let un = dot3(u, normal);
+    var f = normal * (-params.wind_drag * area * un * abs(un));
+    let speed = len3(u);
+    if (params.wind_lift > 0.0 && speed > TINY) {
+        let dir = u / speed;
+        let perp = normal - dir * dot3(normal, dir);
+        f += perp * (-params.wind_lift * area * un * speed);
+    }
+    return f * third;
+}
+
+// Total force on particle p at the current x, v (twin:
+// cpu::forces::total_forces): gravity, then springs in adjacency order,
+// then wind triangles in adjacency order.
+fn total_force(p: u32) -> vec3<f32> {
+    let xp = x[p].xyz;
+    let vp = v[p].xyz;
+    var springs_sum = vec3<f32>(0.0);
+    let begin = topo[p];
+    let end = topo[p + 1u];
+    for (var k = begin; k < end; k++) {
+        let e = topo[params.spring_adj_entries + k];
+        let s = e >> 1u;
+        let sp = springs[s];
+        if ((e & 1u) == 0u) {
+            springs_sum += spring_force(s, xp, x[sp.j].xyz, vp, v[sp.j].xyz);
+        } else {
+            springs_sum -= spring_force(s, x[sp.i].xyz, xp, v[sp.i].xyz, vp);
+        }
+    }
+    var f = params.gravity * v[p].w;
+    f += springs_sum;
+    if (HAS_WIND) {
+        let tb = topo[params.tri_adj_offsets + p];
+        let te = topo[params.tri_adj_offsets + p + 1u];
+        for (var k = tb; k < te; k++) {
+            f += wind_triangle_force(topo[params.tri_adj_entries + k]);
+        }
+    }
+    return f;
+}
+
+// Twin: cpu::collide::Contact.
+struct Contact {
+    found: bool,
+    normal: vec3<f32>,
+    distance: f32,
+    friction: f32,
+}
+
+// Twin: cpu::collide::contact. The deepest collider closer than `slop`.
+fn find_contact(xp: vec3<f32>, slop: f32) -> Contact {
+    var best = Contact(false, vec3<f32>(0.0, 1.0, 0.0), 0.0, 0.0);
+    if (HAS_GROUND) {
+        let d = xp.y - params.ground_height;
+        if (d < slop) {
+            best = Contact(true, vec3<f32>(0.0, 1.0, 0.0), d, params.ground_friction);
+        }
+    }
+    if (HAS_SPHERES) {
+        for (var k = 0u; k < params.sphere_count; k++) {
+            let sph = params.spheres[k];
+            let d = xp - sph.center;
+            let l = len3(d);
+            var n = vec3<f32>(0.0, 1.0, 0.0);
+            if (l > TINY) {
+                n = d / l;
+            }
+            let dist = l - sph.radius;
+            if (dist < slop && (!best.found || dist < best.distance)) {
+                best = Contact(true, n, dist, sph.friction);
+            }
+        }
+    }
+    return best;
+}
+
+// Twin: cpu::collide::collide for one free particle; returns (x, v).
+fn collide_particle(x_in: vec3<f32>, v_in: vec3<f32>) -> array<vec3<f32>, 2> {
+    var xp = x_in;
+    var vp = v_in;
+    if (HAS_GROUND || HAS_SPHERES) {
+        for (var round = 0u; round < 2u; round++) {
+            let c = find_contact(xp, 0.0);
+            if (!c.found) {
+                break;
+            }
+            xp -= c.normal * c.distance;
+            let vn = dot3(vp, c.normal);
+            if (vn < 0.0) {
+                let tangential = vp - c.normal * vn;
+                let speed = len3(tangential);
+                let loss = c.friction * (-vn);
+                var kept = 0.0;
+                if (speed > loss && speed > TINY) {
+                    kept = (speed - loss) / speed;
+                }
+                vp = tangential * kept;
+            }
+        }
+    }
+    return array<vec3<f32>, 2>(xp, vp);
+}
+
+// Writes the end-of-step state of particle p, unless it is not finite: then
+// the last finite state stays (a renderer never receives NaN vertices) and
+// the step is recorded for the host.
+fn store_state(p: u32, xp: vec3<f32>, vp: vec3<f32>) {
+    if (finite3(xp) && finite3(vp)) {
+        x[p] = vec4<f32>(xp, x[p].w);
+        v[p] = vec4<f32>(vp, v[p].w);
+    } else {
+        let step = atomicLoad(&status[STATUS_STEP]);
+        let first = atomicMin(&status[STATUS_BAD_STEP], step);
+        if (step <= first) {
+            atomicMin(&status[STATUS_BAD_PARTICLE], p);
+        }
+    }
+}

@@ -1,0 +1,27 @@
+// Symplectic Euler: v* = v + dt w f, x* = x + dt v* (pinned: x* = x,
+// v* = 0). Twin: cpu::explicit::step up to the fix-up.
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+
+@compute @workgroup_size(WORKGROUP)
+fn explicit_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p == 0u) {
+        atomicAdd(&status[STATUS_STEP], 1u);
+        atomicStore(&status[STATUS_FIXUP_MOVED], 0u);
+    }
+    if (p >= params.particle_count) {
+        return;
+    }
+    let w = x[p].w;
+    let f = total_force(p);
+    var vn = v[p].xyz + f * (params.dt * w);
+    var xn = x[p].xyz;
+    if (w > 0.0) {
+        xn += vn * params.dt;
+    } else {
+        vn = vec3<f32>(0.0);
+    }
+    work[wi(W_X_PRED, p)] = vec4<f32>(xn, 0.0);
+    work[wi(W_V_NEW, p)] = vec4<f32>(vn, 0.0);
+}

@@ -1,0 +1,28 @@
+// End of an explicit or semi-implicit step: rebuild the velocity from the
+// fixed-up position if the fix-up moved anything, resolve collisions, store.
+// Twin: cpu::finish_with_fixup after the fix-up.
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+
+// Section holding the final predicted positions.
+override SRC: u32 = 0u;
+
+@compute @workgroup_size(WORKGROUP)
+fn finish_step(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p >= params.particle_count) {
+        return;
+    }
+    let w = x[p].w;
+    var xp = work[wi(SRC, p)].xyz;
+    var vp = work[wi(W_V_NEW, p)].xyz;
+    if (w > 0.0) {
+        if (atomicLoad(&status[STATUS_FIXUP_MOVED]) != 0u) {
+            vp = (xp - x[p].xyz) * (1.0 / params.dt);
+        }
+        let r = collide_particle(xp, vp);
+        xp = r[0];
+        vp = r[1];
+    }
+    store_state(p, xp, vp);
+}

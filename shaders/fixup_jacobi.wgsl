@@ -1,0 +1,62 @@
+// One Jacobi pass of Provot's fix-up: every particle gathers the
+// corrections of its over-stretched springs from the snapshot in section
+// SRC and writes its moved position to section DST. Twin:
+// cpu::fixup::jacobi (one pass).
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+
+override SRC: u32 = 0u;
+override DST: u32 = 1u;
+
+// Twin: cpu::fixup SLACK_ULPS × f32::EPSILON.
+const SLACK: f32 = 1.0 + 1.1920929e-7 * 64.0;
+
+// Twin: cpu::fixup::correction. Returns the correction c (end i moves by
+// −w_i c, end j by +w_j c) and whether the spring is over its limit.
+fn correction(s: u32) -> vec4<f32> {
+    let sp = springs[s];
+    if (sp.max_len <= 0.0) {
+        return vec4<f32>(0.0);
+    }
+    let d = work[wi(SRC, sp.i)].xyz - work[wi(SRC, sp.j)].xyz;
+    let l = len3(d);
+    let w = x[sp.i].w + x[sp.j].w;
+    if (l > sp.max_len * SLACK && w > 0.0) {
+        return vec4<f32>(d * ((l - sp.max_len) / (l * w)), 1.0);
+    }
+    return vec4<f32>(0.0);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn fixup_jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p >= params.particle_count) {
+        return;
+    }
+    var xp = work[wi(SRC, p)].xyz;
+    let w = x[p].w;
+    var sum = vec3<f32>(0.0);
+    var count = 0u;
+    let begin = topo[p];
+    let end = topo[p + 1u];
+    for (var k = begin; k < end; k++) {
+        let e = topo[params.spring_adj_entries + k];
+        let c = correction(e >> 1u);
+        if (c.w == 0.0) {
+            continue;
+        }
+        if ((e & 1u) == 0u) {
+            sum -= c.xyz;
+        } else {
+            sum += c.xyz;
+        }
+        count += 1u;
+    }
+    if (count > 0u) {
+        atomicStore(&status[STATUS_FIXUP_MOVED], 1u);
+        if (w > 0.0) {
+            xp += sum * (w * params.fixup_omega / f32(count));
+        }
+    }
+    work[wi(DST, p)] = vec4<f32>(xp, 0.0);
+}

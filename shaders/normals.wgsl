@@ -1,0 +1,29 @@
+// Vertex normals for rendering: the normalised sum of the incident
+// triangles' area-weighted normals.
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+
+@compute @workgroup_size(WORKGROUP)
+fn normals(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p >= params.particle_count) {
+        return;
+    }
+    var n = vec3<f32>(0.0);
+    let tb = topo[params.tri_adj_offsets + p];
+    let te = topo[params.tri_adj_offsets + p + 1u];
+    for (var k = tb; k < te; k++) {
+        let base = params.triangles + 3u * topo[params.tri_adj_entries + k];
+        let a = x[topo[base]].xyz;
+        let b = x[topo[base + 1u]].xyz;
+        let c = x[topo[base + 2u]].xyz;
+        n += cross3(b - a, c - a);
+    }
+    let l = len3(n);
+    if (l > TINY) {
+        n = n / l;
+    } else {
+        n = vec3<f32>(0.0, 1.0, 0.0);
+    }
+    vertex_normals[p] = vec4<f32>(n, 0.0);
+}

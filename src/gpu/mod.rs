@@ -1,0 +1,19 @@
+//! The GPU solver: WGSL compute kernels on storage buffers, recorded into
+//! the host's command encoder.
+//!
+//! - [`GpuSolver`] borrows the host's device and queue, records steps into
+//!   the host's encoder and exposes its position, normal and index buffers
+//!   for drawing;
+//! - [`layout`] holds the Pod twins of the WGSL structs;
+//! - [`shaders`] composes the kernels (one per file in `shaders/`);
+//! - [`context`] opens an adapter and device for tools and tests (the solver
+//!   itself never does).
+
+pub mod context;
+pub mod layout;
+pub mod readback;
+pub mod shaders;
+mod solver;
+
+pub use context::GpuContext;
+pub use solver::{GpuSolver, GpuState, GpuStatus, WORKGROUP};

@@ -1,0 +1,629 @@
+//! The GPU solver: buffers, pipelines and the recording of steps.
+
+use std::collections::HashMap;
+
+use wgpu::util::DeviceExt;
+
+use super::layout::{self, section, GpuParams, GpuSphere, GpuSpring, MAX_SPHERES};
+use super::{readback, shaders};
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::params::{Integrator, Params};
+use crate::real::Vec3;
+
+/// Invocations per workgroup of every per-particle and per-spring kernel.
+/// 64 is a multiple of every GPU's SIMD width and, on lavapipe, keeps both
+/// CPU cores busy down to a 33 × 33 cloth (17 workgroups).
+pub const WORKGROUP: u32 = 64;
+
+/// Storage buffers one kernel binds (see `shaders/common/bindings.wgsl`).
+const STORAGE_BUFFERS: u32 = 10;
+
+/// Positions and velocities read back from the device.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuState {
+    /// Positions [m].
+    pub x: Vec<Vec3<f32>>,
+    /// Velocities [m/s].
+    pub v: Vec<Vec3<f32>>,
+}
+
+/// What the device reports about the steps it ran.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GpuStatus {
+    /// Steps the device has run.
+    pub steps: u64,
+    /// CG iterations of the last implicit step.
+    pub cg_iterations: u32,
+    /// Largest CG iteration count of any step so far.
+    pub cg_max_iterations: u32,
+}
+
+/// A cloth simulated on a wgpu device the host owns.
+///
+/// Made from the same [`Model`] and [`Params`] as the CPU solver. It keeps
+/// handles to the host's device and queue (wgpu handles are reference
+/// counted) but never creates an instance, adapter or device.
+///
+/// Stepping never reads back: [`GpuSolver::encode_steps`] records into the
+/// caller's encoder; [`GpuSolver::step`] records and submits. A state that
+/// stops being finite is caught on the device — the particle keeps its last
+/// finite state, so a renderer never receives NaN vertices, and the first
+/// such step is recorded — and reported by [`GpuSolver::check`], which
+/// [`GpuSolver::step`] calls after each submit and [`GpuSolver::read_state`]
+/// before it returns.
+#[derive(Debug)]
+pub struct GpuSolver {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    integrator: Integrator,
+    particles: u32,
+    springs: u32,
+    triangles: u32,
+    fixup_iterations: u32,
+    params: GpuParams,
+    params_buffer: wgpu::Buffer,
+    x: wgpu::Buffer,
+    v: wgpu::Buffer,
+    normals: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    status: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    pipelines: HashMap<String, wgpu::ComputePipeline>,
+    steps_recorded: u64,
+    dt: f64,
+}
+
+fn limit(name: &'static str, available: u64, needed: u64) -> Result<()> {
+    if needed > available {
+        Err(Error::DeviceLimit {
+            limit: name,
+            available,
+            needed,
+        })
+    } else {
+        Ok(())
+    }
+}
+
+/// Features a pipeline variant is specialised for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+struct Features {
+    wind: bool,
+    ground: bool,
+    spheres: bool,
+}
+
+impl GpuSolver {
+    /// Builds the solver on the host's `device` and `queue`. Refuses, before
+    /// allocating anything, invalid parameters and a cloth that exceeds the
+    /// device's limits (the error names the limit and the size asked for).
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        model: &Model,
+        params: &Params,
+    ) -> Result<GpuSolver> {
+        params.validate()?;
+        if params.integrator != Integrator::Explicit {
+            return Err(Error::InvalidParameter {
+                key: "simulation.integrator".into(),
+                allowed: "explicit on the GPU backend for now".into(),
+                got: params.integrator.to_string(),
+            });
+        }
+        let n = model.particle_count() as u64;
+        let s = model.springs.len() as u64;
+        let limits = device.limits();
+        limit(
+            "max_storage_buffers_per_shader_stage",
+            limits.max_storage_buffers_per_shader_stage.into(),
+            STORAGE_BUFFERS.into(),
+        )?;
+        let work_bytes = u64::from(section::COUNT) * n * 16;
+        let biggest = work_bytes
+            .max(s * 32)
+            .max(s * 16 * u64::from(layout::SPRING_SECTIONS));
+        limit(
+            "max_storage_buffer_binding_size",
+            limits.max_storage_buffer_binding_size,
+            biggest,
+        )?;
+        limit("max_buffer_size", limits.max_buffer_size, biggest)?;
+        let groups = n.max(s).div_ceil(u64::from(WORKGROUP));
+        limit(
+            "max_compute_workgroups_per_dimension",
+            limits.max_compute_workgroups_per_dimension.into(),
+            groups,
+        )?;
+        limit(
+            "max_compute_workgroup_size_x",
+            limits.max_compute_workgroup_size_x.into(),
+            WORKGROUP.into(),
+        )?;
+        if params.spheres.len() > MAX_SPHERES {
+            return Err(Error::InvalidParameter {
+                key: "sphere".into(),
+                allowed: format!("at most {MAX_SPHERES} spheres on the GPU backend"),
+                got: params.spheres.len().to_string(),
+            });
+        }
+
+        let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let solver = Self::build(device, queue, model, params);
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(e.to_string()));
+        }
+        Ok(solver)
+    }
+
+    fn build(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        model: &Model,
+        params: &Params,
+    ) -> GpuSolver {
+        let n = model.particle_count() as u32;
+        let partial_count = n.div_ceil(WORKGROUP);
+
+        // Topology: spring CSR, triangle CSR, triangles, one u32 array.
+        let mut topo: Vec<u32> = model.particle_springs.offsets.clone();
+        let spring_adj_entries = topo.len() as u32;
+        topo.extend(&model.particle_springs.entries);
+        let tri_adj_offsets = topo.len() as u32;
+        topo.extend(&model.particle_triangles.offsets);
+        let tri_adj_entries = topo.len() as u32;
+        topo.extend(&model.particle_triangles.entries);
+        let triangles = topo.len() as u32;
+        topo.extend(model.triangles.iter().flatten());
+
+        let gpu_springs: Vec<GpuSpring> = model
+            .springs
+            .iter()
+            .map(|sp| {
+                let m = params.spring(sp.kind);
+                let max_len = match m.max_stretch {
+                    Some(f) if params.fixup.iterations > 0 => (f * sp.rest) as f32,
+                    _ => 0.0,
+                };
+                GpuSpring {
+                    i: sp.i,
+                    j: sp.j,
+                    rest: sp.rest as f32,
+                    k: m.stiffness as f32,
+                    kd: m.damping as f32,
+                    max_len,
+                    _pad: [0; 2],
+                }
+            })
+            .collect();
+
+        let mut spheres = [GpuSphere::default(); MAX_SPHERES];
+        for (g, s) in spheres.iter_mut().zip(&params.spheres) {
+            *g = GpuSphere {
+                center: s.center.map(|c| c as f32),
+                radius: s.radius as f32,
+                friction: s.friction as f32,
+                _pad: [0.0; 3],
+            };
+        }
+        let wind = params.wind.unwrap_or(crate::params::Wind {
+            velocity: [0.0; 3],
+            drag: 0.0,
+            lift: 0.0,
+        });
+        let ground = params.ground.unwrap_or(crate::params::Ground {
+            height: 0.0,
+            friction: 0.0,
+        });
+        let gpu_params = GpuParams {
+            gravity: params.gravity.map(|g| g as f32),
+            dt: params.dt as f32,
+            wind_velocity: wind.velocity.map(|c| c as f32),
+            wind_drag: wind.drag as f32,
+            wind_lift: wind.lift as f32,
+            ground_height: ground.height as f32,
+            ground_friction: ground.friction as f32,
+            fixup_omega: params.fixup.omega as f32,
+            particle_count: n,
+            spring_count: model.springs.len() as u32,
+            triangle_count: model.triangles.len() as u32,
+            sphere_count: params.spheres.len() as u32,
+            spring_adj_entries,
+            tri_adj_offsets,
+            tri_adj_entries,
+            triangles,
+            cg_tolerance_sq: (params.implicit.tolerance * params.implicit.tolerance) as f32,
+            partial_count,
+            filter_count: 0,
+            torque_compensation: 0,
+            spheres,
+        };
+
+        let x0: Vec<[f32; 4]> = model
+            .rest_positions
+            .iter()
+            .zip(model.mass.iter().zip(&model.pinned))
+            .map(|(p, (&m, &pinned))| {
+                let w = if pinned { 0.0 } else { (1.0 / m) as f32 };
+                [p[0] as f32, p[1] as f32, p[2] as f32, w]
+            })
+            .collect();
+        let v0: Vec<[f32; 4]> = model
+            .mass
+            .iter()
+            .map(|&m| [0.0, 0.0, 0.0, m as f32])
+            .collect();
+
+        let storage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_DST
+            | wgpu::BufferUsages::COPY_SRC;
+        let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let zeroed = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(16),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let params_buffer = init(
+            "wgcloth.params",
+            bytemuck::bytes_of(&gpu_params),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let springs_buffer = init(
+            "wgcloth.springs",
+            bytemuck::cast_slice(&gpu_springs),
+            storage,
+        );
+        let topo_buffer = init("wgcloth.topo", bytemuck::cast_slice(&topo), storage);
+        let x = init(
+            "wgcloth.positions",
+            bytemuck::cast_slice(&x0),
+            storage | wgpu::BufferUsages::VERTEX,
+        );
+        let v = init("wgcloth.velocities", bytemuck::cast_slice(&v0), storage);
+        let work = zeroed(
+            "wgcloth.work",
+            u64::from(section::COUNT) * u64::from(n) * 16,
+            storage,
+        );
+        let spring_work = zeroed(
+            "wgcloth.spring_work",
+            u64::from(layout::SPRING_SECTIONS) * gpu_springs.len() as u64 * 16,
+            storage,
+        );
+        let partials = zeroed(
+            "wgcloth.partials",
+            u64::from(layout::PARTIAL_SLOTS) * u64::from(partial_count) * 4,
+            storage,
+        );
+        let mut status0 = [0u32; layout::status::COUNT];
+        status0[layout::status::BAD_STEP] = u32::MAX;
+        status0[layout::status::BAD_PARTICLE] = u32::MAX;
+        let status = init("wgcloth.status", bytemuck::cast_slice(&status0), storage);
+        let normals = zeroed(
+            "wgcloth.normals",
+            u64::from(n) * 16,
+            storage | wgpu::BufferUsages::VERTEX,
+        );
+        let dense = zeroed("wgcloth.dense", 16, storage);
+        let indices = init(
+            "wgcloth.indices",
+            bytemuck::cast_slice(&model.triangles),
+            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+        );
+
+        let storage_entry = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let mut entries = vec![wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }];
+        for (binding, read_only) in [
+            (1, true),
+            (2, true),
+            (3, false),
+            (4, false),
+            (5, false),
+            (6, false),
+            (7, false),
+            (8, false),
+            (9, false),
+            (10, true),
+        ] {
+            entries.push(storage_entry(binding, read_only));
+        }
+        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("wgcloth.bindings"),
+            entries: &entries,
+        });
+        let buffers = [
+            &params_buffer,
+            &springs_buffer,
+            &topo_buffer,
+            &x,
+            &v,
+            &work,
+            &spring_work,
+            &partials,
+            &status,
+            &normals,
+            &dense,
+        ];
+        let bind_entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("wgcloth.bindings"),
+            layout: &bgl,
+            entries: &bind_entries,
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("wgcloth.pipeline_layout"),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        });
+
+        let features = Features {
+            wind: params.wind.is_some(),
+            ground: params.ground.is_some(),
+            spheres: !params.spheres.is_empty(),
+        };
+        let mut pipelines = HashMap::new();
+        let mut add = |entry: &str, variant: &str, extra: &[(&str, f64)]| {
+            let Ok(source) = shaders::kernel_source(entry) else {
+                return;
+            };
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(&format!("wgcloth.{entry}")),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+            let mut constants: Vec<(&str, f64)> = vec![
+                ("WORKGROUP", f64::from(WORKGROUP)),
+                ("HAS_WIND", f64::from(u8::from(features.wind))),
+                ("HAS_GROUND", f64::from(u8::from(features.ground))),
+                ("HAS_SPHERES", f64::from(u8::from(features.spheres))),
+            ];
+            constants.extend_from_slice(extra);
+            let name = format!("{entry}{variant}");
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(&format!("wgcloth.{name}")),
+                layout: Some(&layout),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    zero_initialize_workgroup_memory: false,
+                },
+                cache: None,
+            });
+            pipelines.insert(name, pipeline);
+        };
+        let (pred, alt) = (f64::from(section::X_PRED), f64::from(section::X_ALT));
+        add("explicit_integrate", "", &[]);
+        add("fixup_jacobi", ".even", &[("SRC", pred), ("DST", alt)]);
+        add("fixup_jacobi", ".odd", &[("SRC", alt), ("DST", pred)]);
+        add("finish_step", ".pred", &[("SRC", pred)]);
+        add("finish_step", ".alt", &[("SRC", alt)]);
+        add("normals", "", &[]);
+        queue.submit([]);
+
+        GpuSolver {
+            device: device.clone(),
+            queue: queue.clone(),
+            integrator: params.integrator,
+            particles: n,
+            springs: model.springs.len() as u32,
+            triangles: model.triangles.len() as u32,
+            fixup_iterations: if params.springs.iter().any(|s| s.max_stretch.is_some()) {
+                params.fixup.iterations
+            } else {
+                0
+            },
+            params: gpu_params,
+            params_buffer,
+            x,
+            v,
+            normals,
+            indices,
+            status,
+            bind_group,
+            pipelines,
+            steps_recorded: 0,
+            dt: params.dt,
+        }
+    }
+
+    fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, name: &str, items: u32) {
+        if let Some(p) = self.pipelines.get(name) {
+            pass.set_pipeline(p);
+            pass.dispatch_workgroups(items.div_ceil(WORKGROUP), 1, 1);
+        }
+    }
+
+    /// Records `n` steps into `encoder` without submitting. All steps go
+    /// into one compute pass.
+    pub fn encode_steps(&mut self, encoder: &mut wgpu::CommandEncoder, n: u32) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("wgcloth.steps"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        for _ in 0..n {
+            match self.integrator {
+                Integrator::Explicit | Integrator::Implicit | Integrator::SemiImplicit => {
+                    self.dispatch(&mut pass, "explicit_integrate", self.particles);
+                    for k in 0..self.fixup_iterations {
+                        let variant = if k % 2 == 0 {
+                            "fixup_jacobi.even"
+                        } else {
+                            "fixup_jacobi.odd"
+                        };
+                        self.dispatch(&mut pass, variant, self.particles);
+                    }
+                    let finish = if self.fixup_iterations % 2 == 0 {
+                        "finish_step.pred"
+                    } else {
+                        "finish_step.alt"
+                    };
+                    self.dispatch(&mut pass, finish, self.particles);
+                }
+            }
+        }
+        self.steps_recorded += u64::from(n);
+    }
+
+    /// Records the vertex-normal pass (for rendering; stepping never needs
+    /// it).
+    pub fn encode_normals(&self, encoder: &mut wgpu::CommandEncoder) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("wgcloth.normals"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        self.dispatch(&mut pass, "normals", self.particles);
+    }
+
+    /// Records and submits `n` steps in one encoder, then checks the
+    /// device's status word (one small read-back per call, none per step).
+    pub fn step(&mut self, n: u32) -> Result<GpuStatus> {
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("wgcloth.step"),
+            });
+        self.encode_steps(&mut encoder, n);
+        self.queue.submit([encoder.finish()]);
+        self.check()
+    }
+
+    /// Reads the status words; an error names the first step whose state
+    /// was not finite.
+    pub fn check(&self) -> Result<GpuStatus> {
+        let bytes = readback::read_buffers(
+            &self.device,
+            &self.queue,
+            &[(&self.status, 0, (layout::status::COUNT * 4) as u64)],
+        )?;
+        self.decode_status(&bytes[0])
+    }
+
+    fn decode_status(&self, bytes: &[u8]) -> Result<GpuStatus> {
+        let words: &[u32] = bytemuck::cast_slice(bytes);
+        let bad = words[layout::status::BAD_STEP];
+        if bad != u32::MAX {
+            return Err(Error::NonFinite {
+                step: u64::from(bad),
+                time: f64::from(bad) * self.dt,
+                particle: words[layout::status::BAD_PARTICLE] as usize,
+            });
+        }
+        Ok(GpuStatus {
+            steps: u64::from(words[layout::status::STEP]),
+            cg_iterations: words[layout::status::CG_ITERATIONS],
+            cg_max_iterations: words[layout::status::CG_MAX_ITERATIONS],
+        })
+    }
+
+    /// Reads positions and velocities back (blocking); fails if the state
+    /// stopped being finite at some step.
+    pub fn read_state(&self) -> Result<GpuState> {
+        let bytes = u64::from(self.particles) * 16;
+        let parts = readback::read_buffers(
+            &self.device,
+            &self.queue,
+            &[
+                (&self.x, 0, bytes),
+                (&self.v, 0, bytes),
+                (&self.status, 0, (layout::status::COUNT * 4) as u64),
+            ],
+        )?;
+        self.decode_status(&parts[2])?;
+        let unpack = |b: &[u8]| -> Vec<Vec3<f32>> {
+            bytemuck::cast_slice::<u8, [f32; 4]>(b)
+                .iter()
+                .map(|p| Vec3::new(p[0], p[1], p[2]))
+                .collect()
+        };
+        Ok(GpuState {
+            x: unpack(&parts[0]),
+            v: unpack(&parts[1]),
+        })
+    }
+
+    /// The position buffer: `particles` entries of `vec4<f32>` (xyz in m,
+    /// w = inverse mass), usable as a vertex buffer with stride 16 and a
+    /// `Float32x3` attribute at offset 0.
+    pub fn positions_buffer(&self) -> &wgpu::Buffer {
+        &self.x
+    }
+
+    /// Vertex normals (`vec4<f32>`, xyz unit), valid after
+    /// [`GpuSolver::encode_normals`].
+    pub fn normals_buffer(&self) -> &wgpu::Buffer {
+        &self.normals
+    }
+
+    /// Triangle indices (`u32`, three per triangle) as an index buffer.
+    pub fn index_buffer(&self) -> &wgpu::Buffer {
+        &self.indices
+    }
+
+    /// Number of indices in [`GpuSolver::index_buffer`].
+    pub fn index_count(&self) -> u32 {
+        self.triangles * 3
+    }
+
+    /// Particles.
+    pub fn particle_count(&self) -> u32 {
+        self.particles
+    }
+
+    /// Steps recorded so far.
+    pub fn steps_recorded(&self) -> u64 {
+        self.steps_recorded
+    }
+
+    /// Springs.
+    pub fn spring_count(&self) -> u32 {
+        self.springs
+    }
+
+    /// Changes gravity [m/s²] from the next recorded step on.
+    pub fn set_gravity(&mut self, gravity: [f64; 3]) {
+        self.params.gravity = gravity.map(|g| g as f32);
+        self.upload_params();
+    }
+
+    fn upload_params(&self) {
+        self.queue
+            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+    }
+}

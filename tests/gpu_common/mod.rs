@@ -1,0 +1,53 @@
+//! Shared by the GPU tests: the device, and GPU-vs-CPU comparison.
+#![allow(dead_code, reason = "each test binary uses a different subset")]
+
+use std::sync::OnceLock;
+
+use wgcloth::cpu::CpuSolver;
+use wgcloth::gpu::{GpuContext, GpuSolver};
+use wgcloth::{Model, Params, Vec3};
+
+/// The adapter every GPU test runs on. A machine without one fails the
+/// test with the library's message saying how to get one (lavapipe) — a GPU
+/// test never passes silently.
+pub fn gpu() -> &'static GpuContext {
+    static CONTEXT: OnceLock<GpuContext> = OnceLock::new();
+    CONTEXT.get_or_init(|| match GpuContext::new(None) {
+        Ok(c) => {
+            eprintln!("GPU tests on {}", c.describe());
+            c
+        }
+        Err(e) => panic!("GPU tests need an adapter: {e}"),
+    })
+}
+
+/// The largest distance between GPU and CPU positions, with the particle.
+pub fn worst(gpu: &[Vec3<f32>], cpu: &[Vec3<f32>]) -> (f64, usize) {
+    gpu.iter()
+        .zip(cpu)
+        .enumerate()
+        .map(|(p, (a, b))| ((*a - *b).length().to_f64(), p))
+        .fold(
+            (0.0, 0),
+            |m, c| if c.0 > m.0 || c.0.is_nan() { c } else { m },
+        )
+}
+
+use wgcloth::Real;
+
+/// Runs `steps` on both backends and returns the largest position
+/// difference [m], the particle, and both positions there.
+pub fn compare(model: &Model, params: &Params, steps: u32) -> (f64, usize, Vec3<f32>, Vec3<f32>) {
+    let ctx = gpu();
+    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, params)
+        .unwrap_or_else(|e| panic!("GPU solver: {e}"));
+    g.step(steps).unwrap_or_else(|e| panic!("GPU run: {e}"));
+    let gs = g
+        .read_state()
+        .unwrap_or_else(|e| panic!("GPU read-back: {e}"));
+    let mut c = CpuSolver::<f32>::new(model, params).unwrap_or_else(|e| panic!("CPU solver: {e}"));
+    c.step_n(u64::from(steps))
+        .unwrap_or_else(|e| panic!("CPU run: {e}"));
+    let (d, p) = worst(&gs.x, c.positions());
+    (d, p, gs.x[p], c.positions()[p])
+}

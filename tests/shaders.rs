@@ -1,0 +1,128 @@
+//! Every WGSL kernel parses and validates with naga (no GPU needed), and
+//! every Pod twin matches its WGSL struct field by field.
+
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+use wgcloth::gpu::layout::{GpuParams, GpuSphere, GpuSpring};
+use wgcloth::gpu::shaders;
+
+fn parse(name: &str) -> naga::Module {
+    let source = shaders::kernel_source(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let module = naga::front::wgsl::parse_str(&source)
+        .unwrap_or_else(|e| panic!("{name} does not parse:\n{}", e.emit_to_string(&source)));
+    Validator::new(ValidationFlags::all(), Capabilities::all())
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(&source)));
+    module
+}
+
+#[test]
+fn every_kernel_parses_and_validates() {
+    assert!(!shaders::KERNELS.is_empty());
+    for (name, _) in shaders::KERNELS {
+        let module = parse(name);
+        assert!(
+            module.entry_points.iter().any(|e| e.name == *name),
+            "{name}.wgsl must define the entry point `{name}`"
+        );
+    }
+}
+
+#[test]
+fn an_unknown_include_is_an_error() {
+    assert!(shaders::compose("#include \"common/missing.wgsl\"").is_err());
+}
+
+/// (field name, byte offset) of a WGSL struct, and its size.
+fn wgsl_layout(module: &naga::Module, name: &str) -> (Vec<(String, u32)>, u32) {
+    let ty = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .map(|(_, t)| t)
+        .unwrap_or_else(|| panic!("no WGSL struct {name}"));
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        panic!("{name} is not a struct");
+    };
+    let fields = members
+        .iter()
+        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+        .collect();
+    (fields, *span)
+}
+
+macro_rules! offsets {
+    ($ty:ty { $($field:ident),* $(,)? }) => {
+        vec![$((stringify!($field).to_string(), std::mem::offset_of!($ty, $field) as u32)),*]
+    };
+}
+
+#[test]
+fn pod_twins_match_their_wgsl_structs() {
+    let module = parse("explicit_integrate");
+    let check = |name: &str, rust: Vec<(String, u32)>, size: usize| {
+        let (wgsl, span) = wgsl_layout(&module, name);
+        assert_eq!(
+            span as usize, size,
+            "{name}: WGSL size {span}, Rust size {size}"
+        );
+        // Rust pads with arrays named `_pad`; compare the named fields.
+        for (field, offset) in &rust {
+            let found = wgsl.iter().find(|(n, _)| n == field);
+            assert_eq!(
+                found.map(|f| f.1),
+                Some(*offset),
+                "{name}.{field}: Rust offset {offset}, WGSL {found:?}"
+            );
+        }
+        let named = wgsl.iter().filter(|(n, _)| !n.starts_with("_pad")).count();
+        assert_eq!(named, rust.len(), "{name}: WGSL fields {wgsl:?}");
+    };
+    check(
+        "Params",
+        offsets!(GpuParams {
+            gravity,
+            dt,
+            wind_velocity,
+            wind_drag,
+            wind_lift,
+            ground_height,
+            ground_friction,
+            fixup_omega,
+            particle_count,
+            spring_count,
+            triangle_count,
+            sphere_count,
+            spring_adj_entries,
+            tri_adj_offsets,
+            tri_adj_entries,
+            triangles,
+            cg_tolerance_sq,
+            partial_count,
+            filter_count,
+            torque_compensation,
+            spheres
+        }),
+        std::mem::size_of::<GpuParams>(),
+    );
+    check(
+        "Spring",
+        offsets!(GpuSpring {
+            i,
+            j,
+            rest,
+            k,
+            kd,
+            max_len
+        }),
+        std::mem::size_of::<GpuSpring>(),
+    );
+    check(
+        "Sphere",
+        offsets!(GpuSphere {
+            center,
+            radius,
+            friction
+        }),
+        std::mem::size_of::<GpuSphere>(),
+    );
+}
