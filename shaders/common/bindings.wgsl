@@ -103,10 +103,9 @@ const W_PRE_DIAG: u32 = 11u;
 const W_PRE_OFF: u32 = 12u;
 const W_FORCE: u32 = 13u;
 
-// `spring_work` sections.
+// `spring_work` sections: (n, a) of the implicit block; (K_s u, b).
 const S_BLOCK: u32 = 0u;
-const S_FORCE: u32 = 1u;
-const S_KV: u32 = 2u;
+const S_KV_B: u32 = 1u;
 
 // `partials` slots.
 const P_CQ: u32 = 0u;
@@ -121,7 +120,7 @@ const STATUS_BAD_STEP: u32 = 1u;
 const STATUS_BAD_PARTICLE: u32 = 2u;
 const STATUS_FIXUP_MOVED: u32 = 3u;
 const STATUS_CG_ITERATIONS: u32 = 4u;
-const STATUS_CG_BREAKDOWN: u32 = 5u;
+const STATUS_CG_STOPPED: u32 = 5u;
 const STATUS_CG_MAX_ITERATIONS: u32 = 6u;
 
 // Filter kinds (w of W_Z).

@@ -27,7 +27,7 @@
 use super::collide::{collide, contact, CONTACT_SLOP};
 use super::forces::{gather_signed, spring_frame, total_forces};
 use super::mat3::Sym3;
-use super::{State, StepStats, System, Workspace};
+use super::{State, StepStats, System, Workspace, REDUCTION_BLOCK};
 use crate::real::{Real, Vec3};
 
 /// Per-particle constraint: what `S_p` keeps free.
@@ -144,10 +144,39 @@ fn apply_a_unfiltered<R: Real>(
     }
 }
 
-/// Sum of `a[p]·b[p]`.
+/// `Σ terms(p)` over `n` particles in the GPU's reduction order: a binary
+/// tree inside each block of [`REDUCTION_BLOCK`] particles (what one
+/// workgroup reduces in shared memory), then the block sums in sequence.
+/// Summing in the GPU's order lets the `f32` mirror reproduce the GPU's CG
+/// iterates; in `f64` a tree is also more accurate than a running sum.
+pub fn tree_sum<R: Real>(n: usize, mut terms: impl FnMut(usize) -> R) -> R {
+    let mut total = R::ZERO;
+    let mut scratch = [R::ZERO; REDUCTION_BLOCK];
+    for start in (0..n).step_by(REDUCTION_BLOCK) {
+        for (l, slot) in scratch.iter_mut().enumerate() {
+            *slot = if start + l < n {
+                terms(start + l)
+            } else {
+                R::ZERO
+            };
+        }
+        let mut stride = REDUCTION_BLOCK / 2;
+        while stride > 0 {
+            for l in 0..stride {
+                let other = scratch[l + stride];
+                scratch[l] += other;
+            }
+            stride /= 2;
+        }
+        total += scratch[0];
+    }
+    total
+}
+
+/// Sum of `a[p]·b[p]` in the GPU's order.
 #[inline]
 fn dot<R: Real>(a: &[Vec3<R>], b: &[Vec3<R>]) -> R {
-    a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum()
+    tree_sum(a.len(), |p| a[p].dot(b[p]))
 }
 
 /// One implicit step.
@@ -229,11 +258,10 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
     for p in 0..n {
         w.dv[p] = w.filter[p].apply(w.dv[p]) + w.z[p];
     }
-    let mut delta0 = R::ZERO;
-    for p in 0..n {
+    let delta0 = tree_sum(n, |p| {
         let sb = w.filter[p].apply(w.rhs[p]);
-        delta0 += sb.dot(w.precond[p].mul(sb));
-    }
+        sb.dot(w.precond[p].mul(sb))
+    });
     apply_a(sys, &w.blocks, &w.filter, &w.dv, &mut w.q);
     for p in 0..n {
         w.r[p] = w.filter[p].apply(w.rhs[p]) - w.q[p];
@@ -252,13 +280,12 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         }
         let alpha = delta / cq;
         let delta_old = delta;
-        delta = R::ZERO;
         for p in 0..n {
             w.dv[p] += w.c[p] * alpha;
             w.r[p] -= w.q[p] * alpha;
             w.s[p] = w.precond[p].mul(w.r[p]);
-            delta += w.r[p].dot(w.s[p]);
         }
+        delta = dot(&w.r, &w.s);
         let beta = delta / delta_old;
         for p in 0..n {
             w.c[p] = w.filter[p].apply(w.s[p] + w.c[p] * beta);

@@ -125,8 +125,8 @@ pub mod status {
     pub const FIXUP_MOVED: usize = 3;
     /// CG iterations of the last step.
     pub const CG_ITERATIONS: usize = 4;
-    /// CG broke down (`cᵀAc ≤ 0`) this step.
-    pub const CG_BREAKDOWN: usize = 5;
+    /// CG has stopped this step (converged or broke down).
+    pub const CG_STOPPED: usize = 5;
     /// Largest CG iteration count of any step.
     pub const CG_MAX_ITERATIONS: usize = 6;
     /// Number of status words.

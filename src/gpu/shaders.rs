@@ -18,6 +18,10 @@ const COMMON: &[(&str, &str)] = &[
         "common/physics.wgsl",
         include_str!("../../shaders/common/physics.wgsl"),
     ),
+    (
+        "common/cg.wgsl",
+        include_str!("../../shaders/common/cg.wgsl"),
+    ),
 ];
 
 /// Every kernel: (entry point = file stem, source before composition).
@@ -35,6 +39,25 @@ pub const KERNELS: &[(&str, &str)] = &[
         include_str!("../../shaders/finish_step.wgsl"),
     ),
     ("normals", include_str!("../../shaders/normals.wgsl")),
+    (
+        "implicit_springs",
+        include_str!("../../shaders/implicit_springs.wgsl"),
+    ),
+    (
+        "implicit_prepare",
+        include_str!("../../shaders/implicit_prepare.wgsl"),
+    ),
+    ("cg_init", include_str!("../../shaders/cg_init.wgsl")),
+    ("cg_apply", include_str!("../../shaders/cg_apply.wgsl")),
+    ("cg_update", include_str!("../../shaders/cg_update.wgsl")),
+    (
+        "cg_direction",
+        include_str!("../../shaders/cg_direction.wgsl"),
+    ),
+    (
+        "implicit_finish",
+        include_str!("../../shaders/implicit_finish.wgsl"),
+    ),
 ];
 
 /// A composed kernel source, or the name of the include it could not find.

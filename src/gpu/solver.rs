@@ -11,10 +11,16 @@ use crate::model::Model;
 use crate::params::{Integrator, Params};
 use crate::real::Vec3;
 
-/// Invocations per workgroup of every per-particle and per-spring kernel.
-/// 64 is a multiple of every GPU's SIMD width and, on lavapipe, keeps both
-/// CPU cores busy down to a 33 × 33 cloth (17 workgroups).
-pub const WORKGROUP: u32 = 64;
+/// Invocations per workgroup of every per-particle and per-spring kernel,
+/// and so the block size of every reduction (the CPU reference reduces in
+/// blocks of the same size to sum in the same order). 64 is a multiple of
+/// every GPU's SIMD width and, on lavapipe, keeps both CPU cores busy down
+/// to a 33 × 33 cloth (17 workgroups).
+pub const WORKGROUP: u32 = crate::cpu::REDUCTION_BLOCK as u32;
+
+/// Pipeline name suffixes of the two CG iteration parities (which partials
+/// slot holds δ).
+const PARITY: [&str; 2] = [".even", ".odd"];
 
 /// Storage buffers one kernel binds (see `shaders/common/bindings.wgsl`).
 const STORAGE_BUFFERS: u32 = 10;
@@ -61,6 +67,7 @@ pub struct GpuSolver {
     springs: u32,
     triangles: u32,
     fixup_iterations: u32,
+    cg_max_iterations: u32,
     params: GpuParams,
     params_buffer: wgpu::Buffer,
     x: wgpu::Buffer,
@@ -105,10 +112,10 @@ impl GpuSolver {
         params: &Params,
     ) -> Result<GpuSolver> {
         params.validate()?;
-        if params.integrator != Integrator::Explicit {
+        if params.integrator == Integrator::SemiImplicit {
             return Err(Error::InvalidParameter {
                 key: "simulation.integrator".into(),
-                allowed: "explicit on the GPU backend for now".into(),
+                allowed: "explicit or implicit on the GPU backend for now".into(),
                 got: params.integrator.to_string(),
             });
         }
@@ -433,6 +440,16 @@ impl GpuSolver {
         add("finish_step", ".pred", &[("SRC", pred)]);
         add("finish_step", ".alt", &[("SRC", alt)]);
         add("normals", "", &[]);
+        add("implicit_springs", "", &[]);
+        add("implicit_prepare", "", &[]);
+        add("cg_init", "", &[]);
+        for (parity, (rs, next)) in [(1.0, 2.0), (2.0, 1.0)].into_iter().enumerate() {
+            let slots = [("RS", rs), ("RS_NEXT", next)];
+            add("cg_apply", PARITY[parity], &slots[..1]);
+            add("cg_update", PARITY[parity], &slots);
+            add("cg_direction", PARITY[parity], &slots);
+        }
+        add("implicit_finish", "", &[]);
         queue.submit([]);
 
         GpuSolver {
@@ -447,6 +464,7 @@ impl GpuSolver {
             } else {
                 0
             },
+            cg_max_iterations: params.implicit.max_iterations,
             params: gpu_params,
             params_buffer,
             x,
@@ -478,7 +496,19 @@ impl GpuSolver {
         pass.set_bind_group(0, &self.bind_group, &[]);
         for _ in 0..n {
             match self.integrator {
-                Integrator::Explicit | Integrator::Implicit | Integrator::SemiImplicit => {
+                Integrator::Implicit => {
+                    self.dispatch(&mut pass, "implicit_springs", self.springs);
+                    self.dispatch(&mut pass, "implicit_prepare", self.particles);
+                    self.dispatch(&mut pass, "cg_init", self.particles);
+                    for k in 0..self.cg_max_iterations as usize {
+                        let parity = PARITY[k % 2];
+                        for kernel in ["cg_apply", "cg_update", "cg_direction"] {
+                            self.dispatch(&mut pass, &format!("{kernel}{parity}"), self.particles);
+                        }
+                    }
+                    self.dispatch(&mut pass, "implicit_finish", self.particles);
+                }
+                Integrator::Explicit | Integrator::SemiImplicit => {
                     self.dispatch(&mut pass, "explicit_integrate", self.particles);
                     for k in 0..self.fixup_iterations {
                         let variant = if k % 2 == 0 {

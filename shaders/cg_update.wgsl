@@ -1,0 +1,47 @@
+// CG iteration, part 2: α = δ / cᵀq; Δv += α c; r −= α q; s = P r; the
+// partial sums of the next δ = r·s (into the other slot).
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+#include "common/cg.wgsl"
+
+override RS: u32 = 1u;
+override RS_NEXT: u32 = 2u;
+
+@compute @workgroup_size(WORKGROUP)
+fn cg_update(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wg: vec3<u32>,
+) {
+    if (cg_stopped(lid.x, RS)) {
+        return;
+    }
+    if (lid.x == 0u) {
+        shared_value = sum_partials(P_CQ);
+    }
+    let cq = workgroupUniformLoad(&shared_value);
+    // A is positive definite on the filtered subspace; cᵀAc ≤ 0 means c
+    // vanished to rounding (twin: the CPU's break).
+    if (!(finite1(cq) && cq > 0.0)) {
+        if (gid.x == 0u) {
+            atomicStore(&status[STATUS_CG_STOPPED], 1u);
+        }
+        return;
+    }
+    if (lid.x == 0u) {
+        shared_value = sum_partials(RS) / cq;
+    }
+    let alpha = workgroupUniformLoad(&shared_value);
+    let p = gid.x;
+    var rs = 0.0;
+    if (p < params.particle_count) {
+        let dv = work[wi(W_DV, p)].xyz + work[wi(W_C, p)].xyz * alpha;
+        let r = work[wi(W_R, p)].xyz - work[wi(W_Q, p)].xyz * alpha;
+        let s = precond_mul(p, r);
+        work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
+        work[wi(W_R, p)] = vec4<f32>(r, 0.0);
+        work[wi(W_S, p)] = vec4<f32>(s, 0.0);
+        rs = dot3(r, s);
+    }
+    reduce_to_partial(rs, lid.x, wg.x, RS_NEXT);
+}

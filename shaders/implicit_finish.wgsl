@@ -1,0 +1,40 @@
+// Implicit step end: v += Δv, friction at filtered contacts from the
+// constraint impulse, x += dt v, collisions, store. Twin: the end of
+// cpu::implicit::step and implicit::contact_friction.
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+#include "common/cg.wgsl"
+
+@compute @workgroup_size(WORKGROUP)
+fn implicit_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p == 0u) {
+        atomicMax(&status[STATUS_CG_MAX_ITERATIONS], atomicLoad(&status[STATUS_CG_ITERATIONS]));
+    }
+    if (p >= params.particle_count) {
+        return;
+    }
+    var vp = v[p].xyz + work[wi(W_DV, p)].xyz;
+    if (work[wi(W_Z, p)].w == FILTER_PLANE) {
+        let filt = work[wi(W_FILTER, p)];
+        let normal = filt.xyz;
+        let impulse = dot3(apply_a(W_DV, p) - work[wi(W_RHS, p)].xyz, normal);
+        if (impulse > 0.0) {
+            let tangential = vp - normal * dot3(vp, normal);
+            let speed = len3(tangential);
+            let loss = filt.w * impulse / v[p].w;
+            var kept = 0.0;
+            if (speed > loss && speed > TINY) {
+                kept = (speed - loss) / speed;
+            }
+            vp = normal * dot3(vp, normal) + tangential * kept;
+        }
+    }
+    var xp = x[p].xyz + vp * params.dt;
+    if (x[p].w > 0.0) {
+        let r = collide_particle(xp, vp);
+        xp = r[0];
+        vp = r[1];
+    }
+    store_state(p, xp, vp);
+}

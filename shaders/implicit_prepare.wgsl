@@ -1,0 +1,101 @@
+// Implicit step, per particle: forces, constraint filter and z, right-hand
+// side, block-diagonal preconditioner, warm-started Δv, and the partial
+// sums of δ0 = (Sb)ᵀP(Sb). Twin: the particle loop of cpu::implicit::step.
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+#include "common/cg.wgsl"
+
+// Twin: cpu::collide::CONTACT_SLOP.
+const CONTACT_SLOP: f32 = 1e-5;
+
+@compute @workgroup_size(WORKGROUP)
+fn implicit_prepare(
+    @builtin(global_invocation_id) gid: vec3<u32>,
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wg: vec3<u32>,
+) {
+    let p = gid.x;
+    if (p == 0u) {
+        atomicAdd(&status[STATUS_STEP], 1u);
+        atomicStore(&status[STATUS_CG_ITERATIONS], 0u);
+        atomicStore(&status[STATUS_CG_STOPPED], 0u);
+    }
+    var d0 = 0.0;
+    if (p < params.particle_count) {
+        let f = total_force(p);
+        let m = v[p].w;
+        let vp = v[p].xyz;
+        var kind = FILTER_FREE;
+        var normal = vec3<f32>(0.0);
+        var friction = 0.0;
+        var z = vec3<f32>(0.0);
+        if (x[p].w <= 0.0) {
+            kind = FILTER_FIXED;
+            z = -vp;
+        } else {
+            let c = find_contact(x[p].xyz, CONTACT_SLOP);
+            if (c.found && (dot3(f, c.normal) < 0.0 || dot3(vp, c.normal) < 0.0)) {
+                kind = FILTER_PLANE;
+                normal = c.normal;
+                friction = c.friction;
+                z = normal * (-min(dot3(vp, normal), 0.0));
+            }
+        }
+        // K v, gathered like gather_signed: its own accumulator.
+        var kv = vec3<f32>(0.0);
+        // Preconditioner: m I plus a I + b n nᵀ of every incident spring.
+        var xx = m;
+        var yy = m;
+        var zz = m;
+        var xy = 0.0;
+        var xz = 0.0;
+        var yz = 0.0;
+        let begin = topo[p];
+        let end = topo[p + 1u];
+        for (var k = begin; k < end; k++) {
+            let e = topo[params.spring_adj_entries + k];
+            let s = e >> 1u;
+            let kvb = spring_work[si(S_KV_B, s)];
+            if ((e & 1u) == 0u) {
+                kv += kvb.xyz;
+            } else {
+                kv -= kvb.xyz;
+            }
+            let blk = spring_work[si(S_BLOCK, s)];
+            let a = blk.w;
+            let b = kvb.w;
+            let n = blk.xyz;
+            xx += a + b * n.x * n.x;
+            yy += a + b * n.y * n.y;
+            zz += a + b * n.z * n.z;
+            xy += b * n.x * n.y;
+            xz += b * n.x * n.z;
+            yz += b * n.y * n.z;
+        }
+        let rhs = (f + kv * params.dt) * params.dt;
+        // Twin: Sym3::inverse, with its fallback to 1/m I.
+        let c_xx = yy * zz - yz * yz;
+        let c_xy = xz * yz - xy * zz;
+        let c_xz = xy * yz - xz * yy;
+        let det = xx * c_xx + xy * c_xy + xz * c_xz;
+        let scale = max(max(abs(xx), abs(yy)), abs(zz));
+        let floor = TINY * scale * scale * scale;
+        var pd = vec3<f32>(1.0 / m);
+        var po = vec3<f32>(0.0);
+        if (finite1(det) && det > floor) {
+            let inv = 1.0 / det;
+            pd = vec3<f32>(c_xx * inv, (xx * zz - xz * xz) * inv, (xx * yy - xy * xy) * inv);
+            po = vec3<f32>(c_xy * inv, c_xz * inv, (xy * xz - xx * yz) * inv);
+        }
+        work[wi(W_RHS, p)] = vec4<f32>(rhs, 0.0);
+        work[wi(W_Z, p)] = vec4<f32>(z, kind);
+        work[wi(W_FILTER, p)] = vec4<f32>(normal, friction);
+        work[wi(W_PRE_DIAG, p)] = vec4<f32>(pd, 0.0);
+        work[wi(W_PRE_OFF, p)] = vec4<f32>(po, 0.0);
+        let dv = filter_apply(kind, normal, work[wi(W_DV, p)].xyz) + z;
+        work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
+        let sb = filter_apply(kind, normal, rhs);
+        d0 = dot3(sb, precond_mul(p, sb));
+    }
+    reduce_to_partial(d0, lid.x, wg.x, P_D0);
+}

@@ -1,0 +1,98 @@
+//! The GPU implicit integrator (CG on the device) against the CPU f32
+//! mirror, on lavapipe in CI.
+
+mod gpu_common;
+
+use gpu_common::*;
+use wgcloth::gpu::GpuSolver;
+use wgcloth::model::{ClothSpec, Corner, Pin};
+use wgcloth::params::{Ground, Integrator, Sphere, Wind};
+use wgcloth::{Model, Params, Scene};
+
+fn scene() -> (Model, Params) {
+    let mut params = Params {
+        integrator: Integrator::Implicit,
+        dt: 1.0 / 120.0,
+        ..Params::default()
+    };
+    params.springs[0].stiffness = 500.0;
+    params.implicit.tolerance = 1e-4;
+    params.ground = Some(Ground {
+        height: 0.6,
+        friction: 0.4,
+    });
+    params.spheres = vec![Sphere {
+        center: [0.0, 0.6, 0.0],
+        radius: 0.25,
+        friction: 0.3,
+    }];
+    params.wind = Some(Wind {
+        velocity: [2.0, 0.0, 1.0],
+        drag: 0.6,
+        lift: 0.2,
+    });
+    let spec = ClothSpec {
+        nx: 17,
+        ny: 13,
+        pins: vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)],
+        ..ClothSpec::default()
+    };
+    (Model::new(&spec, &params.springs).expect("valid"), params)
+}
+
+/// The GPU sums every dot product in the CPU's (tree) order, so the CG
+/// iterates agree as closely as the explicit step: ulps from fused
+/// multiply-adds or lavapipe's rounding, amplified by CG's sensitivity to
+/// its inputs. One step: 1e-6 m.
+const ONE_STEP_TOL: f64 = 1e-6;
+/// After 100 steps a rounding difference can flip one CG iteration's
+/// convergence test, moving that step's answer by up to the tolerance times
+/// the velocity change (~1e-4 × 1 cm per step); 1e-3 m bounds that.
+const HUNDRED_STEP_TOL: f64 = 1e-3;
+
+#[test]
+fn implicit_matches_the_cpu_mirror() {
+    let (model, params) = scene();
+    for (steps, tol) in [(1, ONE_STEP_TOL), (100, HUNDRED_STEP_TOL)] {
+        let (d, p, g, c) = compare(&model, &params, steps);
+        eprintln!("{steps} steps: worst {d:e} m at particle {p}");
+        assert!(
+            d < tol,
+            "{steps} steps: particle {p} GPU {g:?} CPU {c:?} differ by {d:e} m"
+        );
+    }
+}
+
+#[test]
+fn gpu_cg_iterations_match_the_cpu() {
+    let (model, params) = scene();
+    let ctx = gpu();
+    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
+    let mut c = wgcloth::cpu::CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
+    for step in 1..=20 {
+        let status = g.step(1).expect("GPU step");
+        let stats = c.step().expect("CPU step");
+        assert!(
+            status.cg_iterations > 0,
+            "step {step}: the GPU did no CG iteration"
+        );
+        assert_eq!(
+            status.cg_iterations, stats.cg_iterations,
+            "step {step}: CG iterations"
+        );
+    }
+}
+
+#[test]
+fn implicit_built_in_scenes_run_on_the_gpu() {
+    for name in ["curtain", "drape"] {
+        let scene = Scene::builtin(name).expect("built in");
+        let model = scene.model().expect("valid");
+        let (d, p, g, c) = compare(&model, &scene.params, 30);
+        eprintln!("{name}: worst {d:e} m at particle {p}");
+        assert!(
+            d < HUNDRED_STEP_TOL,
+            "{name}: particle {p} GPU {g:?} CPU {c:?} differ by {d:e} m"
+        );
+    }
+}
