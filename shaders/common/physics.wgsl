@@ -99,6 +99,20 @@ fn total_force(p: u32) -> vec3<f32> {
     return f;
 }
 
+// External force on particle p (twin: cpu::forces::external_forces):
+// gravity, then wind triangles in adjacency order.
+fn external_force(p: u32) -> vec3<f32> {
+    var f = params.gravity * v[p].w;
+    if (HAS_WIND) {
+        let tb = topo[params.tri_adj_offsets + p];
+        let te = topo[params.tri_adj_offsets + p + 1u];
+        for (var k = tb; k < te; k++) {
+            f += wind_triangle_force(topo[params.tri_adj_entries + k]);
+        }
+    }
+    return f;
+}
+
 // Twin: cpu::collide::Contact.
 struct Contact {
     found: bool,

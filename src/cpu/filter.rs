@@ -236,6 +236,16 @@ impl<R: Real> DenseFilter<R> {
         })
     }
 
+    /// `W`, row-major over filter positions.
+    pub fn matrix(&self) -> &[R] {
+        &self.w
+    }
+
+    /// The particle at each filter position.
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
     /// `out = W b` for all three coordinates; `b` and `out` by particle.
     pub fn apply(&self, b: &[Vec3<R>], out: &mut [Vec3<R>], scratch: &mut Vec<Vec3<R>>) {
         let n = self.order.len();

@@ -158,7 +158,8 @@ pub struct System<R> {
 }
 
 impl<R: Real> System<R> {
-    fn new(model: &Model, params: &Params) -> Self {
+    /// The model and parameters in precision `R`.
+    pub fn new(model: &Model, params: &Params) -> Self {
         let springs = model
             .springs
             .iter()

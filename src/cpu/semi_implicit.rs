@@ -27,6 +27,7 @@
 //! exactly backward Euler.
 
 use super::forces::{external_forces, total_forces};
+use super::implicit::tree_sum;
 use super::mat3::Sym3;
 use super::{finish_with_fixup, State, StepStats, System, Workspace};
 use crate::real::{Real, Vec3};
@@ -69,26 +70,35 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
 
 /// Removes from `dv` the angular impulse (about the centre of mass) that
 /// is not accounted for by the external forces `f_ext`.
+///
+/// Every sum is a [`tree_sum`], the GPU's reduction order.
 fn compensate_torque<R: Real>(
     sys: &System<R>,
     x: &[Vec3<R>],
     f_ext: &[Vec3<R>],
     dv: &mut [Vec3<R>],
 ) {
-    let total: R = sys.mass.iter().copied().sum();
-    let mut centre = Vec3::ZERO;
-    for (xp, &m) in x.iter().zip(&sys.mass) {
-        centre += *xp * m;
-    }
-    centre = centre / total;
-    let mut excess = Vec3::ZERO;
-    let mut inertia = Sym3::default();
-    for p in 0..x.len() {
-        let r = x[p] - centre;
-        let m = sys.mass[p];
-        excess += r.cross(dv[p] * m - f_ext[p] * sys.dt);
-        inertia.add_iso_aniso(m * r.length_squared(), -m, r);
-    }
+    let n = x.len();
+    let m = &sys.mass;
+    let total = tree_sum(n, |p| m[p]);
+    let weighted = |k: usize| tree_sum(n, |p| (x[p] * m[p]).get(k));
+    let centre = Vec3::new(weighted(0), weighted(1), weighted(2)) / total;
+    let r = |p: usize| x[p] - centre;
+    let moment = |p: usize| r(p).cross(dv[p] * m[p] - f_ext[p] * sys.dt);
+    let excess = Vec3::new(
+        tree_sum(n, |p| moment(p).x),
+        tree_sum(n, |p| moment(p).y),
+        tree_sum(n, |p| moment(p).z),
+    );
+    // Inertia Σ m (|r|² I − r rᵀ), one tree sum per stored entry.
+    let term = |p: usize, k: usize| {
+        let mut t = Sym3::default();
+        t.add_iso_aniso(m[p] * r(p).length_squared(), -m[p], r(p));
+        t.m[k]
+    };
+    let inertia = Sym3 {
+        m: std::array::from_fn(|k| tree_sum(n, |p| term(p, k))),
+    };
     // A cloth collapsed onto a line or point has a singular inertia tensor:
     // it has no well-defined rotation to remove, so leave it.
     let Some(inv) = inertia.inverse() else {

@@ -8,56 +8,43 @@
 //! crate needs no files at run time, and `tests/shaders.rs` validates every
 //! composed kernel with naga on any machine.
 
+/// `(name, source)` of `shaders/NAME.wgsl`, embedded at compile time.
+macro_rules! wgsl {
+    ($name:literal) => {
+        (
+            $name,
+            include_str!(concat!("../../shaders/", $name, ".wgsl")),
+        )
+    };
+}
+
 /// Shared files an `#include` may name.
 const COMMON: &[(&str, &str)] = &[
-    (
-        "common/bindings.wgsl",
-        include_str!("../../shaders/common/bindings.wgsl"),
-    ),
-    (
-        "common/physics.wgsl",
-        include_str!("../../shaders/common/physics.wgsl"),
-    ),
-    (
-        "common/cg.wgsl",
-        include_str!("../../shaders/common/cg.wgsl"),
-    ),
+    wgsl!("common/bindings"),
+    wgsl!("common/physics"),
+    wgsl!("common/cg"),
+    wgsl!("common/torque"),
 ];
 
 /// Every kernel: (entry point = file stem, source before composition).
 pub const KERNELS: &[(&str, &str)] = &[
-    (
-        "explicit_integrate",
-        include_str!("../../shaders/explicit_integrate.wgsl"),
-    ),
-    (
-        "fixup_jacobi",
-        include_str!("../../shaders/fixup_jacobi.wgsl"),
-    ),
-    (
-        "finish_step",
-        include_str!("../../shaders/finish_step.wgsl"),
-    ),
-    ("normals", include_str!("../../shaders/normals.wgsl")),
-    (
-        "implicit_springs",
-        include_str!("../../shaders/implicit_springs.wgsl"),
-    ),
-    (
-        "implicit_prepare",
-        include_str!("../../shaders/implicit_prepare.wgsl"),
-    ),
-    ("cg_init", include_str!("../../shaders/cg_init.wgsl")),
-    ("cg_apply", include_str!("../../shaders/cg_apply.wgsl")),
-    ("cg_update", include_str!("../../shaders/cg_update.wgsl")),
-    (
-        "cg_direction",
-        include_str!("../../shaders/cg_direction.wgsl"),
-    ),
-    (
-        "implicit_finish",
-        include_str!("../../shaders/implicit_finish.wgsl"),
-    ),
+    wgsl!("explicit_integrate"),
+    wgsl!("fixup_jacobi"),
+    wgsl!("finish_step"),
+    wgsl!("normals"),
+    wgsl!("implicit_springs"),
+    wgsl!("implicit_prepare"),
+    wgsl!("cg_init"),
+    wgsl!("cg_apply"),
+    wgsl!("cg_update"),
+    wgsl!("cg_direction"),
+    wgsl!("implicit_finish"),
+    wgsl!("semi_rhs"),
+    wgsl!("filter_dense"),
+    wgsl!("torque_centre"),
+    wgsl!("torque_moments"),
+    wgsl!("torque_apply"),
+    wgsl!("semi_integrate"),
 ];
 
 /// A composed kernel source, or the name of the include it could not find.
@@ -71,7 +58,8 @@ pub fn compose(source: &str) -> Result<String, String> {
             continue;
         };
         let name = rest.trim().trim_matches('"');
-        let Some((name, text)) = COMMON.iter().find(|(n, _)| *n == name) else {
+        let stem = name.strip_suffix(".wgsl").unwrap_or(name);
+        let Some((name, text)) = COMMON.iter().find(|(n, _)| *n == stem) else {
             return Err(format!("unknown include `{name}`"));
         };
         if !seen.contains(name) {

@@ -8,7 +8,7 @@ use super::layout::{self, section, GpuParams, GpuSphere, GpuSpring, MAX_SPHERES}
 use super::{readback, shaders};
 use crate::error::{Error, Result};
 use crate::model::Model;
-use crate::params::{Integrator, Params};
+use crate::params::{FilterMethod, Integrator, Params};
 use crate::real::Vec3;
 
 /// Invocations per workgroup of every per-particle and per-spring kernel,
@@ -93,6 +93,58 @@ fn limit(name: &'static str, available: u64, needed: u64) -> Result<()> {
     }
 }
 
+/// The semi-implicit filter as the GPU applies it: `Wᵀ` followed by the
+/// filter order (`u32` bits), built on the host by the CPU reference's own
+/// filter code in `f32`.
+#[derive(Debug)]
+struct SemiFilter {
+    count: u32,
+    words: Vec<f32>,
+}
+
+impl SemiFilter {
+    fn new(model: &Model, params: &Params) -> Result<SemiFilter> {
+        let sys = crate::cpu::System::<f32>::new(model, params);
+        let grid = model.grid.as_ref().map(|g| (g.nx, g.ny));
+        let fs = crate::cpu::filter::FilterSystem::new(&sys, grid);
+        let dense = match params.semi_implicit.filter {
+            FilterMethod::Dense => true,
+            FilterMethod::Banded => false,
+            FilterMethod::Auto => fs.len() <= crate::cpu::DENSE_FILTER_MAX_PARTICLES,
+        };
+        if !dense {
+            return Err(Error::InvalidParameter {
+                key: "semi_implicit.filter".into(),
+                allowed: format!(
+                    "the dense filter (at most {} free particles) on the GPU backend for now",
+                    crate::cpu::DENSE_FILTER_MAX_PARTICLES
+                ),
+                got: format!("{} free particles", fs.len()),
+            });
+        }
+        let w = crate::cpu::filter::DenseFilter::<f32>::new(&fs).map_err(|_| {
+            Error::InvalidParameter {
+                key: "semi_implicit".into(),
+                allowed: "a positive-definite filter matrix M − dt²H".into(),
+                got: "a matrix that is not".into(),
+            }
+        })?;
+        let n = fs.len();
+        let m = w.matrix();
+        let mut words = Vec::with_capacity(n * n + n);
+        for q in 0..n {
+            for k in 0..n {
+                words.push(m[k * n + q]);
+            }
+        }
+        words.extend(w.order().iter().map(|&p| f32::from_bits(p)));
+        Ok(SemiFilter {
+            count: n as u32,
+            words,
+        })
+    }
+}
+
 /// Features a pipeline variant is specialised for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 struct Features {
@@ -112,13 +164,10 @@ impl GpuSolver {
         params: &Params,
     ) -> Result<GpuSolver> {
         params.validate()?;
-        if params.integrator == Integrator::SemiImplicit {
-            return Err(Error::InvalidParameter {
-                key: "simulation.integrator".into(),
-                allowed: "explicit or implicit on the GPU backend for now".into(),
-                got: params.integrator.to_string(),
-            });
-        }
+        let filter = match params.integrator {
+            Integrator::SemiImplicit => Some(SemiFilter::new(model, params)?),
+            _ => None,
+        };
         let n = model.particle_count() as u64;
         let s = model.springs.len() as u64;
         let limits = device.limits();
@@ -128,9 +177,11 @@ impl GpuSolver {
             STORAGE_BUFFERS.into(),
         )?;
         let work_bytes = u64::from(section::COUNT) * n * 16;
+        let dense_bytes = filter.as_ref().map_or(0, |f| f.words.len() as u64 * 4);
         let biggest = work_bytes
             .max(s * 32)
-            .max(s * 16 * u64::from(layout::SPRING_SECTIONS));
+            .max(s * 16 * u64::from(layout::SPRING_SECTIONS))
+            .max(dense_bytes);
         limit(
             "max_storage_buffer_binding_size",
             limits.max_storage_buffer_binding_size,
@@ -157,7 +208,7 @@ impl GpuSolver {
         }
 
         let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let solver = Self::build(device, queue, model, params);
+        let solver = Self::build(device, queue, model, params, filter);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(e.to_string()));
         }
@@ -169,6 +220,7 @@ impl GpuSolver {
         queue: &wgpu::Queue,
         model: &Model,
         params: &Params,
+        filter: Option<SemiFilter>,
     ) -> GpuSolver {
         let n = model.particle_count() as u32;
         let partial_count = n.div_ceil(WORKGROUP);
@@ -242,8 +294,10 @@ impl GpuSolver {
             triangles,
             cg_tolerance_sq: (params.implicit.tolerance * params.implicit.tolerance) as f32,
             partial_count,
-            filter_count: 0,
-            torque_compensation: 0,
+            filter_count: filter.as_ref().map_or(0, |f| f.count),
+            torque_compensation: u32::from(
+                params.semi_implicit.torque_compensation && model.pinned_count() == 0,
+            ),
             spheres,
         };
 
@@ -321,7 +375,12 @@ impl GpuSolver {
             u64::from(n) * 16,
             storage | wgpu::BufferUsages::VERTEX,
         );
-        let dense = zeroed("wgcloth.dense", 16, storage);
+        let dense = match &filter {
+            Some(f) if !f.words.is_empty() => {
+                init("wgcloth.dense", bytemuck::cast_slice(&f.words), storage)
+            }
+            _ => zeroed("wgcloth.dense", 16, storage),
+        };
         let indices = init(
             "wgcloth.indices",
             bytemuck::cast_slice(&model.triangles),
@@ -450,6 +509,12 @@ impl GpuSolver {
             add("cg_direction", PARITY[parity], &slots);
         }
         add("implicit_finish", "", &[]);
+        add("semi_rhs", "", &[]);
+        add("filter_dense", "", &[]);
+        add("torque_centre", "", &[]);
+        add("torque_moments", "", &[]);
+        add("torque_apply", "", &[]);
+        add("semi_integrate", "", &[]);
         queue.submit([]);
 
         GpuSolver {
@@ -509,7 +574,18 @@ impl GpuSolver {
                     self.dispatch(&mut pass, "implicit_finish", self.particles);
                 }
                 Integrator::Explicit | Integrator::SemiImplicit => {
-                    self.dispatch(&mut pass, "explicit_integrate", self.particles);
+                    if self.integrator == Integrator::Explicit {
+                        self.dispatch(&mut pass, "explicit_integrate", self.particles);
+                    } else {
+                        self.dispatch(&mut pass, "semi_rhs", self.particles);
+                        self.dispatch(&mut pass, "filter_dense", self.params.filter_count);
+                        if self.params.torque_compensation != 0 {
+                            for kernel in ["torque_centre", "torque_moments", "torque_apply"] {
+                                self.dispatch(&mut pass, kernel, self.particles);
+                            }
+                        }
+                        self.dispatch(&mut pass, "semi_integrate", self.particles);
+                    }
                     for k in 0..self.fixup_iterations {
                         let variant = if k % 2 == 0 {
                             "fixup_jacobi.even"

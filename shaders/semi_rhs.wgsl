@@ -1,0 +1,34 @@
+// Semi-implicit step, per particle: the filter's right-hand side
+// dt (f + dt H v), H the stiffness Laplacian. Twin: the first loops of
+// cpu::semi_implicit::step.
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+
+@compute @workgroup_size(WORKGROUP)
+fn semi_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let p = gid.x;
+    if (p == 0u) {
+        atomicAdd(&status[STATUS_STEP], 1u);
+    }
+    if (p >= params.particle_count) {
+        return;
+    }
+    let f = total_force(p);
+    // Σ ±k (v_i − v_j), gathered like gather_signed, then negated.
+    var acc = vec3<f32>(0.0);
+    let begin = topo[p];
+    let end = topo[p + 1u];
+    for (var k = begin; k < end; k++) {
+        let e = topo[params.spring_adj_entries + k];
+        let sp = springs[e >> 1u];
+        let term = (v[sp.i].xyz - v[sp.j].xyz) * sp.k;
+        if ((e & 1u) == 0u) {
+            acc += term;
+        } else {
+            acc -= term;
+        }
+    }
+    let hv = -acc;
+    work[wi(W_RHS, p)] = vec4<f32>((f + hv * params.dt) * params.dt, 0.0);
+    work[wi(W_DV, p)] = vec4<f32>(0.0);
+}
