@@ -4,6 +4,10 @@
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 
+// Dense filter: Δv starts at zero (pinned particles keep it). CG filter:
+// Δv keeps the last step's value as the warm start.
+override ZERO_DV: bool = true;
+
 @compute @workgroup_size(WORKGROUP)
 fn semi_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
@@ -30,5 +34,7 @@ fn semi_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let hv = -acc;
     work[wi(W_RHS, p)] = vec4<f32>((f + hv * params.dt) * params.dt, 0.0);
-    work[wi(W_DV, p)] = vec4<f32>(0.0);
+    if (ZERO_DV) {
+        work[wi(W_DV, p)] = vec4<f32>(0.0);
+    }
 }

@@ -68,6 +68,7 @@ fn gpu_cg_iterations_match_the_cpu() {
     let (model, params) = scene();
     let ctx = gpu();
     let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
+    g.set_adaptive_cg_budget(false);
     let mut c = wgcloth::cpu::CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
     for step in 1..=20 {
         let status = g.step(1).expect("GPU step");
@@ -95,4 +96,33 @@ fn implicit_built_in_scenes_run_on_the_gpu() {
             "{name}: particle {p} GPU {g:?} CPU {c:?} differ by {d:e} m"
         );
     }
+}
+
+/// The adaptive CG budget records far fewer iterations than the maximum
+/// once it has seen a few steps, and — with its margin — never cuts a solve
+/// short on this scene, so the trajectory is the exact one.
+#[test]
+fn adaptive_cg_budget_shrinks_without_changing_the_result() {
+    let (model, params) = scene();
+    let ctx = gpu();
+    let mut adaptive =
+        GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
+    let mut exact = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
+    exact.set_adaptive_cg_budget(false);
+    let mut hits = 0;
+    for _ in 0..40 {
+        hits = adaptive.step(1).expect("GPU step").cg_budget_hits;
+        exact.step(1).expect("GPU step");
+    }
+    assert!(
+        adaptive.cg_budget() < params.implicit.max_iterations / 2,
+        "budget {} of {}",
+        adaptive.cg_budget(),
+        params.implicit.max_iterations
+    );
+    assert_eq!(hits, 0, "a solve was cut short");
+    let a = adaptive.read_state().expect("read");
+    let e = exact.read_state().expect("read");
+    let (d, p) = worst(&a.x, &e.x);
+    assert!(d == 0.0, "particle {p} differs by {d:e} m");
 }

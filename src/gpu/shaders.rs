@@ -45,6 +45,7 @@ pub const KERNELS: &[(&str, &str)] = &[
     wgsl!("torque_moments"),
     wgsl!("torque_apply"),
     wgsl!("semi_integrate"),
+    wgsl!("semi_cg_prepare"),
 ];
 
 /// A composed kernel source, or the name of the include it could not find.

@@ -41,8 +41,11 @@ pub struct GpuStatus {
     pub steps: u64,
     /// CG iterations of the last implicit step.
     pub cg_iterations: u32,
-    /// Largest CG iteration count of any step so far.
+    /// Largest CG iteration count of any step since the last check.
     pub cg_max_iterations: u32,
+    /// Checks whose window had a step stop at the adaptive budget rather
+    /// than at convergence (see [`GpuSolver::check`]).
+    pub cg_budget_hits: u64,
 }
 
 /// A cloth simulated on a wgpu device the host owns.
@@ -68,6 +71,10 @@ pub struct GpuSolver {
     triangles: u32,
     fixup_iterations: u32,
     cg_max_iterations: u32,
+    /// CG iterations recorded per step (adapts at each status check).
+    cg_budget: u32,
+    adaptive_budget: bool,
+    budget_hits: u64,
     params: GpuParams,
     params_buffer: wgpu::Buffer,
     x: wgpu::Buffer,
@@ -96,11 +103,23 @@ fn limit(name: &'static str, available: u64, needed: u64) -> Result<()> {
 /// The semi-implicit filter as the GPU applies it: `Wᵀ` followed by the
 /// filter order (`u32` bits), built on the host by the CPU reference's own
 /// filter code in `f32`.
+///
+/// A cloth with more free particles than the dense crossover gets no
+/// matrix: its filter is solved by CG on the device instead.
 #[derive(Debug)]
 struct SemiFilter {
     count: u32,
     words: Vec<f32>,
 }
+
+/// Relative tolerance of the semi-implicit filter's CG solve: a hundred
+/// f32 epsilons, about where single-precision CG stops making progress.
+pub const FILTER_CG_TOLERANCE: f64 = 1e-5;
+
+/// Iteration cap of the semi-implicit filter's CG solve. The matrix is
+/// constant and the solve warm-started, so after the first steps it needs
+/// far fewer; the recorded budget adapts (see [`GpuSolver::check`]).
+pub const FILTER_CG_MAX_ITERATIONS: u32 = 1000;
 
 impl SemiFilter {
     fn new(model: &Model, params: &Params) -> Result<SemiFilter> {
@@ -113,13 +132,9 @@ impl SemiFilter {
             FilterMethod::Auto => fs.len() <= crate::cpu::DENSE_FILTER_MAX_PARTICLES,
         };
         if !dense {
-            return Err(Error::InvalidParameter {
-                key: "semi_implicit.filter".into(),
-                allowed: format!(
-                    "the dense filter (at most {} free particles) on the GPU backend for now",
-                    crate::cpu::DENSE_FILTER_MAX_PARTICLES
-                ),
-                got: format!("{} free particles", fs.len()),
+            return Ok(SemiFilter {
+                count: 0,
+                words: Vec::new(),
             });
         }
         let w = crate::cpu::filter::DenseFilter::<f32>::new(&fs).map_err(|_| {
@@ -224,6 +239,12 @@ impl GpuSolver {
     ) -> GpuSolver {
         let n = model.particle_count() as u32;
         let partial_count = n.div_ceil(WORKGROUP);
+        let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
+        let (cg_tolerance, cg_max_iterations) = if semi_cg {
+            (FILTER_CG_TOLERANCE, FILTER_CG_MAX_ITERATIONS)
+        } else {
+            (params.implicit.tolerance, params.implicit.max_iterations)
+        };
 
         // Topology: spring CSR, triangle CSR, triangles, one u32 array.
         let mut topo: Vec<u32> = model.particle_springs.offsets.clone();
@@ -292,7 +313,7 @@ impl GpuSolver {
             tri_adj_offsets,
             tri_adj_entries,
             triangles,
-            cg_tolerance_sq: (params.implicit.tolerance * params.implicit.tolerance) as f32,
+            cg_tolerance_sq: (cg_tolerance * cg_tolerance) as f32,
             partial_count,
             filter_count: filter.as_ref().map_or(0, |f| f.count),
             torque_compensation: u32::from(
@@ -356,9 +377,18 @@ impl GpuSolver {
             u64::from(section::COUNT) * u64::from(n) * 16,
             storage,
         );
-        let spring_work = zeroed(
+        // The CG filter's constant blocks (n = 0, a = dt² k; b = 0); the
+        // implicit integrator overwrites this buffer every step.
+        let mut blocks = vec![[0f32; 4]; layout::SPRING_SECTIONS as usize * gpu_springs.len()];
+        if semi_cg {
+            let dt2 = (params.dt * params.dt) as f32;
+            for (b, s) in blocks.iter_mut().zip(&gpu_springs) {
+                b[3] = dt2 * s.k;
+            }
+        }
+        let spring_work = init(
             "wgcloth.spring_work",
-            u64::from(layout::SPRING_SECTIONS) * gpu_springs.len() as u64 * 16,
+            bytemuck::cast_slice(&blocks),
             storage,
         );
         let partials = zeroed(
@@ -510,6 +540,8 @@ impl GpuSolver {
         }
         add("implicit_finish", "", &[]);
         add("semi_rhs", "", &[]);
+        add("semi_rhs", ".keep", &[("ZERO_DV", 0.0)]);
+        add("semi_cg_prepare", "", &[]);
         add("filter_dense", "", &[]);
         add("torque_centre", "", &[]);
         add("torque_moments", "", &[]);
@@ -529,7 +561,10 @@ impl GpuSolver {
             } else {
                 0
             },
-            cg_max_iterations: params.implicit.max_iterations,
+            cg_max_iterations,
+            cg_budget: cg_max_iterations,
+            adaptive_budget: true,
+            budget_hits: 0,
             params: gpu_params,
             params_buffer,
             x,
@@ -564,21 +599,21 @@ impl GpuSolver {
                 Integrator::Implicit => {
                     self.dispatch(&mut pass, "implicit_springs", self.springs);
                     self.dispatch(&mut pass, "implicit_prepare", self.particles);
-                    self.dispatch(&mut pass, "cg_init", self.particles);
-                    for k in 0..self.cg_max_iterations as usize {
-                        let parity = PARITY[k % 2];
-                        for kernel in ["cg_apply", "cg_update", "cg_direction"] {
-                            self.dispatch(&mut pass, &format!("{kernel}{parity}"), self.particles);
-                        }
-                    }
+                    self.encode_cg(&mut pass);
                     self.dispatch(&mut pass, "implicit_finish", self.particles);
                 }
                 Integrator::Explicit | Integrator::SemiImplicit => {
                     if self.integrator == Integrator::Explicit {
                         self.dispatch(&mut pass, "explicit_integrate", self.particles);
                     } else {
-                        self.dispatch(&mut pass, "semi_rhs", self.particles);
-                        self.dispatch(&mut pass, "filter_dense", self.params.filter_count);
+                        if self.params.filter_count > 0 {
+                            self.dispatch(&mut pass, "semi_rhs", self.particles);
+                            self.dispatch(&mut pass, "filter_dense", self.params.filter_count);
+                        } else {
+                            self.dispatch(&mut pass, "semi_rhs.keep", self.particles);
+                            self.dispatch(&mut pass, "semi_cg_prepare", self.particles);
+                            self.encode_cg(&mut pass);
+                        }
                         if self.params.torque_compensation != 0 {
                             for kernel in ["torque_centre", "torque_moments", "torque_apply"] {
                                 self.dispatch(&mut pass, kernel, self.particles);
@@ -604,6 +639,17 @@ impl GpuSolver {
             }
         }
         self.steps_recorded += u64::from(n);
+    }
+
+    /// CG from `cg_init` through the iterations of the current budget.
+    fn encode_cg(&self, pass: &mut wgpu::ComputePass<'_>) {
+        self.dispatch(pass, "cg_init", self.particles);
+        for k in 0..self.cg_budget as usize {
+            let parity = PARITY[k % 2];
+            for kernel in ["cg_apply", "cg_update", "cg_direction"] {
+                self.dispatch(pass, &format!("{kernel}{parity}"), self.particles);
+            }
+        }
     }
 
     /// Records the vertex-normal pass (for rendering; stepping never needs
@@ -632,13 +678,60 @@ impl GpuSolver {
 
     /// Reads the status words; an error names the first step whose state
     /// was not finite.
-    pub fn check(&self) -> Result<GpuStatus> {
+    ///
+    /// It also sets the CG iteration budget — how many iterations each
+    /// recorded step contains — to twice the largest count any step
+    /// needed since the last check, plus 16 (at most the configured
+    /// maximum). Iterations past convergence do no work, but on some devices
+    /// (lavapipe) even an empty dispatch costs tens of microseconds, so a
+    /// budget of 200 for a solve that takes 30 would dominate the step. A
+    /// window in which some step used the whole budget restores the full
+    /// maximum and is counted in [`GpuStatus::cg_budget_hits`] (such a step
+    /// stopped with its residual above the tolerance). With no check in
+    /// between, or with [`GpuSolver::set_adaptive_cg_budget`]`(false)`, the
+    /// budget never changes and every step may use the full maximum.
+    pub fn check(&mut self) -> Result<GpuStatus> {
         let bytes = readback::read_buffers(
             &self.device,
             &self.queue,
             &[(&self.status, 0, (layout::status::COUNT * 4) as u64)],
         )?;
-        self.decode_status(&bytes[0])
+        let mut status = self.decode_status(&bytes[0])?;
+        let used = status.cg_max_iterations;
+        if self.adaptive_budget && used > 0 {
+            if used >= self.cg_budget && self.cg_budget < self.cg_max_iterations {
+                self.budget_hits += 1;
+            }
+            self.cg_budget = if used >= self.cg_budget {
+                self.cg_max_iterations
+            } else {
+                (2 * used + 16).min(self.cg_max_iterations)
+            };
+            // Restart the window: the next check sees only new steps.
+            self.queue.write_buffer(
+                &self.status,
+                (layout::status::CG_MAX_ITERATIONS * 4) as u64,
+                bytemuck::bytes_of(&0u32),
+            );
+        }
+        status.cg_budget_hits = self.budget_hits;
+        Ok(status)
+    }
+
+    /// Turns the adaptive CG iteration budget on (the default) or off (every
+    /// step records the configured maximum: results equal the CPU
+    /// reference's exactly, at the cost of empty dispatches).
+    pub fn set_adaptive_cg_budget(&mut self, on: bool) {
+        self.adaptive_budget = on;
+        if !on {
+            self.cg_budget = self.cg_max_iterations;
+        }
+    }
+
+    /// CG iterations recorded per step at present (see
+    /// [`GpuSolver::check`]).
+    pub fn cg_budget(&self) -> u32 {
+        self.cg_budget
     }
 
     fn decode_status(&self, bytes: &[u8]) -> Result<GpuStatus> {
@@ -655,6 +748,7 @@ impl GpuSolver {
             steps: u64::from(words[layout::status::STEP]),
             cg_iterations: words[layout::status::CG_ITERATIONS],
             cg_max_iterations: words[layout::status::CG_MAX_ITERATIONS],
+            cg_budget_hits: self.budget_hits,
         })
     }
 
