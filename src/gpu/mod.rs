@@ -11,6 +11,7 @@
 
 pub mod context;
 pub mod layout;
+pub mod pipelines;
 pub mod readback;
 pub mod shaders;
 mod solver;

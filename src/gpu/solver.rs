@@ -1,14 +1,13 @@
 //! The GPU solver: buffers, pipelines and the recording of steps.
 
-use std::collections::HashMap;
-
 use wgpu::util::DeviceExt;
 
 use super::layout::{self, section, GpuParams, GpuSphere, GpuSpring, MAX_SPHERES};
-use super::{readback, shaders};
+use super::pipelines::{Features, Pipelines};
+use super::readback;
 use crate::error::{Error, Result};
 use crate::model::Model;
-use crate::params::{FilterMethod, Integrator, Params};
+use crate::params::{FilterMethod, Ground, Integrator, Params, Sphere, Wind};
 use crate::real::Vec3;
 
 /// Invocations per workgroup of every per-particle and per-spring kernel,
@@ -83,9 +82,42 @@ pub struct GpuSolver {
     indices: wgpu::Buffer,
     status: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
-    pipelines: HashMap<String, wgpu::ComputePipeline>,
+    pipelines: Pipelines,
+    features: Features,
     steps_recorded: u64,
     dt: f64,
+    /// The model with its current pins (a dense filter is rebuilt from it).
+    model: Model,
+    /// The parameters with the current colliders, wind and gravity.
+    host_params: Params,
+    dense: wgpu::Buffer,
+}
+
+/// Uniform values when there is no wind (the kernels compile it out).
+const NO_WIND: Wind = Wind {
+    velocity: [0.0; 3],
+    drag: 0.0,
+    lift: 0.0,
+};
+
+/// Uniform values when there is no ground (the kernels compile it out).
+const NO_GROUND: Ground = Ground {
+    height: 0.0,
+    friction: 0.0,
+};
+
+/// Spheres as the uniform block holds them (the caller checks the count).
+fn gpu_spheres(spheres: &[Sphere]) -> [GpuSphere; MAX_SPHERES] {
+    let mut out = [GpuSphere::default(); MAX_SPHERES];
+    for (g, s) in out.iter_mut().zip(spheres) {
+        *g = GpuSphere {
+            center: s.center.map(|c| c as f32),
+            radius: s.radius as f32,
+            friction: s.friction as f32,
+            _pad: [0.0; 3],
+        };
+    }
+    out
 }
 
 fn limit(name: &'static str, available: u64, needed: u64) -> Result<()> {
@@ -160,14 +192,6 @@ impl SemiFilter {
     }
 }
 
-/// Features a pipeline variant is specialised for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-struct Features {
-    wind: bool,
-    ground: bool,
-    spheres: bool,
-}
-
 impl GpuSolver {
     /// Builds the solver on the host's `device` and `queue`. Refuses, before
     /// allocating anything, invalid parameters and a cloth that exceeds the
@@ -192,7 +216,10 @@ impl GpuSolver {
             STORAGE_BUFFERS.into(),
         )?;
         let work_bytes = u64::from(section::COUNT) * n * 16;
-        let dense_bytes = filter.as_ref().map_or(0, |f| f.words.len() as u64 * 4);
+        let dense_bytes = filter
+            .as_ref()
+            .filter(|f| !f.words.is_empty())
+            .map_or(0, |_| (n * n + n) * 4);
         let biggest = work_bytes
             .max(s * 32)
             .max(s * 16 * u64::from(layout::SPRING_SECTIONS))
@@ -227,7 +254,7 @@ impl GpuSolver {
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(e.to_string()));
         }
-        Ok(solver)
+        solver
     }
 
     fn build(
@@ -236,7 +263,7 @@ impl GpuSolver {
         model: &Model,
         params: &Params,
         filter: Option<SemiFilter>,
-    ) -> GpuSolver {
+    ) -> Result<GpuSolver> {
         let n = model.particle_count() as u32;
         let partial_count = n.div_ceil(WORKGROUP);
         let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
@@ -278,24 +305,9 @@ impl GpuSolver {
             })
             .collect();
 
-        let mut spheres = [GpuSphere::default(); MAX_SPHERES];
-        for (g, s) in spheres.iter_mut().zip(&params.spheres) {
-            *g = GpuSphere {
-                center: s.center.map(|c| c as f32),
-                radius: s.radius as f32,
-                friction: s.friction as f32,
-                _pad: [0.0; 3],
-            };
-        }
-        let wind = params.wind.unwrap_or(crate::params::Wind {
-            velocity: [0.0; 3],
-            drag: 0.0,
-            lift: 0.0,
-        });
-        let ground = params.ground.unwrap_or(crate::params::Ground {
-            height: 0.0,
-            friction: 0.0,
-        });
+        let spheres = gpu_spheres(&params.spheres);
+        let wind = params.wind.unwrap_or(NO_WIND);
+        let ground = params.ground.unwrap_or(NO_GROUND);
         let gpu_params = GpuParams {
             gravity: params.gravity.map(|g| g as f32),
             dt: params.dt as f32,
@@ -405,9 +417,14 @@ impl GpuSolver {
             u64::from(n) * 16,
             storage | wgpu::BufferUsages::VERTEX,
         );
+        // Sized for every particle free, so that changing pins (which
+        // rebuilds W) never needs a new buffer.
         let dense = match &filter {
             Some(f) if !f.words.is_empty() => {
-                init("wgcloth.dense", bytemuck::cast_slice(&f.words), storage)
+                let all = u64::from(n) * u64::from(n) + u64::from(n);
+                let buffer = zeroed("wgcloth.dense", all * 4, storage);
+                queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&f.words));
+                buffer
             }
             _ => zeroed("wgcloth.dense", 16, storage),
         };
@@ -492,64 +509,11 @@ impl GpuSolver {
             ground: params.ground.is_some(),
             spheres: !params.spheres.is_empty(),
         };
-        let mut pipelines = HashMap::new();
-        let mut add = |entry: &str, variant: &str, extra: &[(&str, f64)]| {
-            let Ok(source) = shaders::kernel_source(entry) else {
-                return;
-            };
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(&format!("wgcloth.{entry}")),
-                source: wgpu::ShaderSource::Wgsl(source.into()),
-            });
-            let mut constants: Vec<(&str, f64)> = vec![
-                ("WORKGROUP", f64::from(WORKGROUP)),
-                ("HAS_WIND", f64::from(u8::from(features.wind))),
-                ("HAS_GROUND", f64::from(u8::from(features.ground))),
-                ("HAS_SPHERES", f64::from(u8::from(features.spheres))),
-            ];
-            constants.extend_from_slice(extra);
-            let name = format!("{entry}{variant}");
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(&format!("wgcloth.{name}")),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    zero_initialize_workgroup_memory: false,
-                },
-                cache: None,
-            });
-            pipelines.insert(name, pipeline);
-        };
-        let (pred, alt) = (f64::from(section::X_PRED), f64::from(section::X_ALT));
-        add("explicit_integrate", "", &[]);
-        add("fixup_jacobi", ".even", &[("SRC", pred), ("DST", alt)]);
-        add("fixup_jacobi", ".odd", &[("SRC", alt), ("DST", pred)]);
-        add("finish_step", ".pred", &[("SRC", pred)]);
-        add("finish_step", ".alt", &[("SRC", alt)]);
-        add("normals", "", &[]);
-        add("implicit_springs", "", &[]);
-        add("implicit_prepare", "", &[]);
-        add("cg_init", "", &[]);
-        for (parity, (rs, next)) in [(1.0, 2.0), (2.0, 1.0)].into_iter().enumerate() {
-            let slots = [("RS", rs), ("RS_NEXT", next)];
-            add("cg_apply", PARITY[parity], &slots[..1]);
-            add("cg_update", PARITY[parity], &slots);
-            add("cg_direction", PARITY[parity], &slots);
-        }
-        add("implicit_finish", "", &[]);
-        add("semi_rhs", "", &[]);
-        add("semi_rhs", ".keep", &[("ZERO_DV", 0.0)]);
-        add("semi_cg_prepare", "", &[]);
-        add("filter_dense", "", &[]);
-        add("torque_centre", "", &[]);
-        add("torque_moments", "", &[]);
-        add("torque_apply", "", &[]);
-        add("semi_integrate", "", &[]);
+        let mut pipelines = Pipelines::new(layout);
+        pipelines.ensure(device, params.integrator, features)?;
         queue.submit([]);
 
-        GpuSolver {
+        Ok(GpuSolver {
             device: device.clone(),
             queue: queue.clone(),
             integrator: params.integrator,
@@ -574,13 +538,17 @@ impl GpuSolver {
             status,
             bind_group,
             pipelines,
+            features,
             steps_recorded: 0,
             dt: params.dt,
-        }
+            model: model.clone(),
+            host_params: params.clone(),
+            dense,
+        })
     }
 
     fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, name: &str, items: u32) {
-        if let Some(p) = self.pipelines.get(name) {
+        if let Some(p) = self.pipelines.get(name, self.features) {
             pass.set_pipeline(p);
             pass.dispatch_workgroups(items.div_ceil(WORKGROUP), 1, 1);
         }
@@ -817,9 +785,132 @@ impl GpuSolver {
     }
 
     /// Changes gravity [m/s²] from the next recorded step on.
-    pub fn set_gravity(&mut self, gravity: [f64; 3]) {
+    pub fn set_gravity(&mut self, gravity: [f64; 3]) -> Result<()> {
+        let mut p = self.host_params.clone();
+        p.gravity = gravity;
+        p.validate()?;
+        self.host_params = p;
         self.params.gravity = gravity.map(|g| g as f32);
         self.upload_params();
+        Ok(())
+    }
+
+    /// Changes the wind (`None`: no wind) from the next recorded step on.
+    /// Turning wind on or off switches to the matching kernel variants
+    /// (compiled once, then cached).
+    pub fn set_wind(&mut self, wind: Option<Wind>) -> Result<()> {
+        let mut p = self.host_params.clone();
+        p.wind = wind;
+        p.validate()?;
+        self.host_params = p;
+        let w = wind.unwrap_or(NO_WIND);
+        self.params.wind_velocity = w.velocity.map(|c| c as f32);
+        self.params.wind_drag = w.drag as f32;
+        self.params.wind_lift = w.lift as f32;
+        self.set_features(Features {
+            wind: wind.is_some(),
+            ..self.features
+        })
+    }
+
+    /// Changes the ground plane (`None`: no ground).
+    pub fn set_ground(&mut self, ground: Option<Ground>) -> Result<()> {
+        let mut p = self.host_params.clone();
+        p.ground = ground;
+        p.validate()?;
+        self.host_params = p;
+        let g = ground.unwrap_or(NO_GROUND);
+        self.params.ground_height = g.height as f32;
+        self.params.ground_friction = g.friction as f32;
+        self.set_features(Features {
+            ground: ground.is_some(),
+            ..self.features
+        })
+    }
+
+    /// Replaces the sphere colliders (at most [`MAX_SPHERES`]); a game
+    /// moving a ball calls this every frame.
+    pub fn set_spheres(&mut self, spheres: &[Sphere]) -> Result<()> {
+        if spheres.len() > MAX_SPHERES {
+            return Err(Error::InvalidParameter {
+                key: "sphere".into(),
+                allowed: format!("at most {MAX_SPHERES} spheres on the GPU backend"),
+                got: spheres.len().to_string(),
+            });
+        }
+        let mut p = self.host_params.clone();
+        p.spheres = spheres.to_vec();
+        p.validate()?;
+        self.host_params = p;
+        self.params.spheres = gpu_spheres(spheres);
+        self.params.sphere_count = spheres.len() as u32;
+        self.set_features(Features {
+            spheres: !spheres.is_empty(),
+            ..self.features
+        })
+    }
+
+    /// Moves particle `p` to `position` [m] (for a pinned particle: a game
+    /// dragging a corner). Its velocity is left as it is.
+    pub fn set_position(&mut self, p: usize, position: [f32; 3]) -> Result<()> {
+        self.check_particle(p)?;
+        self.queue
+            .write_buffer(&self.x, (p * 16) as u64, bytemuck::cast_slice(&position));
+        Ok(())
+    }
+
+    /// Pins (`true`) or releases (`false`) particle `p`. A newly pinned
+    /// particle stops. A semi-implicit solver with the dense filter rebuilds
+    /// its filter on the host (the pins are constrained inside it).
+    pub fn set_pinned(&mut self, p: usize, pinned: bool) -> Result<()> {
+        self.check_particle(p)?;
+        if self.model.pinned[p] == pinned {
+            return Ok(());
+        }
+        self.model.pinned[p] = pinned;
+        let inverse_mass = if pinned {
+            0.0
+        } else {
+            (1.0 / self.model.mass[p]) as f32
+        };
+        let base = (p * 16) as u64;
+        self.queue
+            .write_buffer(&self.x, base + 12, bytemuck::bytes_of(&inverse_mass));
+        if pinned {
+            self.queue
+                .write_buffer(&self.v, base, bytemuck::cast_slice(&[0f32; 3]));
+        }
+        self.params.torque_compensation = u32::from(
+            self.host_params.semi_implicit.torque_compensation && self.model.pinned_count() == 0,
+        );
+        if self.params.filter_count > 0 {
+            let filter = SemiFilter::new(&self.model, &self.host_params)?;
+            self.params.filter_count = filter.count;
+            self.queue
+                .write_buffer(&self.dense, 0, bytemuck::cast_slice(&filter.words));
+        }
+        self.upload_params();
+        Ok(())
+    }
+
+    fn check_particle(&self, p: usize) -> Result<()> {
+        if p < self.particles as usize {
+            Ok(())
+        } else {
+            Err(Error::InvalidParameter {
+                key: "particle".into(),
+                allowed: format!("an index below {}", self.particles),
+                got: p.to_string(),
+            })
+        }
+    }
+
+    fn set_features(&mut self, features: Features) -> Result<()> {
+        self.pipelines
+            .ensure(&self.device, self.integrator, features)?;
+        self.features = features;
+        self.upload_params();
+        Ok(())
     }
 
     fn upload_params(&self) {

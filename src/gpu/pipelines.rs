@@ -1,0 +1,180 @@
+//! Compute pipelines: one per kernel variant, built once from the host's
+//! device and cached by the scene features they are specialised for.
+//!
+//! A variant is a kernel (`shaders/NAME.wgsl`) plus `override` constants:
+//! the workgroup size, the features (`HAS_WIND`, `HAS_GROUND`,
+//! `HAS_SPHERES` — code of an absent feature is compiled out), and
+//! per-kernel constants such as the fix-up's source and destination
+//! sections. Switching a scene's features back and forth costs one compile
+//! per new variant, then nothing.
+
+use std::collections::HashMap;
+
+use super::layout::section;
+use super::shaders;
+use super::WORKGROUP;
+use crate::error::{Error, Result};
+use crate::params::Integrator;
+
+/// Scene features a pipeline variant is specialised for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Features {
+    /// Wind on triangles.
+    pub wind: bool,
+    /// A ground plane.
+    pub ground: bool,
+    /// At least one sphere.
+    pub spheres: bool,
+}
+
+/// One kernel variant: entry point, name suffix, extra constants.
+struct Variant {
+    entry: &'static str,
+    suffix: &'static str,
+    constants: &'static [(&'static str, f64)],
+}
+
+const fn v(
+    entry: &'static str,
+    suffix: &'static str,
+    constants: &'static [(&'static str, f64)],
+) -> Variant {
+    Variant {
+        entry,
+        suffix,
+        constants,
+    }
+}
+
+const PRED: f64 = section::X_PRED as f64;
+const ALT: f64 = section::X_ALT as f64;
+
+/// Fix-up and step end, shared by explicit and semi-implicit.
+const FIXUP: &[Variant] = &[
+    v("fixup_jacobi", ".even", &[("SRC", PRED), ("DST", ALT)]),
+    v("fixup_jacobi", ".odd", &[("SRC", ALT), ("DST", PRED)]),
+    v("finish_step", ".pred", &[("SRC", PRED)]),
+    v("finish_step", ".alt", &[("SRC", ALT)]),
+];
+
+/// CG, shared by implicit and the scalable semi-implicit filter. The two
+/// parities read δ from partials slot 1 or 2.
+const CG: &[Variant] = &[
+    v("cg_init", "", &[]),
+    v("cg_apply", ".even", &[("RS", 1.0)]),
+    v("cg_apply", ".odd", &[("RS", 2.0)]),
+    v("cg_update", ".even", &[("RS", 1.0), ("RS_NEXT", 2.0)]),
+    v("cg_update", ".odd", &[("RS", 2.0), ("RS_NEXT", 1.0)]),
+    v("cg_direction", ".even", &[("RS", 1.0), ("RS_NEXT", 2.0)]),
+    v("cg_direction", ".odd", &[("RS", 2.0), ("RS_NEXT", 1.0)]),
+];
+
+const EXPLICIT: &[Variant] = &[v("explicit_integrate", "", &[])];
+
+const IMPLICIT: &[Variant] = &[
+    v("implicit_springs", "", &[]),
+    v("implicit_prepare", "", &[]),
+    v("implicit_finish", "", &[]),
+];
+
+const SEMI: &[Variant] = &[
+    v("semi_rhs", "", &[]),
+    v("semi_rhs", ".keep", &[("ZERO_DV", 0.0)]),
+    v("filter_dense", "", &[]),
+    v("semi_cg_prepare", "", &[]),
+    v("torque_centre", "", &[]),
+    v("torque_moments", "", &[]),
+    v("torque_apply", "", &[]),
+    v("semi_integrate", "", &[]),
+];
+
+const RENDER: &[Variant] = &[v("normals", "", &[])];
+
+/// The variants an integrator records.
+fn variants(integrator: Integrator) -> impl Iterator<Item = &'static Variant> {
+    let groups: &[&[Variant]] = match integrator {
+        Integrator::Explicit => &[EXPLICIT, FIXUP, RENDER],
+        Integrator::Implicit => &[IMPLICIT, CG, RENDER],
+        Integrator::SemiImplicit => &[SEMI, CG, FIXUP, RENDER],
+    };
+    groups.iter().flat_map(|g| g.iter())
+}
+
+/// The pipelines of one solver.
+#[derive(Debug)]
+pub struct Pipelines {
+    layout: wgpu::PipelineLayout,
+    modules: HashMap<&'static str, wgpu::ShaderModule>,
+    cache: HashMap<(String, Features), wgpu::ComputePipeline>,
+}
+
+impl Pipelines {
+    /// An empty cache for pipelines of `layout`.
+    pub fn new(layout: wgpu::PipelineLayout) -> Self {
+        Pipelines {
+            layout,
+            modules: HashMap::new(),
+            cache: HashMap::new(),
+        }
+    }
+
+    /// Builds every variant `integrator` records for `features` that is not
+    /// cached yet.
+    pub fn ensure(
+        &mut self,
+        device: &wgpu::Device,
+        integrator: Integrator,
+        features: Features,
+    ) -> Result<()> {
+        for variant in variants(integrator) {
+            let name = format!("{}{}", variant.entry, variant.suffix);
+            if self.cache.contains_key(&(name.clone(), features)) {
+                continue;
+            }
+            if !self.modules.contains_key(variant.entry) {
+                let source = shaders::kernel_source(variant.entry).map_err(Error::Gpu)?;
+                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(&format!("wgcloth.{}", variant.entry)),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+                self.modules.insert(variant.entry, module);
+            }
+            let flag = |on: bool| f64::from(u8::from(on));
+            let mut constants: Vec<(&str, f64)> = vec![
+                ("WORKGROUP", f64::from(WORKGROUP)),
+                ("HAS_WIND", flag(features.wind)),
+                ("HAS_GROUND", flag(features.ground)),
+                ("HAS_SPHERES", flag(features.spheres)),
+            ];
+            constants.extend_from_slice(variant.constants);
+            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(&format!("wgcloth.{name}")),
+                layout: Some(&self.layout),
+                module: &self.modules[variant.entry],
+                entry_point: Some(variant.entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &constants,
+                    zero_initialize_workgroup_memory: false,
+                },
+                cache: None,
+            });
+            self.cache.insert((name, features), pipeline);
+        }
+        Ok(())
+    }
+
+    /// The pipeline `name` for `features`, if built.
+    pub fn get(&self, name: &str, features: Features) -> Option<&wgpu::ComputePipeline> {
+        self.cache.get(&(name.to_string(), features))
+    }
+
+    /// Number of pipelines built so far.
+    pub fn len(&self) -> usize {
+        self.cache.len()
+    }
+
+    /// `true` before anything is built.
+    pub fn is_empty(&self) -> bool {
+        self.cache.is_empty()
+    }
+}

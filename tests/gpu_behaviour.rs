@@ -1,0 +1,202 @@
+//! GPU solver behaviour: determinism, pins and contacts, runtime changes,
+//! device limits, blow-ups, normals. On lavapipe in CI.
+
+mod gpu_common;
+
+use gpu_common::*;
+use wgcloth::cpu::CpuSolver;
+use wgcloth::gpu::{GpuSolver, GpuState};
+use wgcloth::model::{ClothSpec, Corner, Pin};
+use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
+use wgcloth::{Error, Model, Params, Vec3};
+
+fn params(integrator: Integrator) -> Params {
+    let mut p = Params {
+        integrator,
+        dt: if integrator == Integrator::Explicit { 1e-3 } else { 1.0 / 120.0 },
+        ..Params::default()
+    };
+    p.fixup.method = FixupMethod::Jacobi;
+    p.ground = Some(Ground { height: 0.75, friction: 0.5 });
+    p.spheres = vec![Sphere { center: [0.1, 0.7, 0.0], radius: 0.2, friction: 0.3 }];
+    p.wind = Some(Wind { velocity: [3.0, 0.0, 1.0], drag: 0.6, lift: 0.1 });
+    p
+}
+
+fn corners() -> Vec<Pin> {
+    vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)]
+}
+
+fn model(pins: Vec<Pin>, p: &Params) -> Model {
+    let spec = ClothSpec { nx: 13, ny: 11, pins, ..ClothSpec::default() };
+    Model::new(&spec, &p.springs).expect("valid")
+}
+
+fn run(model: &Model, p: &Params, steps: u32, setup: impl FnOnce(&mut GpuSolver)) -> GpuState {
+    let ctx = gpu();
+    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, p).expect("GPU solver");
+    g.set_adaptive_cg_budget(false);
+    setup(&mut g);
+    g.step(steps).expect("GPU steps");
+    g.read_state().expect("read-back")
+}
+
+fn assert_identical(a: &GpuState, b: &GpuState, what: &str) {
+    let (d, p) = worst(&a.x, &b.x);
+    assert!(d == 0.0, "{what}: particle {p} differs by {d:e} m");
+}
+
+#[test]
+fn two_gpu_runs_are_bit_identical() {
+    for integrator in Integrator::ALL {
+        let p = params(integrator);
+        let m = model(corners(), &p);
+        let a = run(&m, &p, 60, |_| {});
+        let b = run(&m, &p, 60, |_| {});
+        assert_identical(&a, &b, integrator.as_str());
+        assert!(a.x.iter().zip(&m.rest_positions).any(|(x, r)| (x.y as f64 - r[1]).abs() > 1e-3));
+    }
+}
+
+/// Collision projection leaves a particle on the surface up to f32
+/// rounding of positions near 1 m (6e-8 m); 1e-6 m is "on", more is "in".
+const PENETRATION_TOL: f32 = 1e-6;
+
+#[test]
+fn pins_and_contacts_hold_on_the_gpu() {
+    for integrator in Integrator::ALL {
+        let p = params(integrator);
+        let m = model(corners(), &p);
+        let s = run(&m, &p, 200, |_| {});
+        let mut touching = 0;
+        for (i, x) in s.x.iter().enumerate() {
+            if m.pinned[i] {
+                let r = m.rest_positions[i];
+                assert_eq!([x.x, x.y, x.z], [r[0] as f32, r[1] as f32, r[2] as f32], "{integrator}: pin {i} moved");
+                continue;
+            }
+            let sphere = (*x - Vec3::new(0.1, 0.7, 0.0)).length() - 0.2;
+            assert!(x.y >= 0.75 - PENETRATION_TOL, "{integrator}: particle {i} below the ground: {x:?}");
+            assert!(sphere >= -PENETRATION_TOL, "{integrator}: particle {i} inside the sphere by {sphere}");
+            touching += usize::from(x.y < 0.75 + 1e-4 || sphere < 1e-4);
+        }
+        assert!(touching > 0, "{integrator}: nothing reached a collider");
+    }
+}
+
+#[test]
+fn runtime_changes_equal_building_with_the_new_values() {
+    for integrator in Integrator::ALL {
+        let full = params(integrator);
+        let m = model(corners(), &full);
+        let reference = run(&m, &full, 40, |_| {});
+        // The same scene, built bare and completed through the setters.
+        let mut bare = full.clone();
+        bare.wind = None;
+        bare.ground = None;
+        bare.spheres.clear();
+        bare.gravity = [0.0, -1.0, 0.0];
+        let changed = run(&m, &bare, 40, |g| {
+            g.set_wind(full.wind).expect("wind");
+            g.set_ground(full.ground).expect("ground");
+            g.set_spheres(&full.spheres).expect("spheres");
+            g.set_gravity(full.gravity).expect("gravity");
+        });
+        assert_identical(&reference, &changed, integrator.as_str());
+        // Pins too (the semi-implicit dense filter is rebuilt for them).
+        let unpinned = model(vec![], &full);
+        let pinned_later = run(&unpinned, &full, 40, |g| {
+            g.set_pinned(0, true).expect("pin");
+            g.set_pinned(12, true).expect("pin");
+        });
+        assert_identical(&reference, &pinned_later, &format!("{integrator} pins"));
+    }
+}
+
+#[test]
+fn a_moved_pin_drags_the_cloth() {
+    let p = params(Integrator::Implicit);
+    let m = model(corners(), &p);
+    let still = run(&m, &p, 30, |_| {});
+    let dragged = run(&m, &p, 30, |g| {
+        g.set_position(0, [-0.8, 1.2, -0.5]).expect("move");
+    });
+    assert_eq!(dragged.x[0], Vec3::new(-0.8, 1.2, -0.5));
+    let (d, _) = worst(&still.x, &dragged.x);
+    assert!(d > 0.01, "moving a pin moved the cloth by only {d} m");
+}
+
+#[test]
+fn a_cloth_too_large_for_the_device_is_refused_naming_the_limit() {
+    let ctx = gpu();
+    let small = wgpu::Limits {
+        max_storage_buffer_binding_size: 1 << 20,
+        ..ctx.adapter.limits()
+    };
+    let (device, queue) = pollster::block_on(ctx.adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("small"),
+        required_limits: small,
+        ..Default::default()
+    }))
+    .expect("a device with lower limits");
+    let p = params(Integrator::Explicit);
+    let spec = ClothSpec { nx: 129, ny: 129, ..ClothSpec::default() };
+    let m = Model::new(&spec, &p.springs).expect("valid");
+    match GpuSolver::new(&device, &queue, &m, &p) {
+        Err(e @ Error::DeviceLimit { .. }) => {
+            let msg = e.to_string();
+            assert!(msg.contains("max_storage_buffer_binding_size"), "{msg}");
+            assert!(msg.contains("1048576"), "{msg}");
+        }
+        other => panic!("expected a device-limit error, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_blow_up_is_reported_at_the_cpu_mirror_step_without_nan_vertices() {
+    let mut p = params(Integrator::Explicit);
+    p.dt = 0.02;
+    p.springs[0].stiffness = 1e5;
+    p.fixup.iterations = 0;
+    let m = model(corners(), &p);
+    let mut cpu = CpuSolver::<f32>::new(&m, &p).expect("valid");
+    let cpu_step = match cpu.step_n(1000) {
+        Err(Error::NonFinite { step, .. }) => step,
+        other => panic!("the CPU mirror should blow up: {other:?}"),
+    };
+    let ctx = gpu();
+    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    match g.step(1000) {
+        Err(Error::NonFinite { step, .. }) => assert_eq!(step, cpu_step),
+        other => panic!("the GPU should report the blow-up: {other:?}"),
+    }
+    // The vertex buffer holds the last finite state, not NaN.
+    let bytes = wgcloth::gpu::readback::read_buffers(
+        &ctx.device,
+        &ctx.queue,
+        &[(g.positions_buffer(), 0, u64::from(g.particle_count()) * 16)],
+    )
+    .expect("read");
+    let xs: &[f32] = bytemuck::cast_slice(&bytes[0]);
+    assert!(xs.iter().all(|v| v.is_finite()), "NaN reached the vertex buffer");
+}
+
+#[test]
+fn normals_of_a_flat_cloth_point_up() {
+    let p = params(Integrator::Explicit);
+    let m = model(corners(), &p);
+    let ctx = gpu();
+    let g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    g.encode_normals(&mut encoder);
+    ctx.queue.submit([encoder.finish()]);
+    let bytes = wgcloth::gpu::readback::read_buffers(
+        &ctx.device,
+        &ctx.queue,
+        &[(g.normals_buffer(), 0, u64::from(g.particle_count()) * 16)],
+    )
+    .expect("read");
+    for n in bytemuck::cast_slice::<u8, [f32; 4]>(&bytes[0]) {
+        assert!((n[1] - 1.0).abs() < 1e-6 && n[0].abs() < 1e-6 && n[2].abs() < 1e-6, "{n:?}");
+    }
+}
