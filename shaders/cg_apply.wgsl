@@ -3,16 +3,13 @@
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
 
-// Partials slot holding this iteration's δ (P_RS0 or P_RS1).
-override RS: u32 = 1u;
-
 @compute @workgroup_size(WORKGROUP)
 fn cg_apply(
     @builtin(global_invocation_id) gid: vec3<u32>,
     @builtin(local_invocation_id) lid: vec3<u32>,
     @builtin(workgroup_id) wg: vec3<u32>,
 ) {
-    if (cg_stopped(lid.x, RS)) {
+    if (cg_stopped(lid.x)) {
         return;
     }
     let p = gid.x;

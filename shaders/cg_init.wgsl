@@ -19,5 +19,5 @@ fn cg_init(
         work[wi(W_C, p)] = vec4<f32>(c, 0.0);
         delta = dot3(r, c);
     }
-    reduce_to_partial(delta, lid.x, wg.x, P_RS0);
+    reduce_to_partial(delta, lid.x, wg.x, P_RS);
 }

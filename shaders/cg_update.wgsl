@@ -1,11 +1,8 @@
-// CG iteration, part 2: α = δ / cᵀq; Δv += α c; r −= α q; s = P r; the
-// partial sums of the next δ = r·s (into the other slot).
+// CG iteration, part 2: Δv += α c; r −= α q; s = P r; the partial sums of
+// the next δ = r·s.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
-
-override RS: u32 = 1u;
-override RS_NEXT: u32 = 2u;
 
 @compute @workgroup_size(WORKGROUP)
 fn cg_update(
@@ -13,25 +10,10 @@ fn cg_update(
     @builtin(local_invocation_id) lid: vec3<u32>,
     @builtin(workgroup_id) wg: vec3<u32>,
 ) {
-    if (cg_stopped(lid.x, RS)) {
+    if (cg_stopped(lid.x)) {
         return;
     }
-    if (lid.x == 0u) {
-        shared_value = sum_partials(P_CQ);
-    }
-    let cq = workgroupUniformLoad(&shared_value);
-    // A is positive definite on the filtered subspace; cᵀAc ≤ 0 means c
-    // vanished to rounding (twin: the CPU's break).
-    if (!(finite1(cq) && cq > 0.0)) {
-        if (gid.x == 0u) {
-            atomicStore(&status[STATUS_CG_STOPPED], 1u);
-        }
-        return;
-    }
-    if (lid.x == 0u) {
-        shared_value = sum_partials(RS) / cq;
-    }
-    let alpha = workgroupUniformLoad(&shared_value);
+    let alpha = partials[scalar_index(C_ALPHA)];
     let p = gid.x;
     var rs = 0.0;
     if (p < params.particle_count) {
@@ -43,5 +25,5 @@ fn cg_update(
         work[wi(W_S, p)] = vec4<f32>(s, 0.0);
         rs = dot3(r, s);
     }
-    reduce_to_partial(rs, lid.x, wg.x, RS_NEXT);
+    reduce_to_partial(rs, lid.x, wg.x, P_RS);
 }

@@ -55,22 +55,18 @@ fn implicit_prepare(
         for (var k = begin; k < end; k++) {
             let e = topo[params.spring_adj_entries + k];
             let s = e >> 1u;
-            let kvb = spring_work[si(S_KV_B, s)];
-            if ((e & 1u) == 0u) {
-                kv += kvb.xyz;
-            } else {
-                kv -= kvb.xyz;
-            }
+            let kvs = spring_work[si(S_KV, s)].xyz;
+            kv += select(kvs, -kvs, (e & 1u) != 0u);
+            // Twin: Sym3::add_iso_aniso(a, 1, m).
             let blk = spring_work[si(S_BLOCK, s)];
             let a = blk.w;
-            let b = kvb.w;
-            let n = blk.xyz;
-            xx += a + b * n.x * n.x;
-            yy += a + b * n.y * n.y;
-            zz += a + b * n.z * n.z;
-            xy += b * n.x * n.y;
-            xz += b * n.x * n.z;
-            yz += b * n.y * n.z;
+            let m = blk.xyz;
+            xx += a + m.x * m.x;
+            yy += a + m.y * m.y;
+            zz += a + m.z * m.z;
+            xy += m.x * m.y;
+            xz += m.x * m.z;
+            yz += m.y * m.z;
         }
         let rhs = (f + kv * params.dt) * params.dt;
         // Twin: Sym3::inverse, with its fallback to 1/m I.

@@ -22,9 +22,12 @@ fn implicit_springs(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let a = dt2 * sp.k * transverse;
     let b = dt2 * sp.k - a + dt * sp.kd;
+    let m = dir * sqrt(max(b, 0.0));
     let u = v[sp.i].xyz - v[sp.j].xyz;
     let k_long = sp.k * (1.0 - transverse);
     let kv = -(u * (sp.k * transverse) + dir * (k_long * dot3(dir, u)));
-    spring_work[si(S_BLOCK, s)] = vec4<f32>(dir, a);
-    spring_work[si(S_KV_B, s)] = vec4<f32>(kv, b);
+    spring_work[si(S_BLOCK, s)] = vec4<f32>(m, a);
+    spring_work[si(S_KV, s)] = vec4<f32>(kv, 0.0);
+    let f = spring_force(sp, x[sp.i].xyz, x[sp.j].xyz, v[sp.i].xyz, v[sp.j].xyz);
+    spring_work[si(S_FORCE, s)] = vec4<f32>(f, 0.0);
 }

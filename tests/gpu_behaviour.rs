@@ -13,13 +13,28 @@ use wgcloth::{Error, Model, Params, Vec3};
 fn params(integrator: Integrator) -> Params {
     let mut p = Params {
         integrator,
-        dt: if integrator == Integrator::Explicit { 1e-3 } else { 1.0 / 120.0 },
+        dt: if integrator == Integrator::Explicit {
+            1e-3
+        } else {
+            1.0 / 120.0
+        },
         ..Params::default()
     };
     p.fixup.method = FixupMethod::Jacobi;
-    p.ground = Some(Ground { height: 0.75, friction: 0.5 });
-    p.spheres = vec![Sphere { center: [0.1, 0.7, 0.0], radius: 0.2, friction: 0.3 }];
-    p.wind = Some(Wind { velocity: [3.0, 0.0, 1.0], drag: 0.6, lift: 0.1 });
+    p.ground = Some(Ground {
+        height: 0.75,
+        friction: 0.5,
+    });
+    p.spheres = vec![Sphere {
+        center: [0.1, 0.7, 0.0],
+        radius: 0.2,
+        friction: 0.3,
+    }];
+    p.wind = Some(Wind {
+        velocity: [3.0, 0.0, 1.0],
+        drag: 0.6,
+        lift: 0.1,
+    });
     p
 }
 
@@ -28,7 +43,12 @@ fn corners() -> Vec<Pin> {
 }
 
 fn model(pins: Vec<Pin>, p: &Params) -> Model {
-    let spec = ClothSpec { nx: 13, ny: 11, pins, ..ClothSpec::default() };
+    let spec = ClothSpec {
+        nx: 13,
+        ny: 11,
+        pins,
+        ..ClothSpec::default()
+    };
     Model::new(&spec, &p.springs).expect("valid")
 }
 
@@ -54,7 +74,11 @@ fn two_gpu_runs_are_bit_identical() {
         let a = run(&m, &p, 60, |_| {});
         let b = run(&m, &p, 60, |_| {});
         assert_identical(&a, &b, integrator.as_str());
-        assert!(a.x.iter().zip(&m.rest_positions).any(|(x, r)| (x.y as f64 - r[1]).abs() > 1e-3));
+        assert!(a
+            .x
+            .iter()
+            .zip(&m.rest_positions)
+            .any(|(x, r)| (x.y as f64 - r[1]).abs() > 1e-3));
     }
 }
 
@@ -72,12 +96,22 @@ fn pins_and_contacts_hold_on_the_gpu() {
         for (i, x) in s.x.iter().enumerate() {
             if m.pinned[i] {
                 let r = m.rest_positions[i];
-                assert_eq!([x.x, x.y, x.z], [r[0] as f32, r[1] as f32, r[2] as f32], "{integrator}: pin {i} moved");
+                assert_eq!(
+                    [x.x, x.y, x.z],
+                    [r[0] as f32, r[1] as f32, r[2] as f32],
+                    "{integrator}: pin {i} moved"
+                );
                 continue;
             }
             let sphere = (*x - Vec3::new(0.1, 0.7, 0.0)).length() - 0.2;
-            assert!(x.y >= 0.75 - PENETRATION_TOL, "{integrator}: particle {i} below the ground: {x:?}");
-            assert!(sphere >= -PENETRATION_TOL, "{integrator}: particle {i} inside the sphere by {sphere}");
+            assert!(
+                x.y >= 0.75 - PENETRATION_TOL,
+                "{integrator}: particle {i} below the ground: {x:?}"
+            );
+            assert!(
+                sphere >= -PENETRATION_TOL,
+                "{integrator}: particle {i} inside the sphere by {sphere}"
+            );
             touching += usize::from(x.y < 0.75 + 1e-4 || sphere < 1e-4);
         }
         assert!(touching > 0, "{integrator}: nothing reached a collider");
@@ -140,7 +174,11 @@ fn a_cloth_too_large_for_the_device_is_refused_naming_the_limit() {
     }))
     .expect("a device with lower limits");
     let p = params(Integrator::Explicit);
-    let spec = ClothSpec { nx: 129, ny: 129, ..ClothSpec::default() };
+    let spec = ClothSpec {
+        nx: 129,
+        ny: 129,
+        ..ClothSpec::default()
+    };
     let m = Model::new(&spec, &p.springs).expect("valid");
     match GpuSolver::new(&device, &queue, &m, &p) {
         Err(e @ Error::DeviceLimit { .. }) => {
@@ -178,7 +216,10 @@ fn a_blow_up_is_reported_at_the_cpu_mirror_step_without_nan_vertices() {
     )
     .expect("read");
     let xs: &[f32] = bytemuck::cast_slice(&bytes[0]);
-    assert!(xs.iter().all(|v| v.is_finite()), "NaN reached the vertex buffer");
+    assert!(
+        xs.iter().all(|v| v.is_finite()),
+        "NaN reached the vertex buffer"
+    );
 }
 
 #[test]
@@ -197,6 +238,9 @@ fn normals_of_a_flat_cloth_point_up() {
     )
     .expect("read");
     for n in bytemuck::cast_slice::<u8, [f32; 4]>(&bytes[0]) {
-        assert!((n[1] - 1.0).abs() < 1e-6 && n[0].abs() < 1e-6 && n[2].abs() < 1e-6, "{n:?}");
+        assert!(
+            (n[1] - 1.0).abs() < 1e-6 && n[0].abs() < 1e-6 && n[2].abs() < 1e-6,
+            "{n:?}"
+        );
     }
 }

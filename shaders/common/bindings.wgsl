@@ -67,7 +67,8 @@ struct Spring {
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> springs: array<Spring>;
 // Spring adjacency offsets (N + 1) at 0, then its entries
-// (spring << 1 | end), triangle adjacency offsets and entries, triangles.
+// (spring << 1 | end), then each entry's other particle; triangle adjacency
+// offsets and entries; triangles.
 @group(0) @binding(2) var<storage, read> topo: array<u32>;
 // Positions [m]; w = inverse mass (0 = pinned). Also the vertex buffer.
 @group(0) @binding(3) var<storage, read_write> x: array<vec4<f32>>;
@@ -103,16 +104,18 @@ const W_PRE_DIAG: u32 = 11u;
 const W_PRE_OFF: u32 = 12u;
 const W_FORCE: u32 = 13u;
 
-// `spring_work` sections: (n, a) of the implicit block; (K_s u, b).
+// `spring_work` sections: the implicit block (m, a) with B = a I + m mᵀ;
+// K_s u; the spring force on end i.
 const S_BLOCK: u32 = 0u;
-const S_KV_B: u32 = 1u;
+const S_KV: u32 = 1u;
+const S_FORCE: u32 = 2u;
 
-// `partials` slots.
+// `partials` slots (one value per workgroup each), then the CG scalars.
 const P_CQ: u32 = 0u;
-const P_RS0: u32 = 1u;
-const P_RS1: u32 = 2u;
-const P_D0: u32 = 3u;
-const P_TORQUE: u32 = 4u; // 16 slots: torque-compensation sums
+const P_RS: u32 = 1u;
+const P_D0: u32 = 2u;
+const P_TORQUE: u32 = 3u; // 16 slots: torque-compensation sums
+const P_SLOTS: u32 = 19u;
 
 // `status` words. Twin: layout::status.
 const STATUS_STEP: u32 = 0u;
@@ -138,4 +141,9 @@ fn wi(section: u32, p: u32) -> u32 {
 
 fn si(section: u32, s: u32) -> u32 {
     return section * params.spring_count + s;
+}
+
+// Where the other-particle column of the spring adjacency starts.
+fn spring_adj_others() -> u32 {
+    return params.spring_adj_entries + topo[params.particle_count];
 }

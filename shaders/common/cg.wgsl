@@ -28,30 +28,25 @@ fn precond_mul(p: u32, a: vec3<f32>) -> vec3<f32> {
     );
 }
 
-// Twin: SpringBlock::apply, B d = a d + b n (n·d); block = (n, a), b.
-fn block_apply(s: u32, d: vec3<f32>) -> vec3<f32> {
-    let blk = spring_work[si(S_BLOCK, s)];
-    let b = spring_work[si(S_KV_B, s)].w;
-    return d * blk.w + blk.xyz * (b * dot3(blk.xyz, d));
-}
-
 // (A a)_p, unfiltered, for the vector in work section `sec`: m a_p, then
 // ±B_s (a_i − a_j) over the incident springs in adjacency order — the order
-// in which the CPU's scatter reaches particle p.
+// in which the CPU's scatter reaches particle p. B_s = a I + m mᵀ from the
+// block (m, a) (twin: SpringBlock::apply). Four loads per spring.
 fn apply_a(sec: u32, p: u32) -> vec3<f32> {
-    var acc = work[wi(sec, p)].xyz * v[p].w;
+    let own = work[wi(sec, p)].xyz;
+    var acc = own * v[p].w;
     let begin = topo[p];
     let end = topo[p + 1u];
+    let others = spring_adj_others();
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
-        let s = e >> 1u;
-        let sp = springs[s];
-        let y = block_apply(s, work[wi(sec, sp.i)].xyz - work[wi(sec, sp.j)].xyz);
-        if ((e & 1u) == 0u) {
-            acc += y;
-        } else {
-            acc -= y;
-        }
+        let at_j = (e & 1u) != 0u;
+        let other = work[wi(sec, topo[others + k])].xyz;
+        let d = select(own - other, other - own, at_j);
+        let blk = spring_work[si(S_BLOCK, e >> 1u)];
+        let y = d * blk.w + blk.xyz * dot3(blk.xyz, d);
+        // `a − y` is `a + (−y)` exactly.
+        acc += select(y, -y, at_j);
     }
     return acc;
 }
@@ -86,23 +81,21 @@ fn sum_partials(slot: u32) -> f32 {
     return total;
 }
 
-// Whether CG has stopped before the iteration reading δ from `rs_slot`:
-// converged (δ ≤ tol² δ0, the CPU loop's condition negated) or broken down.
-// The same for every invocation of the dispatch, and sticky: once any
-// kernel sees it, the status word keeps every later iteration stopped
-// (their δ slots hold stale values).
-fn cg_stopped(lid: u32, rs_slot: u32) -> bool {
+// CG scalars, after the partials: δ0, δ (current r·P r), α, β.
+const C_DELTA0: u32 = 0u;
+const C_DELTA: u32 = 1u;
+const C_ALPHA: u32 = 2u;
+const C_BETA: u32 = 3u;
+
+fn scalar_index(k: u32) -> u32 {
+    return P_SLOTS * params.partial_count + k;
+}
+
+// Whether CG has stopped (converged or broken down; set by the one-group
+// kernels cg_start, cg_alpha and cg_beta), uniform over the workgroup.
+fn cg_stopped(lid: u32) -> bool {
     if (lid == 0u) {
-        var stop = atomicLoad(&status[STATUS_CG_STOPPED]);
-        if (stop == 0u) {
-            let delta = sum_partials(rs_slot);
-            let delta0 = sum_partials(P_D0);
-            if (!(delta > params.cg_tolerance_sq * delta0)) {
-                stop = 1u;
-                atomicStore(&status[STATUS_CG_STOPPED], 1u);
-            }
-        }
-        shared_flag = stop;
+        shared_flag = atomicLoad(&status[STATUS_CG_STOPPED]);
     }
     return workgroupUniformLoad(&shared_flag) != 0u;
 }

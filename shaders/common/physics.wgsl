@@ -26,10 +26,10 @@ fn finite3(a: vec3<f32>) -> bool {
     return finite1(a.x) && finite1(a.y) && finite1(a.z);
 }
 
-// Twin: cpu::forces::spring_force. Force on end i of spring s; end j gets
-// the negative. Both ends evaluate it from i − j, so they agree bit for bit.
-fn spring_force(s: u32, xi: vec3<f32>, xj: vec3<f32>, vi: vec3<f32>, vj: vec3<f32>) -> vec3<f32> {
-    let sp = springs[s];
+// Twin: cpu::forces::spring_force. Force on end i of spring `sp`; end j
+// gets the negative. Both ends evaluate it from i − j, so they agree bit
+// for bit.
+fn spring_force(sp: Spring, xi: vec3<f32>, xj: vec3<f32>, vi: vec3<f32>, vj: vec3<f32>) -> vec3<f32> {
     let d = xi - xj;
     let l = len3(d);
     var n = vec3<f32>(0.0);
@@ -68,24 +68,19 @@ fn wind_triangle_force(t: u32) -> vec3<f32> {
     return f * third;
 }
 
-// Total force on particle p at the current x, v (twin:
-// cpu::forces::total_forces): gravity, then springs in adjacency order,
-// then wind triangles in adjacency order.
+// Total force on particle p (twin: cpu::forces::total_forces): gravity,
+// then the spring forces of the spring pass (spring_forces or
+// implicit_springs, section S_FORCE) gathered with their signs in
+// adjacency order, then wind triangles in adjacency order.
 fn total_force(p: u32) -> vec3<f32> {
-    let xp = x[p].xyz;
-    let vp = v[p].xyz;
     var springs_sum = vec3<f32>(0.0);
     let begin = topo[p];
     let end = topo[p + 1u];
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
-        let s = e >> 1u;
-        let sp = springs[s];
-        if ((e & 1u) == 0u) {
-            springs_sum += spring_force(s, xp, x[sp.j].xyz, vp, v[sp.j].xyz);
-        } else {
-            springs_sum -= spring_force(s, x[sp.i].xyz, xp, v[sp.i].xyz, vp);
-        }
+        let f = spring_work[si(S_FORCE, e >> 1u)].xyz;
+        // `a − f` is `a + (−f)` exactly: branch-free for SIMD lanes.
+        springs_sum += select(f, -f, (e & 1u) != 0u);
     }
     var f = params.gravity * v[p].w;
     f += springs_sum;

@@ -9,10 +9,10 @@
 //!   drops it for a compressed spring, which keeps `A` positive definite (a
 //!   compressed spring's true transverse stiffness is negative: cloth
 //!   buckles instead of exploding), and
-//! - `b = dt² k − a + dt kd` — the longitudinal stiffness plus damping.
+//! - `b = dt² k − a + dt kd ≥ 0` — the longitudinal stiffness plus damping.
 //!
-//! So `A p = M p + Σ ±B_s (p_i − p_j)` is evaluated from five numbers per
-//! spring, never as an assembled matrix. The preconditioner is the inverse
+//! With `m = √b n`, `B = a I + m mᵀ`: `A p = M p + Σ ±B_s (p_i − p_j)` is
+//! evaluated from four numbers per spring, never as an assembled matrix. The preconditioner is the inverse
 //! of `A`'s 3×3 diagonal blocks. The filter `S_p` is `0` for a pinned
 //! particle and `I − n nᵀ` for one resting on a collider (the constrained
 //! component of `Δv` is prescribed by `z_p`, which cancels an inward normal
@@ -54,24 +54,24 @@ impl<R: Real> Filter<R> {
     }
 }
 
-/// Per-spring linearisation at the start of the step.
+/// Per-spring linearisation at the start of the step, `B = a I + m mᵀ`
+/// with `m = √b n` (`b ≥ 0`, see the module docs): four numbers, one
+/// `vec4` on the GPU, where CG's inner loop is bound by loads.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SpringBlock<R> {
-    /// Unit direction `n`.
-    pub n: Vec3<R>,
+    /// `√b n` [√kg].
+    pub m: Vec3<R>,
     /// Isotropic coefficient `a` [kg].
     pub a: R,
-    /// Coefficient `b` of `n nᵀ` [kg].
-    pub b: R,
     /// The spring's ends, copied here so CG's inner loop streams one array.
     pub ends: [u32; 2],
 }
 
 impl<R: Real> SpringBlock<R> {
-    /// `B d = a d + b n (n·d)`.
+    /// `B d = a d + m (m·d)`.
     #[inline]
     pub fn apply(&self, d: Vec3<R>) -> Vec3<R> {
-        d * self.a + self.n * (self.b * self.n.dot(d))
+        d * self.a + self.m * self.m.dot(d)
     }
 }
 
@@ -207,9 +207,8 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         let a = dt2 * sp.k * transverse;
         let b = dt2 * sp.k - a + dt * sp.kd;
         w.blocks[s] = SpringBlock {
-            n: dir,
+            m: dir * b.max(R::ZERO).sqrt(),
             a,
-            b,
             ends: [sp.i, sp.j],
         };
         // K_s u = −k (c u + (1 − c) n (n·u)), u = v_i − v_j.
@@ -245,7 +244,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         let mut diag = Sym3::scaled_identity(sys.mass[p]);
         for &e in sys.spring_adj.of(p) {
             let blk = &w.blocks[(e >> 1) as usize];
-            diag.add_iso_aniso(blk.a, blk.b, blk.n);
+            diag.add_iso_aniso(blk.a, R::ONE, blk.m);
         }
         // A's diagonal block is m I plus positive semi-definite terms, so it
         // is invertible; the fallback only guards a pathological input.

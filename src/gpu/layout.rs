@@ -110,8 +110,11 @@ pub mod section {
 /// Sections of the per-spring buffer.
 pub const SPRING_SECTIONS: u32 = 3;
 
-/// Slots of the reduction partials (4 CG slots + 16 torque sums).
-pub const PARTIAL_SLOTS: u32 = 20;
+/// Slots of the reduction partials (3 CG slots + 16 torque sums), followed
+/// by 4 CG scalars (twin: `P_SLOTS` and `C_*`).
+pub const PARTIAL_SLOTS: u32 = 19;
+/// CG scalars after the partial slots.
+pub const CG_SCALARS: u32 = 4;
 
 /// Words of the status buffer (twin of the `STATUS_*` constants).
 pub mod status {

@@ -57,19 +57,21 @@ const FIXUP: &[Variant] = &[
     v("finish_step", ".alt", &[("SRC", ALT)]),
 ];
 
-/// CG, shared by implicit and the scalable semi-implicit filter. The two
-/// parities read δ from partials slot 1 or 2.
+/// CG, shared by implicit and the scalable semi-implicit filter.
 const CG: &[Variant] = &[
     v("cg_init", "", &[]),
-    v("cg_apply", ".even", &[("RS", 1.0)]),
-    v("cg_apply", ".odd", &[("RS", 2.0)]),
-    v("cg_update", ".even", &[("RS", 1.0), ("RS_NEXT", 2.0)]),
-    v("cg_update", ".odd", &[("RS", 2.0), ("RS_NEXT", 1.0)]),
-    v("cg_direction", ".even", &[("RS", 1.0), ("RS_NEXT", 2.0)]),
-    v("cg_direction", ".odd", &[("RS", 2.0), ("RS_NEXT", 1.0)]),
+    v("cg_start", "", &[]),
+    v("cg_apply", "", &[]),
+    v("cg_alpha", "", &[]),
+    v("cg_update", "", &[]),
+    v("cg_beta", "", &[]),
+    v("cg_direction", "", &[]),
 ];
 
-const EXPLICIT: &[Variant] = &[v("explicit_integrate", "", &[])];
+const EXPLICIT: &[Variant] = &[
+    v("spring_forces", "", &[]),
+    v("explicit_integrate", "", &[]),
+];
 
 const IMPLICIT: &[Variant] = &[
     v("implicit_springs", "", &[]),
@@ -78,6 +80,7 @@ const IMPLICIT: &[Variant] = &[
 ];
 
 const SEMI: &[Variant] = &[
+    v("spring_forces", "", &[]),
     v("semi_rhs", "", &[]),
     v("semi_rhs", ".keep", &[("ZERO_DV", 0.0)]),
     v("filter_dense", "", &[]),

@@ -28,6 +28,7 @@ const COMMON: &[(&str, &str)] = &[
 
 /// Every kernel: (entry point = file stem, source before composition).
 pub const KERNELS: &[(&str, &str)] = &[
+    wgsl!("spring_forces"),
     wgsl!("explicit_integrate"),
     wgsl!("fixup_jacobi"),
     wgsl!("finish_step"),
@@ -35,8 +36,11 @@ pub const KERNELS: &[(&str, &str)] = &[
     wgsl!("implicit_springs"),
     wgsl!("implicit_prepare"),
     wgsl!("cg_init"),
+    wgsl!("cg_start"),
     wgsl!("cg_apply"),
+    wgsl!("cg_alpha"),
     wgsl!("cg_update"),
+    wgsl!("cg_beta"),
     wgsl!("cg_direction"),
     wgsl!("implicit_finish"),
     wgsl!("semi_rhs"),
