@@ -17,6 +17,12 @@ const BIN: &str = env!("CARGO_BIN_EXE_wgcloth");
 /// The documented exit statuses.
 const EXIT_INVALID: i32 = 2;
 const EXIT_BLEW_UP: i32 = 3;
+const EXIT_NO_ADAPTER: i32 = 4;
+
+/// The software Vulkan adapter (Mesa's lavapipe) installed on the
+/// development machine and in CI: its name contains this. The GPU tests
+/// below fail, never skip, where it is missing.
+const LAVAPIPE: &str = "llvmpipe";
 
 /// A 5 × 5 explicit cloth, 5 steps by default: fast enough for a debug build.
 const SMALL_SCENE: &str = r#"
@@ -30,6 +36,12 @@ resolution = [5, 5]
 pins = ["top-left", "top-right"]
 "#;
 const SMALL_PARTICLES: usize = 25;
+
+/// [`SMALL_SCENE`] with the fix-up the GPU always uses, so that the CPU's
+/// `f32` mirror performs the GPU's arithmetic.
+fn small_jacobi_scene() -> String {
+    format!("{SMALL_SCENE}\n[fixup]\nmethod = \"jacobi\"\n")
+}
 
 /// Explicit integration far beyond its stability limit (ω·dt ≈ 10⁴ with
 /// k = 10⁹ N/m, m ≈ 0.03 kg, dt = 0.1 s). The fix-up is off because it
@@ -132,6 +144,11 @@ fn reference_positions<R: Real>(scene: &Path, steps: u64) -> Vec<[f64; 3]> {
     solver.positions().iter().map(|p| p.to_f64()).collect()
 }
 
+/// A test path as a `&str` (the temp directory's path is UTF-8 here).
+fn path_str(path: &Path) -> &str {
+    path.to_str().expect("a UTF-8 temp path")
+}
+
 /// Parses `--positions-out`: one `x y z` line per particle.
 fn parse_positions(text: &str) -> Vec<[f64; 3]> {
     text.lines()
@@ -229,30 +246,54 @@ fn positions_out_round_trips_exactly() {
     }
 }
 
+/// Runs `wgcloth run SCENE --steps N --positions-out FILE EXTRA…`, expects
+/// success, and returns the summary and the positions.
+fn run_positions(scene: &Path, steps: u64, file: &Path, extra: &[&str]) -> (String, Vec<[f64; 3]>) {
+    let mut args = vec![OsStr::new("run"), scene.as_os_str(), OsStr::new("--steps")];
+    let steps = steps.to_string();
+    args.extend([
+        OsStr::new(&steps),
+        OsStr::new("--positions-out"),
+        file.as_os_str(),
+    ]);
+    args.extend(extra.iter().map(OsStr::new));
+    let out = wgcloth(&args);
+    assert_status(&out, 0);
+    let text = fs::read_to_string(file).expect("the positions file exists");
+    (stdout(&out), parse_positions(&text))
+}
+
 #[test]
 fn trace_out_has_every_kth_step_and_the_last() {
-    let dir = TempDir::new("trace");
+    // Steps 0, 2 and 4, and the last step 5 although 5 is not a multiple of 2.
+    traced_run("trace", 5, 2, &[], &[0, 2, 4, 5]);
+}
+
+/// Runs [`SMALL_SCENE`] for `steps` steps with `--trace-every every`, the
+/// positions and the trace written, and `extra` options; checks the trace
+/// with [`assert_trace`]. Returns the summary.
+#[track_caller]
+fn traced_run(test: &str, steps: u64, every: u64, extra: &[&str], traced: &[u64]) -> String {
+    let dir = TempDir::new(test);
     let scene = dir.write("small.toml", SMALL_SCENE);
-    let (trace, positions) = (dir.join("trace.csv"), dir.join("final.txt"));
-    let out = wgcloth(&[
-        OsStr::new("run"),
-        scene.as_os_str(),
-        OsStr::new("--steps"),
-        OsStr::new("5"),
-        OsStr::new("--trace-every"),
-        OsStr::new("2"),
-        OsStr::new("--trace-out"),
-        trace.as_os_str(),
-        OsStr::new("--positions-out"),
-        positions.as_os_str(),
-    ]);
-    assert_status(&out, 0);
-    let text = fs::read_to_string(&trace).expect("the trace exists");
+    let trace = dir.join("trace.csv");
+    let every = every.to_string();
+    let mut args = vec!["--trace-every", &every, "--trace-out", path_str(&trace)];
+    args.extend_from_slice(extra);
+    let (summary, last) = run_positions(&scene, steps, &dir.join("final.txt"), &args);
+    assert_trace(&trace, traced, &last);
+    summary
+}
+
+/// Checks a `--trace-out` file: the header, one row per particle at each of
+/// the `traced` steps, the first at rest, the last the state that
+/// `--positions-out` wrote (`positions`).
+#[track_caller]
+fn assert_trace(trace: &Path, traced: &[u64], positions: &[[f64; 3]]) {
+    let text = fs::read_to_string(trace).expect("the trace exists");
     let mut lines = text.lines();
     assert_eq!(lines.next(), Some("step,time,particle,x,y,z,vx,vy,vz"));
     let rows: Vec<TraceRow> = lines.map(TraceRow::parse).collect();
-    // Steps 0, 2 and 4, and the last step 5 although 5 is not a multiple of 2.
-    let traced = [0, 2, 4, 5];
     assert_eq!(rows.len(), SMALL_PARTICLES * traced.len());
     for (n, row) in rows.iter().enumerate() {
         assert_eq!(row.step, traced[n / SMALL_PARTICLES], "row {n}: step");
@@ -266,8 +307,7 @@ fn trace_out_has_every_kth_step_and_the_last() {
         .iter()
         .map(|r| r.x)
         .collect();
-    let written = fs::read_to_string(&positions).expect("the positions file exists");
-    assert_same_positions(&last, &parse_positions(&written), "last trace step");
+    assert_same_positions(&last, positions, "last trace step");
 }
 
 #[test]
@@ -298,10 +338,22 @@ fn steps_and_seconds_conflict() {
 }
 
 #[test]
-fn only_the_cpu_backend_exists_yet() {
-    let out = wgcloth(&["run", "hanging", "--backend", "gpu"]);
+fn unknown_backend_lists_cpu_and_gpu() {
+    let out = wgcloth(&["run", "hanging", "--backend", "tpu"]);
     assert_status(&out, EXIT_INVALID);
-    assert!(stderr(&out).contains("cpu"), "stderr: {}", stderr(&out));
+    let err = stderr(&out);
+    assert!(err.contains("cpu") && err.contains("gpu"), "stderr: {err}");
+}
+
+#[test]
+fn gpu_refuses_f64_and_cpu_refuses_an_adapter() {
+    // Refused before any adapter is opened: no GPU needed.
+    let out = wgcloth(&["run", "hanging", "--backend", "gpu", "--precision", "f64"]);
+    assert_status(&out, EXIT_INVALID);
+    assert!(stderr(&out).contains("f32"), "stderr: {}", stderr(&out));
+    let out = wgcloth(&["run", "hanging", "--adapter", LAVAPIPE]);
+    assert_status(&out, EXIT_INVALID);
+    assert!(stderr(&out).contains("--backend gpu"), "{}", stderr(&out));
 }
 
 #[test]
@@ -334,19 +386,140 @@ fn missing_output_directory_fails_before_running() {
 
 #[test]
 fn blow_up_names_the_step_and_leaves_no_files() {
-    let dir = TempDir::new("blow-up");
+    assert!(blow_up_step("blow-up", &[]) > 0);
+}
+
+/// Runs [`BLOW_UP_SCENE`] with `extra` options, the positions and a trace
+/// asked for; expects exit status 3, a message naming the step, and no file
+/// (no positions, no trace, no temporary) left behind. Returns the step.
+#[track_caller]
+fn blow_up_step(test: &str, extra: &[&str]) -> u64 {
+    let dir = TempDir::new(test);
     let scene = dir.write("stiff.toml", BLOW_UP_SCENE);
-    let out = wgcloth(&[
+    let (positions, trace) = (dir.join("positions.txt"), dir.join("trace.csv"));
+    let mut args = vec![
         OsStr::new("run"),
         scene.as_os_str(),
         OsStr::new("--positions-out"),
-        dir.join("positions.txt").as_os_str(),
+        positions.as_os_str(),
         OsStr::new("--trace-out"),
-        dir.join("trace.csv").as_os_str(),
-    ]);
+        trace.as_os_str(),
+    ];
+    args.extend(extra.iter().map(OsStr::new));
+    let out = wgcloth(&args);
     assert_status(&out, EXIT_BLEW_UP);
     let err = stderr(&out);
-    assert!(err.contains("blew up at step "), "stderr: {err}");
-    // No positions, no trace, no temporary left behind.
+    let at = err
+        .find("blew up at step ")
+        .unwrap_or_else(|| panic!("stderr: {err}"));
+    let step: String = err[at + "blew up at step ".len()..]
+        .chars()
+        .take_while(char::is_ascii_digit)
+        .collect();
     assert_eq!(dir.files(), ["stiff.toml"]);
+    step.parse().expect("a step number")
+}
+
+// --- The GPU backend, on lavapipe.
+
+/// The largest distance between two position files' particles [m].
+fn worst_distance(a: &[[f64; 3]], b: &[[f64; 3]]) -> f64 {
+    assert_eq!(a.len(), b.len(), "particle count");
+    a.iter()
+        .zip(b)
+        .map(|(p, q)| (0..3).map(|k| (p[k] - q[k]).powi(2)).sum::<f64>().sqrt())
+        .fold(0.0, |m, d| if d > m || d.is_nan() { d } else { m })
+}
+
+#[test]
+fn gpu_run_matches_the_cpu_f32_mirror_and_names_its_adapter() {
+    let dir = TempDir::new("gpu-positions");
+    let scene = dir.write("small.toml", &small_jacobi_scene());
+    let steps = 60;
+    let (summary, gpu) = run_positions(
+        &scene,
+        steps,
+        &dir.join("gpu.txt"),
+        &["--backend", "gpu", "--adapter", LAVAPIPE],
+    );
+    let (_, cpu) = run_positions(
+        &scene,
+        steps,
+        &dir.join("cpu.txt"),
+        &["--backend", "cpu", "--precision", "f32"],
+    );
+    assert_eq!(gpu.len(), SMALL_PARTICLES);
+    // Both evaluate the same f32 expressions in the same order, and on
+    // lavapipe agree bit for bit today; another adapter may fuse
+    // multiply-adds or round sqrt and division differently, a few ulps of
+    // ~1 m per step that the springs feed back over the run. 1e-4 m (a
+    // tenth of a millimetre) is the library's own GPU-vs-CPU tolerance for
+    // 100 steps (tests/gpu_explicit.rs).
+    let d = worst_distance(&gpu, &cpu);
+    assert!(d < 1e-4, "GPU and CPU f32 positions differ by {d:e} m");
+    let backend = summary
+        .lines()
+        .find(|l| l.starts_with("backend "))
+        .unwrap_or_else(|| panic!("no `backend` row in\n{summary}"));
+    assert!(backend.contains("gpu (f32) on "), "{backend}");
+    assert!(backend.contains(LAVAPIPE), "{backend}");
+    for label in ["energy [J]", "max strain", "jacobi (GPU)"] {
+        assert!(summary.contains(label), "no `{label}` in\n{summary}");
+    }
+}
+
+#[test]
+fn gpu_trace_has_every_kth_step_and_the_last() {
+    // No --adapter: the default adapter (or WGPU_ADAPTER_NAME's).
+    let summary = traced_run("gpu-trace", 7, 3, &["--backend", "gpu"], &[0, 3, 6, 7]);
+    assert!(summary.contains("gpu (f32) on "), "{summary}");
+}
+
+#[test]
+fn unknown_adapter_is_refused_with_the_available_ones() {
+    let out = wgcloth(&[
+        "run",
+        "hanging",
+        "--backend",
+        "gpu",
+        "--adapter",
+        "no-such-adapter",
+    ]);
+    assert_status(&out, EXIT_NO_ADAPTER);
+    let err = stderr(&out);
+    // The name asked for, the adapters there are (lavapipe among them: a
+    // machine without it fails here) and how to get one.
+    for needle in ["no-such-adapter", LAVAPIPE, "lavapipe"] {
+        assert!(err.contains(needle), "no `{needle}` in stderr: {err}");
+    }
+    assert!(stdout(&out).is_empty(), "a summary was printed");
+}
+
+#[test]
+fn adapter_option_overrides_the_environment_variable() {
+    let run = |args: &[&str]| {
+        Command::new(BIN)
+            .args(["run", "hanging", "--backend", "gpu", "--steps", "2"])
+            .args(args)
+            .env("WGPU_ADAPTER_NAME", "no-such-adapter")
+            .output()
+            .expect("run the wgcloth binary")
+    };
+    let out = run(&[]);
+    assert_status(&out, EXIT_NO_ADAPTER);
+    assert!(stderr(&out).contains("no-such-adapter"), "{}", stderr(&out));
+    let out = run(&["--adapter", &LAVAPIPE.to_uppercase()]);
+    assert_status(&out, 0);
+    assert!(stdout(&out).contains(LAVAPIPE), "{}", stdout(&out));
+}
+
+#[test]
+fn gpu_blow_up_names_the_step_and_leaves_no_files() {
+    // The state grows by ~10⁸ a step until it overflows f32: a few ulps of
+    // difference cannot move the step it happens at. The GPU reports that
+    // step exactly, though it notices only at the end of a batch.
+    assert_eq!(
+        blow_up_step("gpu-blow-up", &["--backend", "gpu"]),
+        blow_up_step("cpu-f32-blow-up", &["--precision", "f32"])
+    );
 }

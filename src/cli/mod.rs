@@ -3,6 +3,7 @@
 //! The options and exit statuses are a stable contract (documented in the
 //! README's "CLI reference"): scripts run parameter sweeps through them.
 
+mod backend;
 mod output;
 mod run;
 mod scenes;
@@ -24,13 +25,16 @@ const EXIT_FAILURE: u8 = 1;
 const EXIT_INVALID: u8 = 2;
 /// The simulation became non-finite (blew up); no output file was written.
 const EXIT_BLEW_UP: u8 = 3;
+/// `--backend gpu` found no GPU adapter (or none matching `--adapter`), or
+/// could not open one; nothing ran.
+const EXIT_NO_ADAPTER: u8 = 4;
 
 #[derive(Parser, Debug)]
 #[command(
     name = "wgcloth",
     version,
     about = "Mass-spring cloth simulator: explicit, implicit and semi-implicit integrators \
-             on a CPU reference solver (the wgpu GPU backend is coming)",
+             on a CPU reference solver and a wgpu GPU solver",
     propagate_version = true
 )]
 struct Cli {
@@ -61,6 +65,13 @@ struct RunArgs {
     /// Which solver runs the simulation.
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     backend: Backend,
+
+    /// With `--backend gpu`: use the first GPU adapter whose name contains
+    /// NAME (case-insensitive). Default: the adapter named by the
+    /// `WGPU_ADAPTER_NAME` environment variable, else the system's
+    /// high-performance adapter.
+    #[arg(long, value_name = "NAME")]
+    adapter: Option<String>,
 
     /// Number of steps to run. Default: the scene's `[simulation] duration`,
     /// converted like `--seconds`.
@@ -102,10 +113,11 @@ struct RunArgs {
     )]
     trace_every: u64,
 
-    /// Arithmetic of the solver: f64 (the reference) or f32 (what the GPU
-    /// computes).
-    #[arg(long, value_enum, default_value_t = Precision::F64)]
-    precision: Precision,
+    /// Arithmetic of the CPU solver: f64 (the reference) or f32 (what the
+    /// GPU computes). Default: f64 on the CPU; the GPU computes in f32 only
+    /// and refuses `--precision f64`.
+    #[arg(long, value_enum)]
+    precision: Option<Precision>,
 }
 
 /// The integrators, as the CLI spells them (the scene-file spelling).
@@ -129,20 +141,13 @@ impl From<IntegratorArg> for Integrator {
     }
 }
 
-/// Solver backends. Only the CPU reference exists so far; the wgpu backend
-/// will add `gpu` here.
+/// Solver backends.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 enum Backend {
-    /// The CPU reference solver.
+    /// The CPU reference solver, in f64 or f32.
     Cpu,
-}
-
-impl Backend {
-    fn as_str(self) -> &'static str {
-        match self {
-            Backend::Cpu => "cpu",
-        }
-    }
+    /// The wgpu compute-shader solver, in f32.
+    Gpu,
 }
 
 /// Scalar type of the solver.
@@ -152,15 +157,6 @@ enum Precision {
     F64,
     /// Single precision: the GPU's arithmetic.
     F32,
-}
-
-impl Precision {
-    fn as_str(self) -> &'static str {
-        match self {
-            Precision::F64 => "f64",
-            Precision::F32 => "f32",
-        }
-    }
 }
 
 /// `--seconds`: a finite, non-negative number of seconds.
@@ -206,9 +202,12 @@ fn exit_status(err: &anyhow::Error) -> u8 {
         if let Some(e) = cause.downcast_ref::<wgcloth::Error>() {
             return match e {
                 wgcloth::Error::NonFinite { .. } => EXIT_BLEW_UP,
+                wgcloth::Error::NoAdapter { .. } => EXIT_NO_ADAPTER,
+                // A cloth too big for the device is the input's fault.
                 wgcloth::Error::InvalidParameter { .. }
                 | wgcloth::Error::Scene { .. }
-                | wgcloth::Error::UnknownScene { .. } => EXIT_INVALID,
+                | wgcloth::Error::UnknownScene { .. }
+                | wgcloth::Error::DeviceLimit { .. } => EXIT_INVALID,
                 _ => EXIT_FAILURE,
             };
         }

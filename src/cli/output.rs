@@ -133,6 +133,11 @@ impl Trace {
         })
     }
 
+    /// Whether [`Trace::step`] records `step`: a multiple of K.
+    pub fn wants(&self, step: u64) -> bool {
+        step % self.every == 0
+    }
+
     /// Records the state after `step` if `step` is a multiple of K.
     pub fn step<R: Real>(
         &mut self,
@@ -141,7 +146,7 @@ impl Trace {
         x: &[Vec3<R>],
         v: &[Vec3<R>],
     ) -> wgcloth::Result<()> {
-        if step % self.every == 0 {
+        if self.wants(step) {
             self.record(step, time, x, v)?;
         }
         Ok(())

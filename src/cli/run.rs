@@ -5,11 +5,11 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
-use wgcloth::cpu::{CpuSolver, StepStats};
-use wgcloth::{diagnostics, Integrator, Model, Params, Real, Scene};
+use wgcloth::{diagnostics, Model, Params, Real, Scene};
 
+use super::backend::{Cpu, Gpu, Solver, MAX_BATCH};
 use super::output::{write_positions, AtomicFile, Trace};
-use super::summary::{CgSummary, FixupSummary, Outcome, Summary};
+use super::summary::{Outcome, Summary};
 use super::{Backend, Precision, RunArgs, UsageError};
 
 /// Most steps one run may take: far beyond any useful run, and small enough
@@ -24,6 +24,7 @@ const WHOLE_STEPS_TOLERANCE: f64 = 1e-9;
 /// Runs `wgcloth run`.
 pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     let started = Instant::now();
+    let precision = precision_for_backend(args)?;
     let mut scene = Scene::resolve(&args.scene)?;
     if let Some(integrator) = args.integrator {
         scene.params.integrator = integrator.into();
@@ -50,27 +51,49 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         }
     }
     let model = scene.model()?;
-    let outputs = Outputs {
+    let (model, params) = (&model, &scene.params);
+    let run = Run {
+        model,
+        params,
+        steps,
         positions: args.positions_out.as_deref(),
         trace: args.trace_out.as_deref(),
         trace_every: args.trace_every,
     };
-    let outcome = match (args.backend, args.precision) {
-        (Backend::Cpu, Precision::F64) => simulate::<f64>(&model, &scene.params, steps, &outputs)?,
-        (Backend::Cpu, Precision::F32) => simulate::<f32>(&model, &scene.params, steps, &outputs)?,
+    let outcome = match (args.backend, precision) {
+        (Backend::Cpu, Precision::F64) => run.simulate(Cpu::<f64>::new(model, params)?)?,
+        (Backend::Cpu, Precision::F32) => run.simulate(Cpu::<f32>::new(model, params)?)?,
+        (Backend::Gpu, _) => run.simulate(Gpu::new(args.adapter.as_deref(), model, params)?)?,
     };
     let summary = Summary {
         scene: &scene.name,
         integrator: scene.params.integrator,
-        backend: args.backend.as_str(),
-        precision: args.precision.as_str(),
-        model: &model,
+        model,
         dt: scene.params.dt,
         wall: started.elapsed(),
         outcome,
     };
     print!("{summary}");
     Ok(())
+}
+
+/// The solver's precision: `--precision` on the CPU (default f64); f32 on
+/// the GPU, which refuses an explicit `--precision f64` rather than run
+/// something other than what was asked for. Also refuses `--adapter` with
+/// the CPU backend, where it would mean nothing.
+fn precision_for_backend(args: &RunArgs) -> Result<Precision, UsageError> {
+    match (args.backend, args.precision) {
+        (Backend::Cpu, _) if args.adapter.is_some() => Err(UsageError(
+            "--adapter only applies to --backend gpu".to_string(),
+        )),
+        (Backend::Cpu, p) => Ok(p.unwrap_or(Precision::F64)),
+        (Backend::Gpu, None | Some(Precision::F32)) => Ok(Precision::F32),
+        (Backend::Gpu, Some(Precision::F64)) => Err(UsageError(
+            "--precision f64 is not available with --backend gpu: the GPU computes in f32 \
+             (leave --precision out; `--backend cpu --precision f64` is the reference)"
+                .to_string(),
+        )),
+    }
 }
 
 /// The step count that covers `seconds` at `dt`: `ceil(seconds / dt)`, up to
@@ -91,127 +114,71 @@ fn steps_for(seconds: f64, dt: f64, what: &str) -> Result<u64, UsageError> {
     Ok(n as u64)
 }
 
-/// Where the run writes its files.
-struct Outputs<'a> {
+/// One run: what to simulate and where its files go.
+struct Run<'a> {
+    model: &'a Model,
+    params: &'a Params,
+    steps: u64,
     positions: Option<&'a Path>,
     trace: Option<&'a Path>,
     trace_every: u64,
 }
 
-/// Builds the solver, opens the outputs, steps, and writes the outputs.
-fn simulate<R: Real>(
-    model: &Model,
-    params: &Params,
-    steps: u64,
-    outputs: &Outputs<'_>,
-) -> wgcloth::Result<Outcome> {
-    let mut solver = CpuSolver::<R>::new(model, params)?;
-    // Opened before stepping so a bad path fails before a long run, not
-    // after it; dropped uncommitted on any error below, which removes them.
-    let positions = outputs.positions.map(AtomicFile::create).transpose()?;
-    let mut trace = outputs
-        .trace
-        .map(|path| Trace::create(path, outputs.trace_every))
-        .transpose()?;
-    if let Some(trace) = &mut trace {
-        trace.step(0, 0.0, solver.positions(), solver.velocities())?;
-    }
+impl Run<'_> {
+    /// Opens the outputs, steps `solver`, writes the outputs and measures
+    /// the final state.
+    fn simulate<S: Solver>(&self, mut solver: S) -> wgcloth::Result<Outcome> {
+        // Opened before stepping so a bad path fails before a long run, not
+        // after it; dropped uncommitted on any error below, which removes
+        // them.
+        let positions = self.positions.map(AtomicFile::create).transpose()?;
+        let mut trace = self
+            .trace
+            .map(|path| Trace::create(path, self.trace_every))
+            .transpose()?;
 
-    let mut totals = Totals::new(params.implicit.max_iterations);
-    for _ in 0..steps {
-        let t0 = Instant::now();
-        let stats = solver.step()?;
-        totals.stepping += t0.elapsed();
-        totals.add(&stats);
-        if let Some(trace) = &mut trace {
-            trace.step(
-                solver.steps(),
-                solver.time(),
-                solver.positions(),
-                solver.velocities(),
-            )?;
+        let mut stepping = Duration::ZERO;
+        loop {
+            let done = solver.steps();
+            if let Some(trace) = trace.as_mut().filter(|t| t.wants(done)) {
+                let time = solver.time();
+                let s = solver.state()?;
+                trace.step(done, time, &s.x, &s.v)?;
+            }
+            if done == self.steps {
+                break;
+            }
+            // Up to the next traced step, so that the state is at hand then;
+            // in batches, so that a GPU blow-up is noticed soon.
+            let mut n = (self.steps - done).min(MAX_BATCH);
+            if trace.is_some() {
+                n = n.min(self.trace_every - done % self.trace_every);
+            }
+            let t0 = Instant::now();
+            solver.advance(n)?;
+            stepping += t0.elapsed();
         }
-    }
 
-    let (x, v) = (solver.positions(), solver.velocities());
-    if let Some(mut file) = positions {
-        file.write_with(|out| write_positions(out, x))?;
-        file.commit()?;
-    }
-    if let Some(trace) = trace {
-        trace.finish(solver.steps(), solver.time(), x, v)?;
-    }
-    Ok(Outcome {
-        steps: solver.steps(),
-        time: solver.time(),
-        stepping: totals.stepping,
-        max_strain: diagnostics::max_stretch_strain(model, x),
-        energy: diagnostics::energy(model, params, x, v),
-        cg: totals.cg(params),
-        fixup: totals.fixup(params.integrator),
-        filter: solver.filter_name(),
-    })
-}
-
-/// Per-step statistics summed over the run.
-struct Totals {
-    steps: u64,
-    stepping: Duration,
-    cg_iterations: u64,
-    cg_max: u32,
-    /// The implicit solver's CG iteration cap.
-    cg_cap: u32,
-    /// Steps whose CG stopped at the cap rather than at the tolerance.
-    cg_capped: u64,
-    cg_max_residual: f64,
-    fixup_passes: u64,
-    fixup_max: u32,
-}
-
-impl Totals {
-    fn new(cg_cap: u32) -> Self {
-        Totals {
-            steps: 0,
-            stepping: Duration::ZERO,
-            cg_iterations: 0,
-            cg_max: 0,
-            cg_cap,
-            cg_capped: 0,
-            cg_max_residual: 0.0,
-            fixup_passes: 0,
-            fixup_max: 0,
+        let (steps, time, device) = (solver.steps(), solver.time(), solver.device());
+        let stats = solver.stats(self.params);
+        let s = solver.state()?;
+        if let Some(mut file) = positions {
+            file.write_with(|out| write_positions(out, &s.x))?;
+            file.commit()?;
         }
-    }
-
-    fn add(&mut self, s: &StepStats) {
-        self.steps += 1;
-        self.cg_iterations += u64::from(s.cg_iterations);
-        self.cg_max = self.cg_max.max(s.cg_iterations);
-        self.cg_capped += u64::from(s.cg_iterations >= self.cg_cap);
-        self.cg_max_residual = self.cg_max_residual.max(s.cg_residual);
-        self.fixup_passes += u64::from(s.fixup_passes);
-        self.fixup_max = self.fixup_max.max(s.fixup_passes);
-    }
-
-    fn mean(&self, total: u64) -> Option<f64> {
-        (self.steps > 0).then(|| total as f64 / self.steps as f64)
-    }
-
-    fn cg(&self, params: &Params) -> Option<CgSummary> {
-        (params.integrator == Integrator::Implicit).then(|| CgSummary {
-            mean: self.mean(self.cg_iterations),
-            max: self.cg_max,
-            cap: self.cg_cap,
-            capped_steps: self.cg_capped,
-            max_residual: self.cg_max_residual,
-            tolerance: params.implicit.tolerance,
-        })
-    }
-
-    fn fixup(&self, integrator: Integrator) -> Option<FixupSummary> {
-        (integrator != Integrator::Implicit).then(|| FixupSummary {
-            mean: self.mean(self.fixup_passes),
-            max: self.fixup_max,
+        if let Some(trace) = trace {
+            trace.finish(steps, time, &s.x, &s.v)?;
+        }
+        Ok(Outcome {
+            backend: S::BACKEND,
+            precision: S::Real::NAME,
+            device,
+            steps,
+            time,
+            stepping,
+            max_strain: diagnostics::max_stretch_strain(self.model, &s.x),
+            energy: diagnostics::energy(self.model, self.params, &s.x, &s.v),
+            stats,
         })
     }
 }

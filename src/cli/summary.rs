@@ -20,10 +20,6 @@ pub struct Summary<'a> {
     pub scene: &'a str,
     /// Integrator that ran.
     pub integrator: Integrator,
-    /// Backend name.
-    pub backend: &'static str,
-    /// `"f64"` or `"f32"`.
-    pub precision: &'static str,
     /// The cloth (particle and spring counts).
     pub model: &'a Model,
     /// Time step [s].
@@ -36,62 +32,94 @@ pub struct Summary<'a> {
 
 /// What a finished run measured.
 pub struct Outcome {
+    /// Backend name (`"cpu"`, `"gpu"`).
+    pub backend: &'static str,
+    /// `"f64"` or `"f32"`.
+    pub precision: &'static str,
+    /// The adapter the GPU backend ran on (`None` on the CPU).
+    pub device: Option<String>,
     /// Steps taken.
     pub steps: u64,
     /// Simulated time [s].
     pub time: f64,
-    /// Wall-clock time spent inside the solver's `step` only.
+    /// Wall-clock time spent stepping only: on the GPU, submitting the steps
+    /// and waiting for the status read-back after each batch.
     pub stepping: Duration,
     /// Largest stretch-spring strain `(l − L) / L` at the end; `−∞` when
     /// there are no stretch springs.
     pub max_strain: f64,
     /// Energy at the end [J].
     pub energy: Energy,
+    /// What the solver counted.
+    pub stats: SolverStats,
+}
+
+/// What a solver counted over a run, per integrator.
+pub struct SolverStats {
     /// Conjugate-gradient statistics (implicit only).
     pub cg: Option<CgSummary>,
     /// Fix-up statistics (explicit and semi-implicit).
     pub fixup: Option<FixupSummary>,
-    /// `"dense"` / `"banded"` (semi-implicit only).
+    /// `"dense"` / `"banded"` (semi-implicit on the CPU only).
     pub filter: Option<&'static str>,
 }
 
 /// CG iterations over a run.
 pub struct CgSummary {
-    /// Mean iterations per step (`None` for a run of zero steps).
-    pub mean: Option<f64>,
     /// Most iterations in one step.
     pub max: u32,
     /// The iteration cap (`[implicit] max_iterations`).
     pub cap: u32,
-    /// Steps that stopped at the cap instead of the tolerance.
-    pub capped_steps: u64,
-    /// Largest final relative residual of any step.
-    pub max_residual: f64,
     /// The relative tolerance (`[implicit] tolerance`).
     pub tolerance: f64,
+    /// What else the solver knows.
+    pub detail: CgDetail,
 }
 
-/// Fix-up passes that moved something, over a run.
-pub struct FixupSummary {
-    /// Mean passes per step (`None` for a run of zero steps).
-    pub mean: Option<f64>,
-    /// Most passes in one step.
-    pub max: u32,
+/// The CG statistics beyond the maximum, which depend on the backend.
+pub enum CgDetail {
+    /// The CPU sees every step.
+    PerStep {
+        /// Mean iterations per step (`None` for a run of zero steps).
+        mean: Option<f64>,
+        /// Steps that stopped at the cap instead of the tolerance.
+        capped_steps: u64,
+        /// Largest final relative residual of any step.
+        max_residual: f64,
+    },
+    /// The GPU reports the last step's iterations only (`None` for a run of
+    /// zero steps).
+    Last(Option<u32>),
+}
+
+/// The fix-up over a run.
+pub enum FixupSummary {
+    /// The CPU counts the passes that moved something.
+    Counted {
+        /// Mean passes per step (`None` for a run of zero steps).
+        mean: Option<f64>,
+        /// Most passes in one step.
+        max: u32,
+    },
+    /// The GPU always uses Jacobi, whatever the scene's `[fixup] method`,
+    /// and does not count its passes.
+    GpuJacobi {
+        /// `[fixup] iterations`: the most passes per step.
+        iterations: u32,
+    },
 }
 
 impl Display for Summary<'_> {
     fn fmt(&self, f: &mut Formatter<'_>) -> fmt::Result {
         let o = &self.outcome;
         let m = self.model;
-        let row = |f: &mut Formatter<'_>, label: &str, value: &dyn Display| {
-            writeln!(f, "{label:<LABEL_WIDTH$}{value}")
-        };
         row(f, "scene", &self.scene)?;
         row(f, "integrator", &self.integrator)?;
+        let on = o.device.as_ref().map(|d| format!(" on {d}"));
         row(
             f,
             "backend",
-            &format!("{} ({})", self.backend, self.precision),
+            &format!("{} ({}){}", o.backend, o.precision, on.unwrap_or_default()),
         )?;
         row(
             f,
@@ -114,8 +142,12 @@ impl Display for Summary<'_> {
             ),
         )?;
         let rate = o.steps as f64 / o.stepping.as_secs_f64();
+        let what = match o.device {
+            Some(_) => "stepping and status read-backs only",
+            None => "stepping only",
+        };
         let rate = if rate.is_finite() {
-            format!("{rate:.0} (stepping only)")
+            format!("{rate:.0} ({what})")
         } else {
             "n/a".to_string()
         };
@@ -139,38 +171,71 @@ impl Display for Summary<'_> {
             let label = if n == 0 { "energy [J]" } else { "" };
             row(f, label, &format!("{name:<14}{:>14}", sig(value)))?;
         }
-        if let Some(cg) = &o.cg {
+        let stats = &o.stats;
+        if let Some(cg) = &stats.cg {
+            write_cg(f, cg)?;
+        }
+        if let Some(filter) = stats.filter {
+            row(f, "filter", &filter)?;
+        }
+        match &stats.fixup {
+            Some(FixupSummary::Counted { mean: m, max }) => row(
+                f,
+                "fix-up passes",
+                &format!("mean {}, max {max} per step", mean(*m)),
+            )?,
+            Some(FixupSummary::GpuJacobi { iterations }) => row(
+                f,
+                "fix-up passes",
+                &format!("at most {iterations} per step, fix-up jacobi (GPU)"),
+            )?,
+            None => {}
+        }
+        Ok(())
+    }
+}
+
+/// One row of the summary: the label, padded, then the value.
+fn row(f: &mut Formatter<'_>, label: &str, value: &dyn Display) -> fmt::Result {
+    writeln!(f, "{label:<LABEL_WIDTH$}{value}")
+}
+
+/// The CG rows.
+fn write_cg(f: &mut Formatter<'_>, cg: &CgSummary) -> fmt::Result {
+    let CgSummary {
+        max,
+        cap,
+        tolerance,
+        ..
+    } = cg;
+    match cg.detail {
+        CgDetail::PerStep {
+            mean: m,
+            capped_steps,
+            max_residual,
+        } => {
             row(
                 f,
                 "CG iterations",
                 &format!(
-                    "mean {}, max {} per step (cap {}, reached in {} steps)",
-                    mean(cg.mean),
-                    cg.max,
-                    cg.cap,
-                    cg.capped_steps
+                    "mean {}, max {max} per step (cap {cap}, reached in {capped_steps} steps)",
+                    mean(m)
                 ),
             )?;
             row(
                 f,
                 "CG residual",
-                &format!(
-                    "max {:.3e} (relative; tolerance {:e})",
-                    cg.max_residual, cg.tolerance
-                ),
-            )?;
+                &format!("max {max_residual:.3e} (relative; tolerance {tolerance:e})"),
+            )
         }
-        if let Some(filter) = o.filter {
-            row(f, "filter", &filter)?;
-        }
-        if let Some(fixup) = &o.fixup {
-            row(
-                f,
-                "fix-up passes",
-                &format!("mean {}, max {} per step", mean(fixup.mean), fixup.max),
-            )?;
-        }
-        Ok(())
+        CgDetail::Last(last) => row(
+            f,
+            "CG iterations",
+            &format!(
+                "last {}, max {max} per step (cap {cap}; tolerance {tolerance:e})",
+                last.map_or_else(|| "n/a".to_string(), |n| n.to_string())
+            ),
+        ),
     }
 }
 
@@ -196,7 +261,54 @@ fn sig(v: f64) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::sig;
+    use super::*;
+    use wgcloth::{ClothSpec, Params};
+
+    #[test]
+    fn gpu_rows_name_the_adapter_and_what_the_device_reports() {
+        let params = Params {
+            integrator: Integrator::Implicit,
+            ..Params::default()
+        };
+        let model = Model::new(&ClothSpec::default(), &params.springs).expect("valid");
+        let summary = Summary {
+            scene: "test",
+            integrator: params.integrator,
+            model: &model,
+            dt: params.dt,
+            wall: Duration::from_secs(2),
+            outcome: Outcome {
+                backend: "gpu",
+                precision: "f32",
+                device: Some("llvmpipe (Vulkan, Cpu)".into()),
+                steps: 100,
+                time: 100.0 * params.dt,
+                stepping: Duration::from_secs(1),
+                max_strain: 0.01,
+                energy: Energy::default(),
+                stats: SolverStats {
+                    cg: Some(CgSummary {
+                        max: 40,
+                        cap: 200,
+                        tolerance: 1e-4,
+                        detail: CgDetail::Last(Some(12)),
+                    }),
+                    fixup: Some(FixupSummary::GpuJacobi { iterations: 10 }),
+                    filter: None,
+                },
+            },
+        };
+        let text = summary.to_string();
+        for row in [
+            "backend               gpu (f32) on llvmpipe (Vulkan, Cpu)\n",
+            "steps per second      100 (stepping and status read-backs only)\n",
+            "CG iterations         last 12, max 40 per step (cap 200; tolerance 1e-4)\n",
+            "fix-up passes         at most 10 per step, fix-up jacobi (GPU)\n",
+        ] {
+            assert!(text.contains(row), "no `{row}` in\n{text}");
+        }
+        assert!(!text.contains("CG residual"), "{text}");
+    }
 
     #[test]
     fn sig_keeps_six_significant_digits() {

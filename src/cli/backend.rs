@@ -1,0 +1,247 @@
+//! The two solvers behind one interface, so that `wgcloth run` drives them
+//! with one loop and reports them with one summary.
+//!
+//! The CPU solver steps on the host and every state is at hand; the GPU
+//! solver runs a batch of steps per submission, checks the device's status
+//! word after each batch and reads the state back only when asked.
+
+use std::borrow::Cow;
+
+use wgcloth::cpu::{CpuSolver, StepStats};
+use wgcloth::gpu::{GpuContext, GpuSolver, GpuStatus};
+use wgcloth::{Integrator, Model, Params, Real, Vec3};
+
+use super::summary::{CgDetail, CgSummary, FixupSummary, SolverStats};
+
+/// Most steps one GPU submission records. Bounds the command buffer (the
+/// steps are recorded, not looped on the device) and how long a blow-up
+/// goes unnoticed; 256 steps of a 33 × 33 cloth are a few milliseconds on a
+/// GPU, so the status read-back after each batch costs little.
+pub const MAX_BATCH: u64 = 256;
+
+/// Positions and velocities, borrowed from a CPU solver or read back from a
+/// device.
+pub struct State<'a, R: Clone> {
+    /// Positions [m].
+    pub x: Cow<'a, [Vec3<R>]>,
+    /// Velocities [m/s].
+    pub v: Cow<'a, [Vec3<R>]>,
+}
+
+/// What `wgcloth run` needs from a solver.
+pub trait Solver {
+    /// The solver's arithmetic.
+    type Real: Real;
+    /// `"cpu"` or `"gpu"`, as `--backend` spells it.
+    const BACKEND: &'static str;
+
+    /// The device the solver runs on, for the summary (`None`: the CPU).
+    fn device(&self) -> Option<String>;
+    /// Runs `n` more steps; an error names the first non-finite step.
+    fn advance(&mut self, n: u64) -> wgcloth::Result<()>;
+    /// Steps taken so far.
+    fn steps(&self) -> u64;
+    /// Simulated time so far [s].
+    fn time(&self) -> f64;
+    /// The current state (a read-back on the GPU).
+    fn state(&mut self) -> wgcloth::Result<State<'_, Self::Real>>;
+    /// The solver's statistics of the run so far, given its parameters.
+    fn stats(&self, params: &Params) -> SolverStats;
+}
+
+/// The CPU reference solver, with its per-step statistics summed.
+pub struct Cpu<R: Real> {
+    solver: CpuSolver<R>,
+    totals: Totals,
+}
+
+impl<R: Real> Cpu<R> {
+    /// Builds the solver; refuses invalid parameters.
+    pub fn new(model: &Model, params: &Params) -> wgcloth::Result<Self> {
+        Ok(Cpu {
+            solver: CpuSolver::new(model, params)?,
+            totals: Totals::new(params.implicit.max_iterations),
+        })
+    }
+}
+
+impl<R: Real> Solver for Cpu<R> {
+    type Real = R;
+    const BACKEND: &'static str = "cpu";
+
+    fn device(&self) -> Option<String> {
+        None
+    }
+
+    fn advance(&mut self, n: u64) -> wgcloth::Result<()> {
+        for _ in 0..n {
+            let stats = self.solver.step()?;
+            self.totals.add(&stats);
+        }
+        Ok(())
+    }
+
+    fn steps(&self) -> u64 {
+        self.solver.steps()
+    }
+
+    fn time(&self) -> f64 {
+        self.solver.time()
+    }
+
+    fn state(&mut self) -> wgcloth::Result<State<'_, R>> {
+        Ok(State {
+            x: Cow::Borrowed(self.solver.positions()),
+            v: Cow::Borrowed(self.solver.velocities()),
+        })
+    }
+
+    fn stats(&self, params: &Params) -> SolverStats {
+        SolverStats {
+            cg: self.totals.cg(params),
+            fixup: self.totals.fixup(params.integrator),
+            filter: self.solver.filter_name(),
+        }
+    }
+}
+
+/// Per-step statistics summed over the run.
+struct Totals {
+    steps: u64,
+    cg_iterations: u64,
+    cg_max: u32,
+    /// The implicit solver's CG iteration cap.
+    cg_cap: u32,
+    /// Steps whose CG stopped at the cap rather than at the tolerance.
+    cg_capped: u64,
+    cg_max_residual: f64,
+    fixup_passes: u64,
+    fixup_max: u32,
+}
+
+impl Totals {
+    fn new(cg_cap: u32) -> Self {
+        Totals {
+            steps: 0,
+            cg_iterations: 0,
+            cg_max: 0,
+            cg_cap,
+            cg_capped: 0,
+            cg_max_residual: 0.0,
+            fixup_passes: 0,
+            fixup_max: 0,
+        }
+    }
+
+    fn add(&mut self, s: &StepStats) {
+        self.steps += 1;
+        self.cg_iterations += u64::from(s.cg_iterations);
+        self.cg_max = self.cg_max.max(s.cg_iterations);
+        self.cg_capped += u64::from(s.cg_iterations >= self.cg_cap);
+        self.cg_max_residual = self.cg_max_residual.max(s.cg_residual);
+        self.fixup_passes += u64::from(s.fixup_passes);
+        self.fixup_max = self.fixup_max.max(s.fixup_passes);
+    }
+
+    fn mean(&self, total: u64) -> Option<f64> {
+        (self.steps > 0).then(|| total as f64 / self.steps as f64)
+    }
+
+    fn cg(&self, params: &Params) -> Option<CgSummary> {
+        (params.integrator == Integrator::Implicit).then(|| CgSummary {
+            max: self.cg_max,
+            cap: self.cg_cap,
+            tolerance: params.implicit.tolerance,
+            detail: CgDetail::PerStep {
+                mean: self.mean(self.cg_iterations),
+                capped_steps: self.cg_capped,
+                max_residual: self.cg_max_residual,
+            },
+        })
+    }
+
+    fn fixup(&self, integrator: Integrator) -> Option<FixupSummary> {
+        (integrator != Integrator::Implicit).then(|| FixupSummary::Counted {
+            mean: self.mean(self.fixup_passes),
+            max: self.fixup_max,
+        })
+    }
+}
+
+/// The GPU solver on a device of its own.
+pub struct Gpu {
+    context: GpuContext,
+    solver: GpuSolver,
+    dt: f64,
+    /// What the device reported after the last batch (`None` before the
+    /// first).
+    status: Option<GpuStatus>,
+}
+
+impl Gpu {
+    /// Opens the adapter `adapter` names (see [`GpuContext::new`]) and
+    /// builds the solver on it; refuses invalid parameters, what the GPU
+    /// solver does not support, and a cloth beyond the device's limits.
+    pub fn new(adapter: Option<&str>, model: &Model, params: &Params) -> wgcloth::Result<Self> {
+        let context = GpuContext::new(adapter)?;
+        let solver = GpuSolver::new(&context.device, &context.queue, model, params)?;
+        Ok(Gpu {
+            context,
+            solver,
+            dt: params.dt,
+            status: None,
+        })
+    }
+}
+
+impl Solver for Gpu {
+    type Real = f32;
+    const BACKEND: &'static str = "gpu";
+
+    fn device(&self) -> Option<String> {
+        Some(self.context.describe())
+    }
+
+    fn advance(&mut self, mut n: u64) -> wgcloth::Result<()> {
+        while n > 0 {
+            let batch = n.min(MAX_BATCH);
+            // MAX_BATCH fits a u32.
+            self.status = Some(self.solver.step(batch as u32)?);
+            n -= batch;
+        }
+        Ok(())
+    }
+
+    fn steps(&self) -> u64 {
+        self.solver.steps_recorded()
+    }
+
+    /// `steps × dt`, as the library's blow-up message counts it.
+    fn time(&self) -> f64 {
+        self.steps() as f64 * self.dt
+    }
+
+    fn state(&mut self) -> wgcloth::Result<State<'_, f32>> {
+        let state = self.solver.read_state()?;
+        Ok(State {
+            x: Cow::Owned(state.x),
+            v: Cow::Owned(state.v),
+        })
+    }
+
+    fn stats(&self, params: &Params) -> SolverStats {
+        let status = self.status.unwrap_or_default();
+        SolverStats {
+            cg: (params.integrator == Integrator::Implicit).then(|| CgSummary {
+                max: status.cg_max_iterations,
+                cap: params.implicit.max_iterations,
+                tolerance: params.implicit.tolerance,
+                detail: CgDetail::Last(self.status.map(|s| s.cg_iterations)),
+            }),
+            fixup: (params.integrator != Integrator::Implicit).then_some(FixupSummary::GpuJacobi {
+                iterations: params.fixup.iterations,
+            }),
+            filter: None,
+        }
+    }
+}
