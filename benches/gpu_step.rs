@@ -1,0 +1,181 @@
+//! GPU step time against the CPU reference, measured in one run.
+//!
+//! `cargo bench --bench gpu_step` prints, for 33², 65², 129² and 257²
+//! cloths and each integrator, the median wall time per step of the GPU
+//! solver (a batch of steps recorded into one encoder, one submit, then a
+//! wait) and of the CPU reference in f32, their ratio, and the dispatches
+//! and submits per step; then criterion times the GPU step (`iter_custom`:
+//! submit plus wait) at the smaller sizes. The adapter is the default one
+//! (`WGPU_ADAPTER_NAME` picks another). `WGCLOTH_BENCH_QUICK=1` shortens
+//! the run; `WGCLOTH_BENCH_SIZES=33,65` picks sizes.
+//!
+//! The material is the `hanging` scene grown at constant particle spacing
+//! and mass (see `benches/cpu_step.rs`), explicit at dt = 1/1000 s without
+//! fix-up (the yardstick), implicit and semi-implicit at
+//! dt = 0.02 s, CG tolerance 1e-3.
+
+use std::time::{Duration, Instant};
+
+use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
+use wgcloth::cpu::CpuSolver;
+use wgcloth::gpu::{GpuContext, GpuSolver};
+use wgcloth::params::Integrator;
+use wgcloth::{Model, Params, Scene};
+
+fn quick() -> bool {
+    std::env::var_os("WGCLOTH_BENCH_QUICK").is_some()
+}
+
+fn sizes() -> Vec<usize> {
+    std::env::var("WGCLOTH_BENCH_SIZES")
+        .ok()
+        .map(|s| s.split(',').filter_map(|t| t.trim().parse().ok()).collect())
+        .unwrap_or_else(|| vec![33, 65, 129, 257])
+}
+
+fn scene(integrator: Integrator, n: usize) -> (Model, Params) {
+    let Ok(mut scene) = Scene::builtin("hanging") else {
+        panic!("the hanging scene is built in");
+    };
+    let grow = (n - 1) as f64 / (scene.cloth.nx - 1) as f64;
+    scene.cloth.size = scene.cloth.size.map(|s| s * grow);
+    scene.cloth.origin = [-scene.cloth.size[0] / 2.0, 1.0, -scene.cloth.size[1] / 2.0];
+    scene.cloth.mass *= (n * n) as f64 / (scene.cloth.nx * scene.cloth.ny) as f64;
+    scene.cloth.nx = n;
+    scene.cloth.ny = n;
+    scene.params.ground = None;
+    scene.params.integrator = integrator;
+    scene.params.implicit.tolerance = 1e-3;
+    match integrator {
+        Integrator::Explicit => scene.params.fixup.iterations = 0,
+        _ => scene.params.dt = 0.02,
+    }
+    let model = match scene.model() {
+        Ok(m) => m,
+        Err(e) => panic!("{n}²: {e}"),
+    };
+    (model, scene.params)
+}
+
+fn gpu_solver(ctx: &GpuContext, model: &Model, params: &Params) -> GpuSolver {
+    let mut g = match GpuSolver::new(&ctx.device, &ctx.queue, model, params) {
+        Ok(g) => g,
+        Err(e) => panic!("GPU solver: {e}"),
+    };
+    // Warm up past the rest state and let the CG budget adapt.
+    for _ in 0..3 {
+        if let Err(e) = g.step(5) {
+            panic!("GPU warm-up: {e}");
+        }
+    }
+    g
+}
+
+/// Median seconds per step over `samples` batches of `batch` steps.
+fn gpu_median(g: &mut GpuSolver, batch: u32, samples: usize) -> f64 {
+    let mut times: Vec<f64> = (0..samples)
+        .map(|_| {
+            let t = Instant::now();
+            if let Err(e) = g.step(batch) {
+                panic!("GPU step: {e}");
+            }
+            t.elapsed().as_secs_f64() / f64::from(batch)
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn cpu_median(model: &Model, params: &Params, samples: usize) -> f64 {
+    let mut c = match CpuSolver::<f32>::new(model, params) {
+        Ok(c) => c,
+        Err(e) => panic!("CPU solver: {e}"),
+    };
+    let _ = c.step_n(5);
+    let mut times: Vec<f64> = (0..samples)
+        .map(|_| {
+            let t = Instant::now();
+            let _ = c.step();
+            t.elapsed().as_secs_f64()
+        })
+        .collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+fn table(ctx: &GpuContext) {
+    println!(
+        "\nGPU vs CPU (f32), median time per step, one run; GPU: {}",
+        ctx.describe()
+    );
+    println!(
+        "{:>6} {:>14} {:>11} {:>11} {:>9} {:>11} {:>8}",
+        "size", "integrator", "GPU ms", "CPU ms", "GPU/CPU", "dispatches", "submits"
+    );
+    for n in sizes() {
+        for integrator in Integrator::ALL {
+            let (model, params) = scene(integrator, n);
+            let mut g = gpu_solver(ctx, &model, &params);
+            let big = n > 129;
+            let batch = if integrator == Integrator::Explicit {
+                20
+            } else {
+                2
+            };
+            let samples = if quick() || big { 3 } else { 7 };
+            let gpu = gpu_median(&mut g, batch, samples);
+            let cpu = cpu_median(&model, &params, samples);
+            println!(
+                "{:>6} {:>14} {:>11.3} {:>11.3} {:>8.2}× {:>11.0} {:>8.2}",
+                format!("{n}²"),
+                integrator.as_str(),
+                gpu * 1e3,
+                cpu * 1e3,
+                gpu / cpu,
+                g.dispatches_per_step(),
+                1.0 / f64::from(batch)
+            );
+        }
+    }
+}
+
+fn gpu_step(c: &mut Criterion) {
+    let ctx = match GpuContext::new(None) {
+        Ok(c) => c,
+        Err(e) => panic!("{e}"),
+    };
+    let mut group = c.benchmark_group("gpu_step");
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(if quick() { 1 } else { 3 }));
+    for n in sizes().into_iter().filter(|&n| n <= 65) {
+        for integrator in Integrator::ALL {
+            let (model, params) = scene(integrator, n);
+            let mut g = gpu_solver(&ctx, &model, &params);
+            group.throughput(Throughput::Elements((n * n) as u64));
+            group.bench_function(BenchmarkId::new(integrator.as_str(), n * n), |b| {
+                b.iter_custom(|iters| {
+                    let t = Instant::now();
+                    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+                    g.encode_steps(&mut encoder, iters as u32);
+                    ctx.queue.submit([encoder.finish()]);
+                    if let Err(e) = ctx.device.poll(wgpu::PollType::wait_indefinitely()) {
+                        panic!("poll: {e}");
+                    }
+                    t.elapsed()
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, gpu_step);
+
+fn main() {
+    match GpuContext::new(None) {
+        Ok(ctx) => table(&ctx),
+        Err(e) => panic!("the GPU benchmark needs an adapter: {e}"),
+    }
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+}
