@@ -5,7 +5,7 @@ mod gpu_common;
 use gpu_common::*;
 use wgcloth::model::{ClothSpec, Corner, Pin};
 use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
-use wgcloth::{Model, Params, Scene};
+use wgcloth::{Model, Params};
 
 fn scene(fixup: u32) -> (Model, Params) {
     let mut params = Params {
@@ -59,21 +59,5 @@ fn explicit_matches_the_cpu_mirror() {
                 "fix-up {fixup}, {steps} steps: particle {p} GPU {g:?} CPU {c:?} differ by {d:e} m"
             );
         }
-    }
-}
-
-#[test]
-fn every_built_in_scene_runs_explicitly_on_the_gpu() {
-    for name in Scene::builtin_names() {
-        let mut scene = Scene::builtin(name).expect("built in");
-        scene.params.integrator = Integrator::Explicit;
-        scene.params.fixup.method = FixupMethod::Jacobi;
-        scene.params.dt = 1e-3;
-        let model = scene.model().expect("valid");
-        let (d, p, g, c) = compare(&model, &scene.params, 50);
-        assert!(
-            d < HUNDRED_STEP_TOL,
-            "{name}: particle {p} GPU {g:?} CPU {c:?} differ by {d:e} m"
-        );
     }
 }
