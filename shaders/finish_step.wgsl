@@ -4,9 +4,6 @@
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 
-// Section holding the final predicted positions.
-override SRC: u32 = 0u;
-
 @compute @workgroup_size(WORKGROUP)
 fn finish_step(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
@@ -14,7 +11,8 @@ fn finish_step(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let w = x[p].w;
-    var xp = work[wi(SRC, p)].xyz;
+    // The fix-up's result section (X_PRED when there was none).
+    var xp = work[wi(atomicLoad(&status[STATUS_FIXUP_RESULT]), p)].xyz;
     var vp = work[wi(W_V_NEW, p)].xyz;
     if (w > 0.0) {
         if (atomicLoad(&status[STATUS_FIXUP_MOVED]) != 0u) {

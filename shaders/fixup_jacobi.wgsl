@@ -7,6 +7,9 @@
 
 override SRC: u32 = 0u;
 override DST: u32 = 1u;
+// Pass k's flag slot is k mod 3 (FLAG); FIRST marks pass 0.
+override FLAG: u32 = 0u;
+override FIRST: bool = true;
 
 // Twin: cpu::fixup SLACK_ULPS × f32::EPSILON.
 const SLACK: f32 = 1.0 + 1.1920929e-7 * 64.0;
@@ -30,6 +33,23 @@ fn correction(s: u32) -> vec4<f32> {
 @compute @workgroup_size(WORKGROUP)
 fn fixup_jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
+    // Stop once a pass moved nothing (twin: the CPU's `break`): its result,
+    // in SRC, is final. Pass k reads pass k−1's flag and clears pass k+1's,
+    // which no invocation of this dispatch reads.
+    if (atomicLoad(&status[STATUS_FIXUP_STOPPED]) != 0u) {
+        return;
+    }
+    if (!FIRST && atomicLoad(&status[STATUS_FIXUP_FLAG + (FLAG + 2u) % 3u]) == 0u) {
+        if (p == 0u) {
+            atomicStore(&status[STATUS_FIXUP_STOPPED], 1u);
+        }
+        return;
+    }
+    if (p == 0u) {
+        atomicStore(&status[STATUS_FIXUP_FLAG + (FLAG + 1u) % 3u], 0u);
+        atomicStore(&status[STATUS_FIXUP_RESULT], DST);
+        atomicAdd(&status[STATUS_FIXUP_PASSES], 1u);
+    }
     if (p >= params.particle_count) {
         return;
     }
@@ -54,6 +74,7 @@ fn fixup_jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     if (count > 0u) {
         atomicStore(&status[STATUS_FIXUP_MOVED], 1u);
+        atomicStore(&status[STATUS_FIXUP_FLAG + FLAG], 1u);
         if (w > 0.0) {
             xp += sum * (w * params.fixup_omega / f32(count));
         }

@@ -7,6 +7,10 @@ fn semi_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (p == 0u) {
         atomicStore(&status[STATUS_FIXUP_MOVED], 0u);
+        atomicStore(&status[STATUS_FIXUP_STOPPED], 0u);
+        atomicStore(&status[STATUS_FIXUP_RESULT], W_X_PRED);
+        atomicStore(&status[STATUS_FIXUP_PASSES], 0u);
+        atomicStore(&status[STATUS_FIXUP_FLAG], 0u);
         // The scalable filter's CG count (zero with the dense filter).
         atomicMax(&status[STATUS_CG_MAX_ITERATIONS], atomicLoad(&status[STATUS_CG_ITERATIONS]));
     }

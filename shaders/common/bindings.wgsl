@@ -10,6 +10,10 @@ override WORKGROUP: u32 = 64u;
 override HAS_WIND: bool = true;
 override HAS_GROUND: bool = true;
 override HAS_SPHERES: bool = true;
+// Some particle can be constrained in CG (pins or colliders).
+override HAS_FILTER: bool = true;
+// Some spring has damping.
+override HAS_DAMPING: bool = true;
 
 const MAX_SPHERES: u32 = 16u;
 
@@ -125,6 +129,12 @@ const STATUS_FIXUP_MOVED: u32 = 3u;
 const STATUS_CG_ITERATIONS: u32 = 4u;
 const STATUS_CG_STOPPED: u32 = 5u;
 const STATUS_CG_MAX_ITERATIONS: u32 = 6u;
+// Fix-up: stopped this step; the section holding its result; passes run;
+// three rotating "this pass moved something" flags.
+const STATUS_FIXUP_STOPPED: u32 = 7u;
+const STATUS_FIXUP_RESULT: u32 = 8u;
+const STATUS_FIXUP_PASSES: u32 = 9u;
+const STATUS_FIXUP_FLAG: u32 = 10u;
 
 // Filter kinds (w of W_Z).
 const FILTER_FREE: f32 = 0.0;

@@ -3,6 +3,9 @@
 
 // Twin: implicit::Filter::apply. `f` is W_Z's w (kind), `n` W_FILTER's xyz.
 fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
+    if (!HAS_FILTER) {
+        return a;
+    }
     if (kind == FILTER_FIXED) {
         return vec3<f32>(0.0);
     }
@@ -13,6 +16,9 @@ fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
 }
 
 fn filter_of(p: u32, a: vec3<f32>) -> vec3<f32> {
+    if (!HAS_FILTER) {
+        return a;
+    }
     return filter_apply(work[wi(W_Z, p)].w, work[wi(W_FILTER, p)].xyz, a);
 }
 

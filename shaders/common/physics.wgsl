@@ -37,6 +37,9 @@ fn spring_force(sp: Spring, xi: vec3<f32>, xj: vec3<f32>, vi: vec3<f32>, vj: vec
         n = d / l;
     }
     let stretch = l - sp.rest;
+    if (!HAS_DAMPING) {
+        return n * (-(sp.k * stretch));
+    }
     let rate = dot3(vi - vj, n);
     return n * (-(sp.k * stretch + sp.kd * rate));
 }

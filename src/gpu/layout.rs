@@ -132,6 +132,13 @@ pub mod status {
     pub const CG_STOPPED: usize = 5;
     /// Largest CG iteration count of any step.
     pub const CG_MAX_ITERATIONS: usize = 6;
-    /// Number of status words.
-    pub const COUNT: usize = 8;
+    /// The fix-up stopped early this step.
+    pub const FIXUP_STOPPED: usize = 7;
+    /// Section holding the fix-up's result.
+    pub const FIXUP_RESULT: usize = 8;
+    /// Fix-up passes run in the last step (the last one found nothing to
+    /// move when it stopped early).
+    pub const FIXUP_PASSES: usize = 9;
+    /// Number of status words (three rotating fix-up flags follow 9).
+    pub const COUNT: usize = 16;
 }

@@ -25,6 +25,10 @@ pub struct Features {
     pub ground: bool,
     /// At least one sphere.
     pub spheres: bool,
+    /// Some particle can be constrained in CG (pins or colliders).
+    pub filter: bool,
+    /// Some spring is damped.
+    pub damping: bool,
 }
 
 /// One kernel variant: entry point, name suffix, extra constants.
@@ -49,13 +53,64 @@ const fn v(
 const PRED: f64 = section::X_PRED as f64;
 const ALT: f64 = section::X_ALT as f64;
 
-/// Fix-up and step end, shared by explicit and semi-implicit.
+/// Fix-up and step end, shared by explicit and semi-implicit. Pass k of a
+/// step is variant `k mod 6` (ping-pong parity × flag slot mod 3); pass 0
+/// has its own variant, which does not look for a previous pass.
 const FIXUP: &[Variant] = &[
-    v("fixup_jacobi", ".even", &[("SRC", PRED), ("DST", ALT)]),
-    v("fixup_jacobi", ".odd", &[("SRC", ALT), ("DST", PRED)]),
-    v("finish_step", ".pred", &[("SRC", PRED)]),
-    v("finish_step", ".alt", &[("SRC", ALT)]),
+    v(
+        "fixup_jacobi",
+        ".first",
+        &[("SRC", PRED), ("DST", ALT), ("FLAG", 0.0), ("FIRST", 1.0)],
+    ),
+    v(
+        "fixup_jacobi",
+        ".1",
+        &[("SRC", ALT), ("DST", PRED), ("FLAG", 1.0), ("FIRST", 0.0)],
+    ),
+    v(
+        "fixup_jacobi",
+        ".2",
+        &[("SRC", PRED), ("DST", ALT), ("FLAG", 2.0), ("FIRST", 0.0)],
+    ),
+    v(
+        "fixup_jacobi",
+        ".3",
+        &[("SRC", ALT), ("DST", PRED), ("FLAG", 0.0), ("FIRST", 0.0)],
+    ),
+    v(
+        "fixup_jacobi",
+        ".4",
+        &[("SRC", PRED), ("DST", ALT), ("FLAG", 1.0), ("FIRST", 0.0)],
+    ),
+    v(
+        "fixup_jacobi",
+        ".5",
+        &[("SRC", ALT), ("DST", PRED), ("FLAG", 2.0), ("FIRST", 0.0)],
+    ),
+    v(
+        "fixup_jacobi",
+        ".0",
+        &[("SRC", PRED), ("DST", ALT), ("FLAG", 0.0), ("FIRST", 0.0)],
+    ),
+    v("finish_step", "", &[]),
 ];
+
+/// The fix-up variant of pass `k`.
+pub fn fixup_variant(k: u32) -> &'static str {
+    const NAMES: [&str; 6] = [
+        "fixup_jacobi.0",
+        "fixup_jacobi.1",
+        "fixup_jacobi.2",
+        "fixup_jacobi.3",
+        "fixup_jacobi.4",
+        "fixup_jacobi.5",
+    ];
+    if k == 0 {
+        "fixup_jacobi.first"
+    } else {
+        NAMES[(k % 6) as usize]
+    }
+}
 
 /// CG, shared by implicit and the scalable semi-implicit filter.
 const CG: &[Variant] = &[
@@ -71,6 +126,7 @@ const CG: &[Variant] = &[
 const EXPLICIT: &[Variant] = &[
     v("spring_forces", "", &[]),
     v("explicit_integrate", "", &[]),
+    v("explicit_integrate", ".fused", &[("FUSED", 1.0)]),
 ];
 
 const IMPLICIT: &[Variant] = &[
@@ -148,6 +204,8 @@ impl Pipelines {
                 ("HAS_WIND", flag(features.wind)),
                 ("HAS_GROUND", flag(features.ground)),
                 ("HAS_SPHERES", flag(features.spheres)),
+                ("HAS_FILTER", flag(features.filter)),
+                ("HAS_DAMPING", flag(features.damping)),
             ];
             constants.extend_from_slice(variant.constants);
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

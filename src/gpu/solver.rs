@@ -3,7 +3,7 @@
 use wgpu::util::DeviceExt;
 
 use super::layout::{self, section, GpuParams, GpuSphere, GpuSpring, MAX_SPHERES};
-use super::pipelines::{Features, Pipelines};
+use super::pipelines::{fixup_variant, Features, Pipelines};
 use super::readback;
 use crate::error::{Error, Result};
 use crate::model::Model;
@@ -41,6 +41,9 @@ pub struct GpuStatus {
     /// Checks whose window had a step stop at the adaptive budget rather
     /// than at convergence (see [`GpuSolver::check`]).
     pub cg_budget_hits: u64,
+    /// Fix-up passes run in the last step; when it stopped early, the last
+    /// of them found nothing over-stretched.
+    pub fixup_passes: u32,
 }
 
 /// A cloth simulated on a wgpu device the host owns.
@@ -86,9 +89,26 @@ pub struct GpuSolver {
     model: Model,
     /// Dispatches recorded by the last `encode_steps`, and its steps.
     recorded: std::cell::Cell<(u32, u32)>,
+    /// Scene-specialised kernels (the default) or the general ones.
+    specialised: bool,
     /// The parameters with the current colliders, wind and gravity.
     host_params: Params,
     dense: wgpu::Buffer,
+}
+
+/// What the scene uses, for the kernel variants.
+fn scene_features(model: &Model, params: &Params) -> Features {
+    let colliders = params.ground.is_some() || !params.spheres.is_empty();
+    Features {
+        wind: params.wind.is_some(),
+        ground: params.ground.is_some(),
+        spheres: !params.spheres.is_empty(),
+        filter: colliders || model.pinned_count() > 0,
+        damping: params
+            .springs
+            .iter()
+            .any(|k| k.stiffness > 0.0 && k.damping > 0.0),
+    }
 }
 
 /// Uniform values when there is no wind (the kernels compile it out).
@@ -98,9 +118,11 @@ const NO_WIND: Wind = Wind {
     lift: 0.0,
 };
 
-/// Uniform values when there is no ground (the kernels compile it out).
+/// Uniform values when there is no ground: the kernels compile it out,
+/// and the general variant (see [`GpuSolver::set_specialised`]) never
+/// reaches a plane this far down.
 const NO_GROUND: Ground = Ground {
-    height: 0.0,
+    height: -1e30,
     friction: 0.0,
 };
 
@@ -513,11 +535,7 @@ impl GpuSolver {
             immediate_size: 0,
         });
 
-        let features = Features {
-            wind: params.wind.is_some(),
-            ground: params.ground.is_some(),
-            spheres: !params.spheres.is_empty(),
-        };
+        let features = scene_features(model, params);
         let mut pipelines = Pipelines::new(layout);
         pipelines.ensure(device, params.integrator, features)?;
         queue.submit([]);
@@ -552,6 +570,7 @@ impl GpuSolver {
             dt: params.dt,
             model: model.clone(),
             recorded: std::cell::Cell::new((0, 0)),
+            specialised: true,
             host_params: params.clone(),
             dense,
         })
@@ -582,68 +601,91 @@ impl GpuSolver {
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
         self.recorded.set((0, n));
+        let plan = self.step_plan();
         for _ in 0..n {
-            match self.integrator {
-                Integrator::Implicit => {
-                    self.dispatch(&mut pass, "implicit_springs", self.springs);
-                    self.dispatch(&mut pass, "implicit_prepare", self.particles);
-                    self.encode_cg(&mut pass);
-                    self.dispatch(&mut pass, "implicit_finish", self.particles);
-                }
-                Integrator::Explicit | Integrator::SemiImplicit => {
-                    self.dispatch(&mut pass, "spring_forces", self.springs);
-                    if self.integrator == Integrator::Explicit {
-                        self.dispatch(&mut pass, "explicit_integrate", self.particles);
-                    } else {
-                        if self.params.filter_count > 0 {
-                            self.dispatch(&mut pass, "semi_rhs", self.particles);
-                            self.dispatch(&mut pass, "filter_dense", self.params.filter_count);
-                        } else {
-                            self.dispatch(&mut pass, "semi_rhs.keep", self.particles);
-                            self.dispatch(&mut pass, "semi_cg_prepare", self.particles);
-                            self.encode_cg(&mut pass);
-                        }
-                        if self.params.torque_compensation != 0 {
-                            for kernel in ["torque_centre", "torque_moments", "torque_apply"] {
-                                self.dispatch(&mut pass, kernel, self.particles);
-                            }
-                        }
-                        self.dispatch(&mut pass, "semi_integrate", self.particles);
-                    }
-                    for k in 0..self.fixup_iterations {
-                        let variant = if k % 2 == 0 {
-                            "fixup_jacobi.even"
-                        } else {
-                            "fixup_jacobi.odd"
-                        };
-                        self.dispatch(&mut pass, variant, self.particles);
-                    }
-                    let finish = if self.fixup_iterations % 2 == 0 {
-                        "finish_step.pred"
-                    } else {
-                        "finish_step.alt"
-                    };
-                    self.dispatch(&mut pass, finish, self.particles);
-                }
+            for &(name, items) in &plan {
+                self.dispatch(&mut pass, name, items);
             }
         }
         self.steps_recorded += u64::from(n);
     }
 
-    /// CG from `cg_init` through the iterations of the current budget. The
-    /// scalars (δ0, α, β, convergence) are each computed once, by a
-    /// one-invocation kernel, so the particle kernels read them instead of
-    /// every workgroup summing the partials again.
-    fn encode_cg(&self, pass: &mut wgpu::ComputePass<'_>) {
-        self.dispatch(pass, "cg_init", self.particles);
-        self.dispatch(pass, "cg_start", 1);
-        for _ in 0..self.cg_budget {
-            self.dispatch(pass, "cg_apply", self.particles);
-            self.dispatch(pass, "cg_alpha", 1);
-            self.dispatch(pass, "cg_update", self.particles);
-            self.dispatch(pass, "cg_beta", 1);
-            self.dispatch(pass, "cg_direction", self.particles);
+    /// The dispatches of one step, in order: `(kernel variant, invocations)`.
+    ///
+    /// Only what the scene uses is recorded: no fix-up passes without a
+    /// constrained spring kind or with zero iterations; no torque passes for
+    /// a pinned cloth; without fix-up and wind the explicit integration and
+    /// the step end are one fused kernel; wind, ground, spheres, pins and
+    /// damping are compiled out of the kernels when absent (see
+    /// [`super::pipelines`]); CG records the adaptive budget of iterations
+    /// (see [`GpuSolver::check`]) and stops on the device. The fix-up, too,
+    /// stops on the device once a pass moves nothing.
+    pub fn step_plan(&self) -> Vec<(&'static str, u32)> {
+        let (n, s) = (self.particles, self.springs);
+        let mut plan = Vec::new();
+        let cg = |plan: &mut Vec<(&'static str, u32)>| {
+            // δ0, α, β and the convergence test are each reduced once, by a
+            // one-invocation kernel, not by every workgroup.
+            plan.push(("cg_init", n));
+            plan.push(("cg_start", 1));
+            for _ in 0..self.cg_budget {
+                plan.extend([
+                    ("cg_apply", n),
+                    ("cg_alpha", 1),
+                    ("cg_update", n),
+                    ("cg_beta", 1),
+                    ("cg_direction", n),
+                ]);
+            }
+        };
+        match self.integrator {
+            Integrator::Implicit => {
+                plan.push(("implicit_springs", s));
+                plan.push(("implicit_prepare", n));
+                cg(&mut plan);
+                plan.push(("implicit_finish", n));
+                return plan;
+            }
+            Integrator::Explicit => {
+                plan.push(("spring_forces", s));
+                if self.fused_explicit() {
+                    plan.push(("explicit_integrate.fused", n));
+                    return plan;
+                }
+                plan.push(("explicit_integrate", n));
+            }
+            Integrator::SemiImplicit => {
+                plan.push(("spring_forces", s));
+                if self.params.filter_count > 0 {
+                    plan.push(("semi_rhs", n));
+                    plan.push(("filter_dense", self.params.filter_count));
+                } else {
+                    plan.push(("semi_rhs.keep", n));
+                    plan.push(("semi_cg_prepare", n));
+                    cg(&mut plan);
+                }
+                if self.params.torque_compensation != 0 {
+                    plan.extend([
+                        ("torque_centre", n),
+                        ("torque_moments", n),
+                        ("torque_apply", n),
+                    ]);
+                }
+                plan.push(("semi_integrate", n));
+            }
         }
+        for k in 0..self.fixup_iterations {
+            plan.push((fixup_variant(k), n));
+        }
+        plan.push(("finish_step", n));
+        plan
+    }
+
+    /// Explicit steps without fix-up or wind integrate and finish in one
+    /// kernel (it then reads no other particle's state, so it may write
+    /// its own in place).
+    fn fused_explicit(&self) -> bool {
+        self.integrator == Integrator::Explicit && self.fixup_iterations == 0 && !self.features.wind
     }
 
     /// Records the vertex-normal pass (for rendering; stepping never needs
@@ -744,6 +786,7 @@ impl GpuSolver {
             cg_iterations: words[layout::status::CG_ITERATIONS],
             cg_max_iterations: words[layout::status::CG_MAX_ITERATIONS],
             cg_budget_hits: self.budget_hits,
+            fixup_passes: words[layout::status::FIXUP_PASSES],
         })
     }
 
@@ -845,10 +888,7 @@ impl GpuSolver {
         self.params.wind_velocity = w.velocity.map(|c| c as f32);
         self.params.wind_drag = w.drag as f32;
         self.params.wind_lift = w.lift as f32;
-        self.set_features(Features {
-            wind: wind.is_some(),
-            ..self.features
-        })
+        self.update_features()
     }
 
     /// Changes the ground plane (`None`: no ground).
@@ -860,10 +900,7 @@ impl GpuSolver {
         let g = ground.unwrap_or(NO_GROUND);
         self.params.ground_height = g.height as f32;
         self.params.ground_friction = g.friction as f32;
-        self.set_features(Features {
-            ground: ground.is_some(),
-            ..self.features
-        })
+        self.update_features()
     }
 
     /// Replaces the sphere colliders (at most [`MAX_SPHERES`]); a game
@@ -882,10 +919,7 @@ impl GpuSolver {
         self.host_params = p;
         self.params.spheres = gpu_spheres(spheres);
         self.params.sphere_count = spheres.len() as u32;
-        self.set_features(Features {
-            spheres: !spheres.is_empty(),
-            ..self.features
-        })
+        self.update_features()
     }
 
     /// Moves particle `p` to `position` [m] (for a pinned particle: a game
@@ -927,8 +961,7 @@ impl GpuSolver {
             self.queue
                 .write_buffer(&self.dense, 0, bytemuck::cast_slice(&filter.words));
         }
-        self.upload_params();
-        Ok(())
+        self.update_features()
     }
 
     fn check_particle(&self, p: usize) -> Result<()> {
@@ -943,7 +976,30 @@ impl GpuSolver {
         }
     }
 
-    fn set_features(&mut self, features: Features) -> Result<()> {
+    /// With `false`, records the general kernels — every feature compiled
+    /// in, absent ones made inert by their parameters (zero wind, no
+    /// spheres, a ground out of reach, free filters, zero damping) — and no
+    /// fused passes: for tests and benchmarks of what specialisation saves.
+    /// With `true` (the default), the scene's own variants.
+    pub fn set_specialised(&mut self, on: bool) -> Result<()> {
+        self.specialised = on;
+        self.update_features()
+    }
+
+    /// Switches to the kernel variants of the current scene (compiling any
+    /// not cached yet) and uploads the parameters.
+    fn update_features(&mut self) -> Result<()> {
+        let features = if self.specialised {
+            scene_features(&self.model, &self.host_params)
+        } else {
+            Features {
+                wind: true,
+                ground: true,
+                spheres: true,
+                filter: true,
+                damping: true,
+            }
+        };
         self.pipelines
             .ensure(&self.device, self.integrator, features)?;
         self.features = features;
