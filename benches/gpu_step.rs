@@ -139,6 +139,75 @@ fn table(ctx: &GpuContext) {
     }
 }
 
+/// What skipping saves: a minimal scene (no pins, wind, colliders or bend
+/// springs) against the full one (two pinned corners, wind, ground, a
+/// sphere, bend springs) per integrator, specialised kernels against the
+/// general ones, and CG with its adaptive budget against recording the
+/// maximum iterations every step (stopped iterations return at once).
+fn skipping_table(ctx: &GpuContext) {
+    let n = 65;
+    println!("\nSkipping what a {n}² scene does not use (GPU, median ms per step)");
+    println!(
+        "{:>14} {:>9} {:>9} {:>8} {:>13} {:>9}",
+        "integrator", "minimal", "full", "ratio", "general/spec", "dispatch"
+    );
+    let samples = if quick() { 3 } else { 7 };
+    for integrator in Integrator::ALL {
+        let (model, mut minimal) = scene(integrator, n);
+        minimal.springs[2].stiffness = 0.0;
+        minimal.wind = None;
+        minimal.ground = None;
+        minimal.spheres.clear();
+        minimal.fixup.iterations = 0;
+        let mut spec = model.grid.clone().unwrap_or_default();
+        spec.pins.clear();
+        let Ok(minimal_model) = Model::new(&spec, &minimal.springs) else {
+            panic!("minimal model");
+        };
+        let mut full = scene(integrator, n).1;
+        full.wind = Some(wgcloth::params::Wind { velocity: [4.0, 0.0, 1.0], drag: 0.6, lift: 0.2 });
+        full.ground = Some(wgcloth::params::Ground { height: -3.0, friction: 0.5 });
+        full.spheres = vec![wgcloth::params::Sphere { center: [0.0, 0.5, 0.0], radius: 0.3, friction: 0.3 }];
+        full.fixup.iterations = 10;
+        let batch = if integrator == Integrator::Explicit { 20 } else { 2 };
+        let mut g_min = gpu_solver(ctx, &minimal_model, &minimal);
+        let t_min = gpu_median(&mut g_min, batch, samples);
+        let d_min = g_min.dispatches_per_step();
+        let mut g_full = gpu_solver(ctx, &model, &full);
+        let t_full = gpu_median(&mut g_full, batch, samples);
+        let d_full = g_full.dispatches_per_step();
+        if let Err(e) = g_full.set_specialised(false) {
+            panic!("{e}");
+        }
+        let t_general = gpu_median(&mut g_full, batch, samples);
+        println!(
+            "{:>14} {:>9.3} {:>9.3} {:>7.2}× {:>12.2}× {:>4.0}/{:<4.0}",
+            integrator.as_str(),
+            t_min * 1e3,
+            t_full * 1e3,
+            t_full / t_min,
+            t_general / t_full,
+            d_min,
+            d_full
+        );
+    }
+    println!("\nCG early exit ({n}² implicit, median ms per step)");
+    let (model, params) = scene(Integrator::Implicit, n);
+    let mut adaptive = gpu_solver(ctx, &model, &params);
+    let t_adaptive = gpu_median(&mut adaptive, 2, samples);
+    let budget = adaptive.cg_budget();
+    let mut fixed = gpu_solver(ctx, &model, &params);
+    fixed.set_adaptive_cg_budget(false);
+    let t_fixed = gpu_median(&mut fixed, 2, samples);
+    println!(
+        "adaptive budget ({budget} recorded) {:.3} ms, maximum ({} recorded) {:.3} ms: {:.2}×",
+        t_adaptive * 1e3,
+        params.implicit.max_iterations,
+        t_fixed * 1e3,
+        t_fixed / t_adaptive
+    );
+}
+
 fn gpu_step(c: &mut Criterion) {
     let ctx = match GpuContext::new(None) {
         Ok(c) => c,
@@ -173,7 +242,10 @@ criterion_group!(benches, gpu_step);
 
 fn main() {
     match GpuContext::new(None) {
-        Ok(ctx) => table(&ctx),
+        Ok(ctx) => {
+            table(&ctx);
+            skipping_table(&ctx);
+        }
         Err(e) => panic!("the GPU benchmark needs an adapter: {e}"),
     }
     benches();

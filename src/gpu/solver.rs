@@ -681,6 +681,21 @@ impl GpuSolver {
         plan
     }
 
+    /// The step plan grouped by kernel, in order of first appearance:
+    /// `(kernel, dispatches per step, invocations per dispatch)` — what
+    /// `wgcloth run --verbose` prints.
+    pub fn describe_step(&self) -> Vec<(&'static str, u32, u32)> {
+        let mut out: Vec<(&'static str, u32, u32)> = Vec::new();
+        for (name, items) in self.step_plan() {
+            let kernel = name.split('.').next().unwrap_or(name);
+            match out.iter_mut().find(|(k, _, _)| *k == kernel) {
+                Some(entry) => entry.1 += 1,
+                None => out.push((kernel, 1, items)),
+            }
+        }
+        out
+    }
+
     /// Explicit steps without fix-up or wind integrate and finish in one
     /// kernel (it then reads no other particle's state, so it may write
     /// its own in place).
