@@ -13,10 +13,11 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
+mod common;
+
 use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
 use wgcloth::cpu::CpuSolver;
 use wgcloth::params::{FilterMethod, Integrator};
-use wgcloth::Scene;
 
 /// Sizes benchmarked (particles per side).
 const SIZES: [usize; 5] = [15, 25, 33, 65, 129];
@@ -39,21 +40,7 @@ fn solver_with(
     filter: FilterMethod,
     cg_tolerance: Option<f64>,
 ) -> CpuSolver<f64> {
-    let Ok(mut scene) = Scene::builtin("hanging") else {
-        panic!("the hanging scene is built in");
-    };
-    let grow = (n - 1) as f64 / (scene.cloth.nx - 1) as f64;
-    scene.cloth.size = scene.cloth.size.map(|s| s * grow);
-    scene.cloth.origin = [-scene.cloth.size[0] / 2.0, 1.0, -scene.cloth.size[1] / 2.0];
-    scene.cloth.mass *= (n * n) as f64 / (scene.cloth.nx * scene.cloth.ny) as f64;
-    scene.cloth.nx = n;
-    scene.cloth.ny = n;
-    // Keep the step for timing: no ground to land on.
-    scene.params.ground = None;
-    scene.params.integrator = integrator;
-    if integrator != Integrator::Explicit {
-        scene.params.dt = 0.02;
-    }
+    let mut scene = common::grown_hanging(integrator, n);
     scene.params.semi_implicit.filter = filter;
     if let Some(tol) = cg_tolerance {
         scene.params.implicit.tolerance = tol;

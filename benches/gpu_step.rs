@@ -14,13 +14,15 @@
 //! fix-up (the yardstick), implicit and semi-implicit at
 //! dt = 0.02 s, CG tolerance 1e-3.
 
+mod common;
+
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
 use wgcloth::cpu::CpuSolver;
 use wgcloth::gpu::{GpuContext, GpuSolver};
 use wgcloth::params::Integrator;
-use wgcloth::{Model, Params, Scene};
+use wgcloth::{Model, Params};
 
 fn quick() -> bool {
     std::env::var_os("WGCLOTH_BENCH_QUICK").is_some()
@@ -34,21 +36,10 @@ fn sizes() -> Vec<usize> {
 }
 
 fn scene(integrator: Integrator, n: usize) -> (Model, Params) {
-    let Ok(mut scene) = Scene::builtin("hanging") else {
-        panic!("the hanging scene is built in");
-    };
-    let grow = (n - 1) as f64 / (scene.cloth.nx - 1) as f64;
-    scene.cloth.size = scene.cloth.size.map(|s| s * grow);
-    scene.cloth.origin = [-scene.cloth.size[0] / 2.0, 1.0, -scene.cloth.size[1] / 2.0];
-    scene.cloth.mass *= (n * n) as f64 / (scene.cloth.nx * scene.cloth.ny) as f64;
-    scene.cloth.nx = n;
-    scene.cloth.ny = n;
-    scene.params.ground = None;
-    scene.params.integrator = integrator;
+    let mut scene = common::grown_hanging(integrator, n);
     scene.params.implicit.tolerance = 1e-3;
-    match integrator {
-        Integrator::Explicit => scene.params.fixup.iterations = 0,
-        _ => scene.params.dt = 0.02,
+    if integrator == Integrator::Explicit {
+        scene.params.fixup.iterations = 0;
     }
     let model = match scene.model() {
         Ok(m) => m,

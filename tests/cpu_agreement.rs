@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use wgcloth::cpu::filter::{BandedFilter, DenseFilter, FilterSystem};
-use wgcloth::cpu::{fixup, CpuSolver, State};
+use wgcloth::cpu::{fixup, CpuSolver};
 use wgcloth::diagnostics::max_strain;
 use wgcloth::model::{Edge, Model, Pin};
 use wgcloth::params::{FilterMethod, Integrator, Params};
@@ -243,19 +243,8 @@ fn f32_mirror_tracks_the_f64_reference() {
             d < PRECISION_TOL,
             "{integrator}: particle {p} differs by {d:e} m"
         );
-        let (moved, _) = max_distance(a.positions(), &rest(&model).x);
+        let (moved, _) = max_distance(a.positions(), &rest_state(&model).x);
         assert!(moved > 1e-3);
-    }
-}
-
-fn rest(model: &Model) -> State<f64> {
-    State {
-        x: model
-            .rest_positions
-            .iter()
-            .map(|&p| Vec3::from_f64(p))
-            .collect(),
-        v: vec![Vec3::ZERO; model.particle_count()],
     }
 }
 

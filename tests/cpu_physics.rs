@@ -150,17 +150,6 @@ fn pinned_particles_never_move() {
     }
 }
 
-fn rest_state(model: &Model) -> State<f64> {
-    State {
-        x: model
-            .rest_positions
-            .iter()
-            .map(|&p| Vec3::from_f64(p))
-            .collect(),
-        v: vec![Vec3::ZERO; model.particle_count()],
-    }
-}
-
 /// A state with pseudo-random velocities and a stretched, perturbed shape.
 fn agitated(model: &Model) -> State<f64> {
     let mut st = rest_state(model);

@@ -6,50 +6,12 @@ mod gpu_common;
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::gpu::{GpuSolver, GpuState};
-use wgcloth::model::{ClothSpec, Corner, Pin};
-use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
+use wgcloth::model::{ClothSpec, Pin};
+use wgcloth::params::Integrator;
 use wgcloth::{Error, Model, Params, Vec3};
 
-fn params(integrator: Integrator) -> Params {
-    let mut p = Params {
-        integrator,
-        dt: if integrator == Integrator::Explicit {
-            1e-3
-        } else {
-            1.0 / 120.0
-        },
-        ..Params::default()
-    };
-    p.fixup.method = FixupMethod::Jacobi;
-    p.ground = Some(Ground {
-        height: 0.75,
-        friction: 0.5,
-    });
-    p.spheres = vec![Sphere {
-        center: [0.1, 0.7, 0.0],
-        radius: 0.2,
-        friction: 0.3,
-    }];
-    p.wind = Some(Wind {
-        velocity: [3.0, 0.0, 1.0],
-        drag: 0.6,
-        lift: 0.1,
-    });
-    p
-}
-
-fn corners() -> Vec<Pin> {
-    vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)]
-}
-
 fn model(pins: Vec<Pin>, p: &Params) -> Model {
-    let spec = ClothSpec {
-        nx: 13,
-        ny: 11,
-        pins,
-        ..ClothSpec::default()
-    };
-    Model::new(&spec, &p.springs).expect("valid")
+    grid(13, 11, pins, p)
 }
 
 fn run(model: &Model, p: &Params, steps: u32, setup: impl FnOnce(&mut GpuSolver)) -> GpuState {
@@ -69,7 +31,7 @@ fn assert_identical(a: &GpuState, b: &GpuState, what: &str) {
 #[test]
 fn two_gpu_runs_are_bit_identical() {
     for integrator in Integrator::ALL {
-        let p = params(integrator);
+        let p = busy_params(integrator);
         let m = model(corners(), &p);
         let a = run(&m, &p, 60, |_| {});
         let b = run(&m, &p, 60, |_| {});
@@ -89,7 +51,7 @@ const PENETRATION_TOL: f32 = 1e-6;
 #[test]
 fn pins_and_contacts_hold_on_the_gpu() {
     for integrator in Integrator::ALL {
-        let p = params(integrator);
+        let p = busy_params(integrator);
         let m = model(corners(), &p);
         let s = run(&m, &p, 200, |_| {});
         let mut touching = 0;
@@ -121,7 +83,7 @@ fn pins_and_contacts_hold_on_the_gpu() {
 #[test]
 fn runtime_changes_equal_building_with_the_new_values() {
     for integrator in Integrator::ALL {
-        let full = params(integrator);
+        let full = busy_params(integrator);
         let m = model(corners(), &full);
         let reference = run(&m, &full, 40, |_| {});
         // The same scene, built bare and completed through the setters.
@@ -149,7 +111,7 @@ fn runtime_changes_equal_building_with_the_new_values() {
 
 #[test]
 fn a_moved_pin_drags_the_cloth() {
-    let p = params(Integrator::Implicit);
+    let p = busy_params(Integrator::Implicit);
     let m = model(corners(), &p);
     let still = run(&m, &p, 30, |_| {});
     let dragged = run(&m, &p, 30, |g| {
@@ -173,7 +135,7 @@ fn a_cloth_too_large_for_the_device_is_refused_naming_the_limit() {
         ..Default::default()
     }))
     .expect("a device with lower limits");
-    let p = params(Integrator::Explicit);
+    let p = busy_params(Integrator::Explicit);
     let spec = ClothSpec {
         nx: 129,
         ny: 129,
@@ -192,7 +154,7 @@ fn a_cloth_too_large_for_the_device_is_refused_naming_the_limit() {
 
 #[test]
 fn a_blow_up_is_reported_at_the_cpu_mirror_step_without_nan_vertices() {
-    let mut p = params(Integrator::Explicit);
+    let mut p = busy_params(Integrator::Explicit);
     p.dt = 0.02;
     p.springs[0].stiffness = 1e5;
     p.fixup.iterations = 0;
@@ -224,7 +186,7 @@ fn a_blow_up_is_reported_at_the_cpu_mirror_step_without_nan_vertices() {
 
 #[test]
 fn normals_of_a_flat_cloth_point_up() {
-    let p = params(Integrator::Explicit);
+    let p = busy_params(Integrator::Explicit);
     let m = model(corners(), &p);
     let ctx = gpu();
     let g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");

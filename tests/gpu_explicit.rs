@@ -3,39 +3,13 @@
 mod gpu_common;
 
 use gpu_common::*;
-use wgcloth::model::{ClothSpec, Corner, Pin};
-use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
+use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
 
 fn scene(fixup: u32) -> (Model, Params) {
-    let mut params = Params {
-        integrator: Integrator::Explicit,
-        dt: 1e-3,
-        ..Params::default()
-    };
-    params.fixup.method = FixupMethod::Jacobi;
+    let mut params = busy_params(Integrator::Explicit);
     params.fixup.iterations = fixup;
-    params.ground = Some(Ground {
-        height: 0.85,
-        friction: 0.4,
-    });
-    params.spheres = vec![Sphere {
-        center: [0.0, 0.7, 0.0],
-        radius: 0.2,
-        friction: 0.3,
-    }];
-    params.wind = Some(Wind {
-        velocity: [2.0, 0.0, 1.0],
-        drag: 0.6,
-        lift: 0.2,
-    });
-    let spec = ClothSpec {
-        nx: 17,
-        ny: 13,
-        pins: vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)],
-        ..ClothSpec::default()
-    };
-    (Model::new(&spec, &params.springs).expect("valid"), params)
+    (grid(17, 13, corners(), &params), params)
 }
 
 /// One step: both sides evaluate the same f32 expressions in the same order;

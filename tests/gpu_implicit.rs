@@ -5,39 +5,14 @@ mod gpu_common;
 
 use gpu_common::*;
 use wgcloth::gpu::GpuSolver;
-use wgcloth::model::{ClothSpec, Corner, Pin};
-use wgcloth::params::{Ground, Integrator, Sphere, Wind};
+use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
 
 fn scene() -> (Model, Params) {
-    let mut params = Params {
-        integrator: Integrator::Implicit,
-        dt: 1.0 / 120.0,
-        ..Params::default()
-    };
+    let mut params = busy_params(Integrator::Implicit);
     params.springs[0].stiffness = 500.0;
     params.implicit.tolerance = 1e-4;
-    params.ground = Some(Ground {
-        height: 0.6,
-        friction: 0.4,
-    });
-    params.spheres = vec![Sphere {
-        center: [0.0, 0.6, 0.0],
-        radius: 0.25,
-        friction: 0.3,
-    }];
-    params.wind = Some(Wind {
-        velocity: [2.0, 0.0, 1.0],
-        drag: 0.6,
-        lift: 0.2,
-    });
-    let spec = ClothSpec {
-        nx: 17,
-        ny: 13,
-        pins: vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)],
-        ..ClothSpec::default()
-    };
-    (Model::new(&spec, &params.springs).expect("valid"), params)
+    (grid(17, 13, corners(), &params), params)
 }
 
 /// The GPU sums every dot product in the CPU's (tree) order, so the CG

@@ -4,38 +4,13 @@
 mod gpu_common;
 
 use gpu_common::*;
-use wgcloth::model::{ClothSpec, Corner, Pin};
-use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
+use wgcloth::model::{Corner, Pin};
+use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
 
 fn scene(pins: Vec<Pin>) -> (Model, Params) {
-    let mut params = Params {
-        integrator: Integrator::SemiImplicit,
-        dt: 1.0 / 200.0,
-        ..Params::default()
-    };
-    params.fixup.method = FixupMethod::Jacobi;
-    params.ground = Some(Ground {
-        height: 0.7,
-        friction: 0.4,
-    });
-    params.spheres = vec![Sphere {
-        center: [0.0, 0.6, 0.0],
-        radius: 0.25,
-        friction: 0.3,
-    }];
-    params.wind = Some(Wind {
-        velocity: [2.0, 0.0, 1.0],
-        drag: 0.6,
-        lift: 0.2,
-    });
-    let spec = ClothSpec {
-        nx: 17,
-        ny: 13,
-        pins,
-        ..ClothSpec::default()
-    };
-    (Model::new(&spec, &params.springs).expect("valid"), params)
+    let params = busy_params(Integrator::SemiImplicit);
+    (grid(17, 13, pins, &params), params)
 }
 
 /// As for the other integrators: the same f32 operations in the same order,

@@ -7,8 +7,8 @@ mod gpu_common;
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::gpu::{GpuSolver, GpuState};
-use wgcloth::model::{ClothSpec, Corner, Pin};
-use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
+use wgcloth::model::{Corner, Pin};
+use wgcloth::params::{Ground, Integrator, Sphere, Wind};
 use wgcloth::{Model, Params};
 
 fn run(model: &Model, params: &Params, specialised: bool) -> (GpuState, f64) {
@@ -20,28 +20,17 @@ fn run(model: &Model, params: &Params, specialised: bool) -> (GpuState, f64) {
     (g.read_state().expect("read-back"), g.dispatches_per_step())
 }
 
+/// Plain parameters: no wind, no colliders.
 fn base(integrator: Integrator) -> Params {
-    let mut p = Params {
-        integrator,
-        dt: if integrator == Integrator::Explicit {
-            1e-3
-        } else {
-            1.0 / 120.0
-        },
-        ..Params::default()
-    };
-    p.fixup.method = FixupMethod::Jacobi;
+    let mut p = busy_params(integrator);
+    p.wind = None;
+    p.ground = None;
+    p.spheres.clear();
     p
 }
 
 fn model(p: &Params, pins: Vec<Pin>) -> Model {
-    let spec = ClothSpec {
-        nx: 11,
-        ny: 9,
-        pins,
-        ..ClothSpec::default()
-    };
-    Model::new(&spec, &p.springs).expect("valid")
+    grid(11, 9, pins, p)
 }
 
 /// Specialised kernels drop code, never change arithmetic: results must be

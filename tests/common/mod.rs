@@ -1,7 +1,7 @@
 //! Builders shared by the CPU physics tests.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
-use wgcloth::cpu::CpuSolver;
+use wgcloth::cpu::{CpuSolver, State};
 use wgcloth::model::{ClothSpec, Corner, Model, Orientation, Pin, Spring};
 use wgcloth::params::{Integrator, Params, SpringKind, SpringParams};
 use wgcloth::{Real, Vec3};
@@ -121,4 +121,16 @@ pub fn noise(seed: u64) -> f64 {
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
     z ^= z >> 31;
     (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
+
+/// The model's rest state: rest positions, zero velocities.
+pub fn rest_state(model: &Model) -> State<f64> {
+    State {
+        x: model
+            .rest_positions
+            .iter()
+            .map(|&p| Vec3::from_f64(p))
+            .collect(),
+        v: vec![Vec3::ZERO; model.particle_count()],
+    }
 }

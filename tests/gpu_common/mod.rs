@@ -5,6 +5,8 @@ use std::sync::OnceLock;
 
 use wgcloth::cpu::CpuSolver;
 use wgcloth::gpu::{GpuContext, GpuSolver};
+use wgcloth::model::{ClothSpec, Corner, Pin};
+use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
 use wgcloth::{Model, Params, Vec3};
 
 /// The adapter every GPU test runs on. A machine without one fails the
@@ -50,4 +52,51 @@ pub fn compare(model: &Model, params: &Params, steps: u32) -> (f64, usize, Vec3<
         .unwrap_or_else(|e| panic!("CPU run: {e}"));
     let (d, p) = worst(&gs.x, c.positions());
     (d, p, gs.x[p], c.positions()[p])
+}
+
+/// Parameters that exercise every force and collider: wind with lift, a
+/// ground and a sphere the falling cloth reaches within ~100 steps; Jacobi
+/// fix-up (the GPU's); dt 1 ms for explicit, 1/120 s otherwise.
+pub fn busy_params(integrator: Integrator) -> Params {
+    let mut p = Params {
+        integrator,
+        dt: if integrator == Integrator::Explicit {
+            1e-3
+        } else {
+            1.0 / 120.0
+        },
+        ..Params::default()
+    };
+    p.fixup.method = FixupMethod::Jacobi;
+    p.ground = Some(Ground {
+        height: 0.75,
+        friction: 0.5,
+    });
+    p.spheres = vec![Sphere {
+        center: [0.1, 0.7, 0.0],
+        radius: 0.2,
+        friction: 0.3,
+    }];
+    p.wind = Some(Wind {
+        velocity: [3.0, 0.0, 1.0],
+        drag: 0.6,
+        lift: 0.2,
+    });
+    p
+}
+
+/// The two top corners.
+pub fn corners() -> Vec<Pin> {
+    vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)]
+}
+
+/// A horizontal `nx × ny` cloth (1 m square, 1 m up) with `pins`.
+pub fn grid(nx: usize, ny: usize, pins: Vec<Pin>, params: &Params) -> Model {
+    let spec = ClothSpec {
+        nx,
+        ny,
+        pins,
+        ..ClothSpec::default()
+    };
+    Model::new(&spec, &params.springs).expect("valid grid")
 }
