@@ -70,24 +70,16 @@ fn implicit_prepare(
         }
         let rhs = (f + kv * params.dt) * params.dt;
         // Twin: Sym3::inverse, with its fallback to 1/m I.
-        let c_xx = yy * zz - yz * yz;
-        let c_xy = xz * yz - xy * zz;
-        let c_xz = xy * yz - xz * yy;
-        let det = xx * c_xx + xy * c_xy + xz * c_xz;
-        let scale = max(max(abs(xx), abs(yy)), abs(zz));
-        let floor = TINY * scale * scale * scale;
-        var pd = vec3<f32>(1.0 / m);
-        var po = vec3<f32>(0.0);
-        if (finite1(det) && det > floor) {
-            let inv = 1.0 / det;
-            pd = vec3<f32>(c_xx * inv, (xx * zz - xz * xz) * inv, (xx * yy - xy * xy) * inv);
-            po = vec3<f32>(c_xy * inv, c_xz * inv, (xy * xz - xx * yz) * inv);
+        var pre = Sym3(vec3<f32>(1.0 / m), vec3<f32>(0.0));
+        let inv = sym3_inverse(Sym3(vec3<f32>(xx, yy, zz), vec3<f32>(xy, xz, yz)));
+        if (inv.ok) {
+            pre = inv.m;
         }
         work[wi(W_RHS, p)] = vec4<f32>(rhs, 0.0);
         work[wi(W_Z, p)] = vec4<f32>(z, kind);
         work[wi(W_FILTER, p)] = vec4<f32>(normal, friction);
-        work[wi(W_PRE_DIAG, p)] = vec4<f32>(pd, 0.0);
-        work[wi(W_PRE_OFF, p)] = vec4<f32>(po, 0.0);
+        work[wi(W_PRE_DIAG, p)] = vec4<f32>(pre.d, 0.0);
+        work[wi(W_PRE_OFF, p)] = vec4<f32>(pre.o, 0.0);
         let dv = filter_apply(kind, normal, work[wi(W_DV, p)].xyz) + z;
         work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
         let sb = filter_apply(kind, normal, rhs);

@@ -18,34 +18,23 @@ fn torque_apply(
             sum_partials(torque_slot(T_EXCESS + 1u)),
             sum_partials(torque_slot(T_EXCESS + 2u)),
         );
-        let xx = sum_partials(torque_slot(T_INERTIA));
-        let yy = sum_partials(torque_slot(T_INERTIA + 1u));
-        let zz = sum_partials(torque_slot(T_INERTIA + 2u));
-        let xy = sum_partials(torque_slot(T_INERTIA + 3u));
-        let xz = sum_partials(torque_slot(T_INERTIA + 4u));
-        let yz = sum_partials(torque_slot(T_INERTIA + 5u));
-        // Twin: Sym3::inverse; a singular tensor leaves Δv as it is.
-        let c_xx = yy * zz - yz * yz;
-        let c_xy = xz * yz - xy * zz;
-        let c_xz = xy * yz - xz * yy;
-        let det = xx * c_xx + xy * c_xy + xz * c_xz;
-        let scale = max(max(abs(xx), abs(yy)), abs(zz));
-        let floor = TINY * scale * scale * scale;
+        let inertia = Sym3(
+            vec3<f32>(
+                sum_partials(torque_slot(T_INERTIA)),
+                sum_partials(torque_slot(T_INERTIA + 1u)),
+                sum_partials(torque_slot(T_INERTIA + 2u)),
+            ),
+            vec3<f32>(
+                sum_partials(torque_slot(T_INERTIA + 3u)),
+                sum_partials(torque_slot(T_INERTIA + 4u)),
+                sum_partials(torque_slot(T_INERTIA + 5u)),
+            ),
+        );
+        // A singular tensor (twin: inverse() is None) leaves Δv as it is.
         var omega = vec4<f32>(0.0);
-        if (finite1(det) && det > floor) {
-            let inv = 1.0 / det;
-            let ixx = c_xx * inv;
-            let iyy = (xx * zz - xz * xz) * inv;
-            let izz = (xx * yy - xy * xy) * inv;
-            let ixy = c_xy * inv;
-            let ixz = c_xz * inv;
-            let iyz = (xy * xz - xx * yz) * inv;
-            omega = vec4<f32>(
-                ixx * e.x + ixy * e.y + ixz * e.z,
-                ixy * e.x + iyy * e.y + iyz * e.z,
-                ixz * e.x + iyz * e.y + izz * e.z,
-                1.0,
-            );
+        let inv = sym3_inverse(inertia);
+        if (inv.ok) {
+            omega = vec4<f32>(sym3_mul(inv.m, e), 1.0);
         }
         shared_omega = omega;
     }

@@ -22,16 +22,57 @@ fn filter_of(p: u32, a: vec3<f32>) -> vec3<f32> {
     return filter_apply(work[wi(W_Z, p)].w, work[wi(W_FILTER, p)].xyz, a);
 }
 
+// A symmetric 3×3 matrix: diagonal (xx, yy, zz), off-diagonal (xy, xz, yz).
+struct Sym3 {
+    d: vec3<f32>,
+    o: vec3<f32>,
+}
+
+// Twin: mat3::Sym3::inverse; `ok` is false where the CPU returns None.
+struct Sym3Inverse {
+    m: Sym3,
+    ok: bool,
+}
+
+fn sym3_inverse(a: Sym3) -> Sym3Inverse {
+    let xx = a.d.x;
+    let yy = a.d.y;
+    let zz = a.d.z;
+    let xy = a.o.x;
+    let xz = a.o.y;
+    let yz = a.o.z;
+    let c_xx = yy * zz - yz * yz;
+    let c_xy = xz * yz - xy * zz;
+    let c_xz = xy * yz - xz * yy;
+    let det = xx * c_xx + xy * c_xy + xz * c_xz;
+    let scale = max(max(abs(xx), abs(yy)), abs(zz));
+    let floor = TINY * scale * scale * scale;
+    if (!(finite1(det) && det > floor)) {
+        return Sym3Inverse(a, false);
+    }
+    let inv = 1.0 / det;
+    return Sym3Inverse(
+        Sym3(
+            vec3<f32>(c_xx * inv, (xx * zz - xz * xz) * inv, (xx * yy - xy * xy) * inv),
+            vec3<f32>(c_xy * inv, c_xz * inv, (xy * xz - xx * yz) * inv),
+        ),
+        true,
+    );
+}
+
+// Twin: mat3::Sym3::mul.
+fn sym3_mul(m: Sym3, a: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(
+        m.d.x * a.x + m.o.x * a.y + m.o.y * a.z,
+        m.o.x * a.x + m.d.y * a.y + m.o.z * a.z,
+        m.o.y * a.x + m.o.z * a.y + m.d.z * a.z,
+    );
+}
+
 // Twin: mat3::Sym3::mul with the preconditioner of particle p
 // (diag = xx, yy, zz; off = xy, xz, yz).
 fn precond_mul(p: u32, a: vec3<f32>) -> vec3<f32> {
-    let d = work[wi(W_PRE_DIAG, p)].xyz;
-    let o = work[wi(W_PRE_OFF, p)].xyz;
-    return vec3<f32>(
-        d.x * a.x + o.x * a.y + o.y * a.z,
-        o.x * a.x + d.y * a.y + o.z * a.z,
-        o.y * a.x + o.z * a.y + d.z * a.z,
-    );
+    return sym3_mul(Sym3(work[wi(W_PRE_DIAG, p)].xyz, work[wi(W_PRE_OFF, p)].xyz), a);
 }
 
 // (A a)_p, unfiltered, for the vector in work section `sec`: m a_p, then

@@ -87,20 +87,18 @@ fn total_force(p: u32) -> vec3<f32> {
     }
     var f = params.gravity * v[p].w;
     f += springs_sum;
-    if (HAS_WIND) {
-        let tb = topo[params.tri_adj_offsets + p];
-        let te = topo[params.tri_adj_offsets + p + 1u];
-        for (var k = tb; k < te; k++) {
-            f += wind_triangle_force(topo[params.tri_adj_entries + k]);
-        }
-    }
-    return f;
+    return add_wind(p, f);
 }
 
 // External force on particle p (twin: cpu::forces::external_forces):
 // gravity, then wind triangles in adjacency order.
 fn external_force(p: u32) -> vec3<f32> {
-    var f = params.gravity * v[p].w;
+    return add_wind(p, params.gravity * v[p].w);
+}
+
+// `f` plus the wind forces of particle p's triangles, in adjacency order.
+fn add_wind(p: u32, f_in: vec3<f32>) -> vec3<f32> {
+    var f = f_in;
     if (HAS_WIND) {
         let tb = topo[params.tri_adj_offsets + p];
         let te = topo[params.tri_adj_offsets + p + 1u];

@@ -6,19 +6,11 @@
 //! bit-for-bit symplectic Euler without constraints (no `(x + dt v − x)/dt`
 //! rounding), which is what the closed-form tests check.
 
-use super::forces::total_forces;
 use super::{finish_with_fixup, State, StepStats, System, Workspace};
 
 /// One explicit step.
 pub fn step<R: crate::Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -> StepStats {
-    total_forces(
-        sys,
-        &st.x,
-        &st.v,
-        &mut w.per_spring,
-        &mut w.per_triangle,
-        &mut w.force,
-    );
+    w.compute_forces(sys, st);
     for p in 0..st.x.len() {
         st.v[p] += w.force[p] * (sys.dt * sys.inv_mass[p]);
     }

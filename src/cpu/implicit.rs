@@ -25,7 +25,7 @@
 //! cuts iterations for smooth motion without changing the answer.
 
 use super::collide::{collide, contact, CONTACT_SLOP};
-use super::forces::{gather_signed, spring_frame, total_forces};
+use super::forces::{gather_signed, spring_frame};
 use super::mat3::Sym3;
 use super::{State, StepStats, System, Workspace, REDUCTION_BLOCK};
 use crate::real::{Real, Vec3};
@@ -186,14 +186,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
     let dt2 = dt * dt;
 
     // Forces at the start of the step.
-    total_forces(
-        sys,
-        &st.x,
-        &st.v,
-        &mut w.per_spring,
-        &mut w.per_triangle,
-        &mut w.force,
-    );
+    w.compute_forces(sys, st);
 
     // Linearise every spring; `w.per_spring` gets K_s (v_i − v_j).
     for (s, sp) in sys.springs.iter().enumerate() {

@@ -292,6 +292,19 @@ pub struct Workspace<R> {
 }
 
 impl<R: Real> Workspace<R> {
+    /// Every particle's total force at the state `st` into `self.force`
+    /// (see [`forces::total_forces`]).
+    pub fn compute_forces(&mut self, sys: &System<R>, st: &State<R>) {
+        forces::total_forces(
+            sys,
+            &st.x,
+            &st.v,
+            &mut self.per_spring,
+            &mut self.per_triangle,
+            &mut self.force,
+        );
+    }
+
     fn new(particles: usize, springs: usize, triangles: usize) -> Self {
         let pv = || vec![Vec3::ZERO; particles];
         Workspace {

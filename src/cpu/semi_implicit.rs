@@ -26,7 +26,7 @@
 //! For a single linear spring along its axis with one end pinned the step is
 //! exactly backward Euler.
 
-use super::forces::{external_forces, total_forces};
+use super::forces::external_forces;
 use super::implicit::tree_sum;
 use super::mat3::Sym3;
 use super::{finish_with_fixup, State, StepStats, System, Workspace};
@@ -36,14 +36,7 @@ use crate::real::{Real, Vec3};
 pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -> StepStats {
     let n = st.x.len();
     let dt = sys.dt;
-    total_forces(
-        sys,
-        &st.x,
-        &st.v,
-        &mut w.per_spring,
-        &mut w.per_triangle,
-        &mut w.force,
-    );
+    w.compute_forces(sys, st);
     // per_spring ← k (v_i − v_j); (H v)_p = −Σ ± per_spring.
     for (s, sp) in sys.springs.iter().enumerate() {
         w.per_spring[s] = (st.v[sp.i as usize] - st.v[sp.j as usize]) * sp.k;
