@@ -45,6 +45,11 @@ const SPHERE: [f32; 3] = [0.25, 0.40, 0.70];
 /// Direction towards the light (normalised in `Renderer::new`): from above,
 /// a little to the front-right.
 const LIGHT: [f32; 3] = [0.4, 1.0, 0.6];
+/// Colliders are drawn this much smaller than they collide [fraction of
+/// the camera-fitting radius]: the cloth resting on them keeps its
+/// particles on their surface, but its flat triangles cut chords below it,
+/// and a collider drawn at full size shows through them in spots.
+const COLLIDER_INSET: f32 = 0.01;
 /// Half-width of the ground quad, in camera-fitting radii: it reaches past
 /// the edges of the image at the bottom, and the sky shows at the top.
 const GROUND_RADII: f32 = 3.0;
@@ -261,7 +266,7 @@ impl Renderer {
         let ground = params.ground.map(|g| {
             let place = [
                 camera.target[0],
-                g.height as f32,
+                g.height as f32 - COLLIDER_INSET * camera.radius,
                 camera.target[2],
                 GROUND_RADII * camera.radius,
             ];
@@ -277,7 +282,9 @@ impl Renderer {
             .iter()
             .map(|s| {
                 let c = s.center.map(|v| v as f32);
-                instance([c[0], c[1], c[2], s.radius as f32], SPHERE, 0.0)
+                let r =
+                    (s.radius as f32 - COLLIDER_INSET * camera.radius).max(0.5 * s.radius as f32);
+                instance([c[0], c[1], c[2], r], SPHERE, 0.0)
             })
             .collect();
         let spheres = (!spheres.is_empty())
