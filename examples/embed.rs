@@ -70,33 +70,12 @@ pub fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Re
         // ...and the vertex normals the lighting needs...
         solver.encode_normals(&mut encoder);
         {
-            // ...then the host's own render pass on its own target...
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("embed.pass"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &target.color_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(render::background()),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &target.depth_view,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
+            // ...then the host's own render pass on its own target's views
+            // (cleared to the background; a game clears to its own sky and
+            // draws its own objects in the same pass)...
+            let mut pass = render::begin_pass(&mut encoder, &target.color_view, &target.depth_view);
             // ...in which the cloth is drawn from the solver's position,
-            // normal and index buffers (the host would draw its own objects
-            // in the same pass).
+            // normal and index buffers.
             renderer.draw(&mut pass, &solver);
         }
         // One submit per frame: steps, normals and drawing in order.

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use super::png_writer::{frame_name, Frame, PngWriter};
 use super::{Camera, FrameTarget, Renderer};
 use crate::error::{Error, Result};
-use crate::gpu::GpuSolver;
+use crate::gpu::{readback, GpuSolver};
 use crate::scene::Scene;
 
 /// Staging buffers in rotation, and so frames in flight between two status
@@ -166,9 +166,10 @@ pub fn render_scene(
     render_frames(device, &mut solver, &renderer, options, progress)
 }
 
-/// Reads `target`'s colour back now (blocking): tightly packed RGBA8 rows,
-/// top row first. For tests and one-off pictures; [`render_frames`]
-/// pipelines its read-backs instead.
+/// Reads `texture`'s colour back now (blocking): tightly packed RGBA8
+/// rows, top row first. For tests and one-off pictures (it goes through
+/// [`crate::gpu::readback`], one more copy); [`render_frames`] pipelines its
+/// read-backs instead.
 pub fn read_rgba(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -176,23 +177,19 @@ pub fn read_rgba(
 ) -> Result<Vec<u8>> {
     let (width, height) = (texture.width(), texture.height());
     let row = padded_row(width);
-    let staging = staging_buffer(device, "wgcloth.render.read_rgba", row, height);
+    let rows = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("wgcloth.render.read_rgba"),
+        size: u64::from(row) * u64::from(height),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("wgcloth.render.read_rgba"),
     });
-    copy_to_staging(&mut encoder, texture, &staging, row);
+    copy_to_staging(&mut encoder, texture, &rows, row);
     queue.submit([encoder.finish()]);
-    let (tx, rx) = flume::bounded(1);
-    staging.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|e| Error::Gpu(format!("waiting for the frame: {e}")))?;
-    rx.recv()
-        .map_err(|_| Error::Gpu("the frame was never mapped".into()))?
-        .map_err(|e| Error::Gpu(format!("mapping the frame: {e}")))?;
-    unpad(&staging, row, width).map_err(|e| Error::Gpu(format!("reading the frame: {e}")))
+    let padded = readback::read_buffers(device, queue, &[(&rows, 0, rows.size())])?;
+    Ok(strip_padding(&padded[0], row, width))
 }
 
 /// Bytes per row of a staging copy: `width × 4` rounded up to
@@ -232,15 +229,18 @@ fn copy_to_staging(
 
 /// The mapped `staging` buffer's rows without their padding; unmaps it.
 fn unpad(staging: &wgpu::Buffer, row: u32, width: u32) -> Result<Vec<u8>, wgpu::MapRangeError> {
-    let rgba = {
-        let view = staging.get_mapped_range(..)?;
-        view.chunks(row as usize)
-            .flat_map(|r| &r[..width as usize * 4])
-            .copied()
-            .collect()
-    };
+    let rgba = strip_padding(&staging.get_mapped_range(..)?, row, width);
     staging.unmap();
     Ok(rgba)
+}
+
+/// `width` pixels of each `row`-byte row.
+fn strip_padding(padded: &[u8], row: u32, width: u32) -> Vec<u8> {
+    padded
+        .chunks(row as usize)
+        .flat_map(|r| &r[..width as usize * 4])
+        .copied()
+        .collect()
 }
 
 #[cfg(test)]
