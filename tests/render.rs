@@ -124,6 +124,7 @@ fn frames_show_the_cloth_where_its_particles_project() {
         frames: FRAMES,
         steps_per_frame: render::steps_per_frame(30.0, scene.params.dt).expect("fps"),
         dir: dir.clone(),
+        strain: false,
     };
     let mut seen = Vec::new();
     let written = render::render_frames(&ctx.device, &mut solver, &renderer, &options, |done| {
@@ -178,8 +179,47 @@ fn a_size_beyond_the_device_is_refused() {
         frames: 1,
         steps_per_frame: 1,
         dir: std::env::temp_dir(),
+        strain: false,
     };
     let err = render::render_scene(&ctx.device, &ctx.queue, &scene, &options, |_| {})
         .expect_err("too wide");
     assert!(matches!(err, wgcloth::Error::DeviceLimit { .. }), "{err}");
+}
+
+/// The strain view at rest: every triangle at zero strain, so the pixels
+/// where the particles project are the ramp's blue.
+#[test]
+fn strain_view_at_rest_is_blue() {
+    let ctx = gpu_common::gpu();
+    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
+    let model = scene.model().expect("the model");
+    let dir = temp_dir("strain");
+    let options = FrameOptions {
+        width: WIDTH,
+        height: HEIGHT,
+        frames: 1,
+        steps_per_frame: 1,
+        dir: dir.clone(),
+        strain: true,
+    };
+    render::render_scene(&ctx.device, &ctx.queue, &scene, &options, |_| {})
+        .unwrap_or_else(|e| panic!("rendering: {e}"));
+    let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
+    let frame = dir.join(png_writer::frame_name(0));
+    let (_, _, rgba) = decode(&frame);
+    let rest: Vec<[f32; 3]> = model
+        .rest_positions
+        .iter()
+        .map(|p| p.map(|v| v as f32))
+        .collect();
+    for x in interior(&rest) {
+        let [px, py] = camera.project(x, WIDTH, HEIGHT).expect("in front");
+        let c = pixel(&rgba, px as u32, py as u32);
+        assert!(
+            i32::from(c[2]) > i32::from(c[0]).max(i32::from(c[1])) + CLOTH_RED_MARGIN,
+            "{}: particle at {x:?} projects to ({px:.1}, {py:.1}), colour {c:?}: not blue",
+            frame.display()
+        );
+    }
+    std::fs::remove_dir_all(&dir).expect("remove the test directory");
 }

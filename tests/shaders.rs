@@ -147,7 +147,7 @@ fn render_shader_parses_and_validates() {
                 e.emit_to_string(source)
             )
         });
-    for entry in ["vs_cloth", "vs_collider", "fs_main"] {
+    for entry in ["vs_cloth", "vs_cloth_strain", "vs_collider", "fs_main"] {
         assert!(
             module.entry_points.iter().any(|e| e.name == entry),
             "mesh.wgsl must define `{entry}`"

@@ -21,6 +21,7 @@ pub fn render_builtin(name: &str, seconds: f64) -> anyhow::Result<()> {
         frames: (seconds * FPS).round() as u32 + 1,
         steps_per_frame: render::steps_per_frame(FPS, scene.params.dt)?,
         dir: dir.clone(),
+        strain: false,
     };
     let context = GpuContext::new(None)?;
     let written = render::render_scene(&context.device, &context.queue, &scene, &options, |_| {})?;

@@ -85,6 +85,12 @@ struct RenderArgs {
     #[arg(long)]
     overwrite: bool,
 
+    /// Colour the cloth by stretch strain instead of lighting its colour:
+    /// per triangle, its largest (l − L) / L, blue at ≤ 0, green, red at
+    /// and above `max_stretch − 1` of the stretch springs (10 % without).
+    #[arg(long)]
+    strain: bool,
+
     /// Time integrator, overriding the scene's `[simulation] integrator`.
     #[arg(long, value_enum)]
     integrator: Option<IntegratorArg>,
@@ -106,6 +112,7 @@ impl RenderArgs {
             size: (640, 480),
             out: render::default_out(),
             overwrite: true,
+            strain: false,
             integrator: None,
             adapter: None,
         }

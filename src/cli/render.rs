@@ -35,6 +35,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         frames: args.frames,
         steps_per_frame,
         dir: args.out.clone(),
+        strain: args.strain,
     };
     eprintln!(
         "rendering `{}` on {}: {} frames of {width}×{height}, {steps_per_frame} steps each",

@@ -39,6 +39,9 @@ pub struct FrameOptions {
     pub steps_per_frame: u32,
     /// The folder the frames go to (it must exist).
     pub dir: PathBuf,
+    /// [`render_scene`] only: colour the cloth by strain
+    /// ([`Renderer::show_strain`]).
+    pub strain: bool,
 }
 
 /// Steps per frame: `ceil((1/fps) / dt)`, so a frame covers at least
@@ -162,7 +165,10 @@ pub fn render_scene(
     let mut solver = GpuSolver::new(device, queue, &model, &scene.params)?;
     let aspect = options.width as f32 / options.height as f32;
     let camera = Camera::framing(&model, &scene.params, aspect);
-    let renderer = Renderer::new(device, queue, &scene.params, &camera);
+    let mut renderer = Renderer::new(device, queue, &scene.params, &camera);
+    if options.strain {
+        renderer.show_strain(device, &model, &solver);
+    }
     render_frames(device, &mut solver, &renderer, options, progress)
 }
 

@@ -16,6 +16,7 @@ pub mod camera;
 pub mod frames;
 mod mesh;
 pub mod png_writer;
+pub mod strain;
 
 use wgpu::util::DeviceExt;
 
@@ -23,6 +24,7 @@ pub use camera::Camera;
 pub use frames::{read_rgba, render_frames, render_scene, steps_per_frame, FrameOptions};
 
 use crate::gpu::GpuSolver;
+use crate::model::Model;
 use crate::params::Params;
 
 /// Colour format of the targets the renderer draws into. Not sRGB: the
@@ -62,8 +64,9 @@ struct Globals {
     light: [f32; 4],
     cloth_front: [f32; 4],
     cloth_back: [f32; 4],
+    strain: [f32; 4],
 }
-const _: () = assert!(std::mem::size_of::<Globals>() == 112);
+const _: () = assert!(std::mem::size_of::<Globals>() == 128);
 
 /// Size of the render shader's `Globals` uniform on the host [bytes] (the
 /// shader tests check the WGSL struct has the same).
@@ -92,8 +95,14 @@ struct Collider {
 #[derive(Debug)]
 pub struct Renderer {
     queue: wgpu::Queue,
+    shader: wgpu::ShaderModule,
+    globals_layout: wgpu::BindGroupLayout,
     globals: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    /// The strain shown red in the strain view.
+    strain_full_scale: f32,
+    /// `Some`: the cloth is drawn coloured by strain.
+    strain: Option<strain::StrainView>,
     cloth: wgpu::RenderPipeline,
     collider: wgpu::RenderPipeline,
     ground: Option<Collider>,
@@ -237,13 +246,7 @@ impl Renderer {
                     cull_mode: cull,
                     ..Default::default()
                 },
-                depth_stencil: Some(wgpu::DepthStencilState {
-                    format: DEPTH_FORMAT,
-                    depth_write_enabled: Some(true),
-                    depth_compare: Some(wgpu::CompareFunction::Less),
-                    stencil: Default::default(),
-                    bias: Default::default(),
-                }),
+                depth_stencil: Some(depth_state()),
                 multisample: Default::default(),
                 fragment: Some(wgpu::FragmentState {
                     module: &shader,
@@ -291,7 +294,11 @@ impl Renderer {
             .then(|| Collider::new(device, "spheres", &mesh::sphere(), &spheres));
         let renderer = Renderer {
             queue: queue.clone(),
+            shader,
+            globals_layout: layout,
             globals,
+            strain_full_scale: strain::full_scale(params),
+            strain: None,
             bind_group,
             cloth,
             collider,
@@ -311,9 +318,26 @@ impl Renderer {
             light: [l[0] / n, l[1] / n, l[2] / n, 0.0],
             cloth_front: [CLOTH_FRONT[0], CLOTH_FRONT[1], CLOTH_FRONT[2], 1.0],
             cloth_back: [CLOTH_BACK[0], CLOTH_BACK[1], CLOTH_BACK[2], 1.0],
+            strain: [self.strain_full_scale, 0.0, 0.0, 0.0],
         };
         self.queue
             .write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
+    }
+
+    /// From now on, draws `solver`'s cloth (made from `model`) coloured per
+    /// triangle by its largest edge strain (l − L) / L: blue at ≤ 0, green
+    /// at half of [`strain::full_scale`], red at and above it. Needs
+    /// storage buffers in the vertex stage (every Vulkan, Metal and DX12
+    /// device has them). [`Renderer::draw`] must then be given this
+    /// `solver`.
+    pub fn show_strain(&mut self, device: &wgpu::Device, model: &Model, solver: &GpuSolver) {
+        self.strain = Some(strain::StrainView::new(
+            device,
+            &self.shader,
+            &self.globals_layout,
+            model,
+            solver,
+        ));
     }
 
     /// Records the cloth, the ground and the spheres into `pass`, a pass
@@ -322,11 +346,15 @@ impl Renderer {
     /// (`GpuSolver::encode_normals`) since its last step.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, solver: &GpuSolver) {
         pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.set_pipeline(&self.cloth);
-        pass.set_vertex_buffer(0, solver.positions_buffer().slice(..));
-        pass.set_vertex_buffer(1, solver.normals_buffer().slice(..));
-        pass.set_index_buffer(solver.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(0..solver.index_count(), 0, 0..1);
+        if let Some(strain) = &self.strain {
+            strain.draw(pass);
+        } else {
+            pass.set_pipeline(&self.cloth);
+            pass.set_vertex_buffer(0, solver.positions_buffer().slice(..));
+            pass.set_vertex_buffer(1, solver.normals_buffer().slice(..));
+            pass.set_index_buffer(solver.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..solver.index_count(), 0, 0..1);
+        }
         pass.set_pipeline(&self.collider);
         for c in self.ground.iter().chain(&self.spheres) {
             pass.set_vertex_buffer(0, c.vertices.slice(..));
@@ -381,6 +409,17 @@ pub fn begin_pass<'e>(
         occlusion_query_set: None,
         multiview_mask: None,
     })
+}
+
+/// Depth test and write, nearer wins: every pipeline's.
+fn depth_state() -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(true),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
 }
 
 /// [`BACKGROUND`] as a clear colour (the target is not sRGB, so the bytes
