@@ -85,7 +85,7 @@ struct RenderArgs {
     #[arg(long)]
     overwrite: bool,
 
-    /// Colour the cloth by stretch strain instead of lighting its colour:
+    /// Colour the cloth (still lit) by stretch strain instead of red/orange:
     /// per triangle, its largest (l − L) / L, blue at ≤ 0, green, red at
     /// and above `max_stretch − 1` of the stretch springs (10 % without).
     #[arg(long)]
