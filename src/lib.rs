@@ -22,6 +22,7 @@ pub mod gpu;
 pub mod model;
 pub mod params;
 pub mod real;
+pub mod render;
 pub mod scene;
 
 pub use error::{Error, Result};

@@ -523,3 +523,114 @@ fn gpu_blow_up_names_the_step_and_leaves_no_files() {
         blow_up_step("cpu-f32-blow-up", &["--precision", "f32"])
     );
 }
+
+// --- `wgcloth render`, on lavapipe.
+
+/// The `frame_*.png` files in `dir`, sorted, each with its size.
+fn frames_in(dir: &Path) -> Vec<(String, (u32, u32))> {
+    let mut frames: Vec<(String, (u32, u32))> = fs::read_dir(dir)
+        .expect("list the frame folder")
+        .map(|e| e.expect("directory entry").path())
+        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .map(|p| {
+            let file = fs::File::open(&p).expect("open a frame");
+            let info = png::Decoder::new(std::io::BufReader::new(file))
+                .read_info()
+                .unwrap_or_else(|e| panic!("{} does not decode: {e}", p.display()));
+            let (w, h) = (info.info().width, info.info().height);
+            let name = p
+                .file_name()
+                .expect("a name")
+                .to_string_lossy()
+                .into_owned();
+            (name, (w, h))
+        })
+        .collect();
+    frames.sort();
+    frames
+}
+
+fn expected_frames(n: u32, size: (u32, u32)) -> Vec<(String, (u32, u32))> {
+    (0..n)
+        .map(|k| (format!("frame_{k:05}.png"), size))
+        .collect()
+}
+
+#[test]
+fn render_writes_numbered_frames_and_refuses_to_mix_runs() {
+    let dir = TempDir::new("render");
+    let scene = dir.write("small.toml", SMALL_SCENE);
+    let out = dir.join("frames");
+    let render = |extra: &[&str]| {
+        let mut args = vec!["render", path_str(&scene), "--out", path_str(&out)];
+        args.extend_from_slice(&["--size", "64x48", "--fps", "100"]);
+        args.extend_from_slice(extra);
+        wgcloth(&args)
+    };
+    let first = render(&["--frames", "3"]);
+    assert_status(&first, 0);
+    assert!(
+        stdout(&first).contains("wrote 3 frames"),
+        "{}",
+        stdout(&first)
+    );
+    assert_eq!(frames_in(&out), expected_frames(3, (64, 48)));
+
+    // Old frames are neither mixed with new ones nor silently replaced.
+    let again = render(&["--frames", "2"]);
+    assert_status(&again, EXIT_INVALID);
+    assert!(stderr(&again).contains("--overwrite"), "{}", stderr(&again));
+    assert_eq!(frames_in(&out), expected_frames(3, (64, 48)));
+
+    // With --overwrite the old frames go first: two frames, not three.
+    let replaced = render(&["--frames", "2", "--overwrite"]);
+    assert_status(&replaced, 0);
+    assert_eq!(frames_in(&out), expected_frames(2, (64, 48)));
+}
+
+#[test]
+fn render_blow_up_names_the_step() {
+    let dir = TempDir::new("render-blow-up");
+    let scene = dir.write("stiff.toml", BLOW_UP_SCENE);
+    let out = dir.join("frames");
+    let args = [
+        "render",
+        path_str(&scene),
+        "--out",
+        path_str(&out),
+        "--size",
+        "32x24",
+    ];
+    let run = wgcloth(&args);
+    assert_status(&run, EXIT_BLEW_UP);
+    assert!(
+        stderr(&run).contains("blew up at step "),
+        "{}",
+        stderr(&run)
+    );
+}
+
+#[test]
+fn render_refuses_a_bad_size() {
+    let out = wgcloth(&["render", "hanging", "--size", "640"]);
+    assert_status(&out, EXIT_INVALID);
+    assert!(stderr(&out).contains("WIDTHxHEIGHT"), "{}", stderr(&out));
+}
+
+/// `wgcloth` with no arguments renders `hanging` to `./out` (the README's
+/// first command), quickly.
+#[test]
+fn no_arguments_render_the_default_job_to_out() {
+    let dir = TempDir::new("default-job");
+    let run = Command::new(BIN)
+        .current_dir(&dir.0)
+        .output()
+        .expect("run the wgcloth binary");
+    assert_status(&run, 0);
+    assert!(
+        stdout(&run).contains("wrote 60 frames to out"),
+        "{}",
+        stdout(&run)
+    );
+    assert_eq!(frames_in(&dir.join("out")), expected_frames(60, (640, 480)));
+}

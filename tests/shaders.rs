@@ -126,3 +126,33 @@ fn pod_twins_match_their_wgsl_structs() {
         std::mem::size_of::<GpuSphere>(),
     );
 }
+
+/// The render shader (not a compute kernel, so not in `KERNELS`) parses,
+/// validates, has the entry points the renderer names, and its `Globals`
+/// has the size of the host's twin.
+#[test]
+fn render_shader_parses_and_validates() {
+    let source = wgcloth::render::SHADER;
+    let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| {
+        panic!(
+            "shaders/render/mesh.wgsl does not parse:\n{}",
+            e.emit_to_string(source)
+        )
+    });
+    Validator::new(ValidationFlags::all(), Capabilities::all())
+        .validate(&module)
+        .unwrap_or_else(|e| {
+            panic!(
+                "shaders/render/mesh.wgsl does not validate:\n{}",
+                e.emit_to_string(source)
+            )
+        });
+    for entry in ["vs_cloth", "vs_cloth_strain", "vs_collider", "fs_main"] {
+        assert!(
+            module.entry_points.iter().any(|e| e.name == entry),
+            "mesh.wgsl must define `{entry}`"
+        );
+    }
+    let (_, size) = wgsl_layout(&module, "Globals");
+    assert_eq!(size, wgcloth::render::GLOBALS_BYTES);
+}

@@ -5,6 +5,7 @@
 
 mod backend;
 mod output;
+mod render;
 mod run;
 mod scenes;
 mod summary;
@@ -38,8 +39,10 @@ const EXIT_NO_ADAPTER: u8 = 4;
     propagate_version = true
 )]
 struct Cli {
+    /// With no command, `wgcloth` renders the `hanging` scene to `./out`
+    /// (as `wgcloth render hanging`).
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 #[derive(Subcommand, Debug)]
@@ -48,6 +51,72 @@ enum Command {
     Run(RunArgs),
     /// List the built-in scenes.
     Scenes,
+    /// Simulate a scene on the GPU and write each frame as a PNG.
+    Render(RenderArgs),
+}
+
+/// The options of `wgcloth render`.
+#[derive(Args, Debug)]
+struct RenderArgs {
+    /// A scene file (`*.toml`) or the name of a built-in scene.
+    #[arg(value_name = "SCENE.toml | name")]
+    scene: String,
+
+    /// Frames to write; frame k shows the cloth at t = k / FPS.
+    #[arg(long, value_name = "N", default_value_t = 60)]
+    frames: u32,
+
+    /// Frames per second of simulated time: each frame advances
+    /// ceil((1/FPS) / dt) steps.
+    #[arg(long, value_name = "F", default_value_t = 30.0, value_parser = render::parse_fps)]
+    fps: f64,
+
+    /// Image size in pixels.
+    #[arg(long, value_name = "WxH", default_value = "640x480", value_parser = render::parse_size)]
+    size: (u32, u32),
+
+    /// The folder the frames go to (`frame_00000.png`, …); created if
+    /// missing.
+    #[arg(long, value_name = "DIR", default_value = "out")]
+    out: PathBuf,
+
+    /// Remove the `frame_*.png` files already in DIR first (without it,
+    /// such files are refused rather than mixed with the new frames).
+    #[arg(long)]
+    overwrite: bool,
+
+    /// Colour the cloth (still lit) by stretch strain instead of red/orange:
+    /// per triangle, its largest (l − L) / L, blue at ≤ 0, green, red at
+    /// and above `max_stretch − 1` of the stretch springs (10 % without).
+    #[arg(long)]
+    strain: bool,
+
+    /// Time integrator, overriding the scene's `[simulation] integrator`.
+    #[arg(long, value_enum)]
+    integrator: Option<IntegratorArg>,
+
+    /// Use the first GPU adapter whose name contains NAME
+    /// (case-insensitive). Default: `WGPU_ADAPTER_NAME`, else the system's
+    /// high-performance adapter.
+    #[arg(long, value_name = "NAME")]
+    adapter: Option<String>,
+}
+
+impl RenderArgs {
+    /// The job `wgcloth` with no arguments runs.
+    fn default_job() -> RenderArgs {
+        RenderArgs {
+            scene: "hanging".to_string(),
+            frames: 60,
+            fps: 30.0,
+            size: (640, 480),
+            out: render::default_out(),
+            overwrite: true,
+            strain: false,
+            integrator: None,
+            adapter: None,
+        }
+    }
 }
 
 /// The options of `wgcloth run`.
@@ -181,8 +250,10 @@ pub fn main() -> ExitCode {
     // Usage errors exit with status 2 here, `--help` and `--version` with 0.
     let cli = Cli::parse();
     let outcome = match cli.command {
-        Command::Run(args) => run::run(&args),
-        Command::Scenes => scenes::list(),
+        Some(Command::Run(args)) => run::run(&args),
+        Some(Command::Scenes) => scenes::list(),
+        Some(Command::Render(args)) => render::render(&args),
+        None => render::render(&RenderArgs::default_job()),
     };
     match outcome {
         Ok(()) => ExitCode::from(EXIT_OK),

@@ -1,0 +1,130 @@
+//! Embedding the GPU cloth in a host that renders on its own: the pattern a
+//! game uses. The host owns the device, its render target and its frame
+//! loop; every frame it records the solver's steps, the normals pass and
+//! its own render pass (drawing the cloth straight from the solver's vertex
+//! buffers) into one encoder and submits once. Nothing of the mesh crosses
+//! to the host. At the end it reads the last frame back and writes one PNG.
+//!
+//! `cargo run --release --example embed [OUT.png]` (default `out/embed.png`).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use wgcloth::gpu::{GpuContext, GpuSolver};
+use wgcloth::render::{self, png_writer, Camera, FrameTarget, Renderer};
+use wgcloth::Scene;
+
+/// Frames the host renders.
+const FRAMES: u32 = 30;
+/// Its frame rate [frames/s]: each frame advances the cloth 1/FPS seconds.
+const FPS: f64 = 30.0;
+/// Its window size [pixels].
+const SIZE: (u32, u32) = (320, 240);
+
+fn main() -> anyhow::Result<()> {
+    let out = std::env::args_os()
+        .nth(1)
+        .map_or_else(|| PathBuf::from("out/embed.png"), PathBuf::from);
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    // The host's device: here wgcloth's convenience opener; a game passes
+    // the device it already has.
+    let context = GpuContext::new(None)?;
+    run(&context.device, &context.queue, &out)?;
+    println!(
+        "wrote {} ({FRAMES} frames on {})",
+        out.display(),
+        context.describe()
+    );
+    Ok(())
+}
+
+/// The host's frame loop on a device it owns; writes the last frame to
+/// `out` and returns the camera it drew with.
+pub fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Result<Camera> {
+    // The cloth: a built-in scene's model and parameters.
+    let scene = Scene::builtin("hanging")?;
+    let model = scene.model()?;
+    // The solver borrows the host's device; it owns only its buffers.
+    let mut solver = GpuSolver::new(device, queue, &model, &scene.params)?;
+    // How many solver steps make one frame interval.
+    let steps = render::steps_per_frame(FPS, scene.params.dt)?;
+    // A camera that frames the cloth (a game has its own).
+    let (width, height) = SIZE;
+    let camera = Camera::framing(&model, &scene.params, width as f32 / height as f32);
+    // The pipelines and the collider meshes, built once.
+    let renderer = Renderer::new(device, queue, &scene.params, &camera);
+    // The host's own offscreen target (a game's would be the swap-chain
+    // texture and its depth buffer).
+    let target = FrameTarget::new(device, width, height);
+
+    for _ in 0..FRAMES {
+        // One encoder per frame...
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("embed.frame"),
+        });
+        // ...into which the solver records this frame's steps (one compute
+        // pass, no submit, no read-back)...
+        solver.encode_steps(&mut encoder, steps);
+        // ...and the vertex normals the lighting needs...
+        solver.encode_normals(&mut encoder);
+        {
+            // ...then the host's own render pass on its own target's views
+            // (cleared to the background; a game clears to its own sky and
+            // draws its own objects in the same pass)...
+            let mut pass = render::begin_pass(&mut encoder, &target.color_view, &target.depth_view);
+            // ...in which the cloth is drawn from the solver's position,
+            // normal and index buffers.
+            renderer.draw(&mut pass, &solver);
+        }
+        // One submit per frame: steps, normals and drawing in order.
+        queue.submit([encoder.finish()]);
+    }
+    // Once, at the end: did the simulation stay finite? (A game would check
+    // every few frames; it is one small read-back.)
+    solver.check()?;
+    // Read the last frame back and write it as a PNG.
+    let rgba = render::read_rgba(device, queue, &target.color)?;
+    png_writer::write_png(&png_writer::Frame {
+        path: out.to_path_buf(),
+        width,
+        height,
+        rgba,
+    })?;
+    Ok(camera)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The example runs on the test adapter (lavapipe in CI; a missing
+    /// adapter fails) and writes a PNG of its size that shows the cloth
+    /// over the background.
+    #[test]
+    fn embed_writes_a_frame() -> anyhow::Result<()> {
+        let context = GpuContext::new(None).context("the example needs an adapter")?;
+        let dir = std::env::temp_dir().join(format!("wgcloth-embed-{}", std::process::id()));
+        std::fs::create_dir_all(&dir)?;
+        let out = dir.join("embed.png");
+        run(&context.device, &context.queue, &out)?;
+        let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&out)?));
+        let mut reader = decoder.read_info()?;
+        let mut rgba = vec![0; reader.output_buffer_size().context("PNG size")?];
+        let info = reader.next_frame(&mut rgba)?;
+        assert_eq!((info.width, info.height), SIZE);
+        assert_eq!(
+            &rgba[..4],
+            &render::BACKGROUND,
+            "the top-left corner is sky"
+        );
+        let not_background = rgba.chunks(4).filter(|p| *p != render::BACKGROUND).count();
+        assert!(
+            not_background > rgba.len() / 4 / 20,
+            "only {not_background} pixels drawn"
+        );
+        std::fs::remove_dir_all(&dir)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,10 @@
+//! The built-in `flag` scene (a vertical cloth held along one edge, in the
+//! wind) to PNG frames in `out/flag/`, through the library API.
+//!
+//! `cargo run --release --example flag`
+
+mod common;
+
+fn main() -> anyhow::Result<()> {
+    common::render_builtin("flag", 3.0)
+}

@@ -1,0 +1,120 @@
+// The offscreen renderer's one shader: the cloth (drawn straight from the
+// solver's position and normal buffers) and the colliders (a unit mesh
+// placed per instance). Twin of `Globals` in `src/render/mod.rs`.
+
+struct Globals {
+    view_proj: mat4x4<f32>,
+    // Direction towards the light (unit, world space); w unused.
+    light: vec4<f32>,
+    // Colour of the cloth's front side (linear RGB); w unused.
+    cloth_front: vec4<f32>,
+    // Colour of its back side.
+    cloth_back: vec4<f32>,
+    // x: the stretch strain shown red in the strain view; yzw unused.
+    strain: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> globals: Globals;
+
+// The strain view reads the mesh as storage: the solver's positions and
+// normals, and the renderer's copies of the rest positions and triangles
+// (the solver's index buffer is an index buffer only).
+@group(1) @binding(0) var<storage, read> positions: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> normals: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> rest: array<vec4<f32>>;
+@group(1) @binding(3) var<storage, read> triangles: array<u32>;
+
+struct VertexOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    // rgb: front colour; w: 1 for a checkered surface (the ground).
+    @location(2) front: vec4<f32>,
+    @location(3) back: vec3<f32>,
+}
+
+// The cloth: slot 0 is the solver's positions (vec4 per particle, xyz
+// used), slot 1 its normals.
+@vertex
+fn vs_cloth(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>) -> VertexOut {
+    var out: VertexOut;
+    out.clip = globals.view_proj * vec4<f32>(position, 1.0);
+    out.world = position;
+    out.normal = normal;
+    out.front = vec4<f32>(globals.cloth_front.rgb, 0.0);
+    out.back = globals.cloth_back.rgb;
+    return out;
+}
+
+// The strain view: drawn without an index buffer, three vertices per
+// triangle, so that each vertex can see its whole triangle and colour it
+// by its largest edge strain (l − L) / L: blue at ≤ 0, green at half of
+// `globals.strain.x`, red at and above it.
+@vertex
+fn vs_cloth_strain(@builtin(vertex_index) v: u32) -> VertexOut {
+    let t = 3u * (v / 3u);
+    let ids = vec3<u32>(triangles[t], triangles[t + 1u], triangles[t + 2u]);
+    var strain = -1.0;
+    for (var k = 0u; k < 3u; k++) {
+        let a = ids[k];
+        let b = ids[(k + 1u) % 3u];
+        let l = length(positions[a].xyz - positions[b].xyz);
+        let l0 = length(rest[a].xyz - rest[b].xyz);
+        strain = max(strain, (l - l0) / max(l0, 1e-12));
+    }
+    let s = clamp(strain / max(globals.strain.x, 1e-12), 0.0, 1.0);
+    let blue = vec3<f32>(0.05, 0.15, 0.9);
+    let green = vec3<f32>(0.1, 0.75, 0.1);
+    let red = vec3<f32>(0.9, 0.05, 0.05);
+    let colour = select(mix(green, red, 2.0 * s - 1.0), mix(blue, green, 2.0 * s), s < 0.5);
+    let p = ids[v % 3u];
+    var out: VertexOut;
+    out.clip = globals.view_proj * vec4<f32>(positions[p].xyz, 1.0);
+    out.world = positions[p].xyz;
+    out.normal = normals[p].xyz;
+    out.front = vec4<f32>(colour, 0.0);
+    out.back = colour;
+    return out;
+}
+
+// A collider: a unit mesh (slot 0) scaled and moved by its instance
+// (slot 1: centre xyz, scale w; colour rgb, checker flag w).
+@vertex
+fn vs_collider(
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) place: vec4<f32>,
+    @location(3) colour: vec4<f32>,
+) -> VertexOut {
+    var out: VertexOut;
+    let world = place.xyz + place.w * position;
+    out.clip = globals.view_proj * vec4<f32>(world, 1.0);
+    out.world = world;
+    out.normal = normal;
+    out.front = colour;
+    out.back = colour.rgb;
+    return out;
+}
+
+// Two-sided Lambert plus ambient, gamma-encoded by hand (the target is a
+// plain `Rgba8Unorm` texture so that the clear colour's bytes are exact).
+@fragment
+fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
+    var n = normalize(in.normal);
+    var base = in.front.rgb;
+    if !front_facing {
+        // The back of the cloth: its normal points away from the eye.
+        n = -n;
+        base = in.back;
+    }
+    if in.front.w > 0.5 {
+        // 0.25 m checkers: the ground shows scale and motion.
+        let cell = floor(in.world.xz / 0.25);
+        if (i32(cell.x + cell.y) & 1) == 1 {
+            base = base * 0.8;
+        }
+    }
+    let diffuse = max(dot(n, globals.light.xyz), 0.0);
+    let linear = base * (0.3 + 0.7 * diffuse);
+    return vec4<f32>(pow(linear, vec3<f32>(1.0 / 2.2)), 1.0);
+}

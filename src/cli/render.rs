@@ -1,0 +1,155 @@
+//! `wgcloth render`: simulate a scene on the GPU and write each frame as a
+//! PNG (see the README's "Rendering"). With no arguments at all, `wgcloth`
+//! renders the `hanging` scene with these defaults.
+
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context as _;
+use wgcloth::gpu::GpuContext;
+use wgcloth::render::{self, png_writer, FrameOptions};
+use wgcloth::Scene;
+
+use super::{RenderArgs, UsageError};
+
+/// Runs `wgcloth render`.
+pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let mut scene = Scene::resolve(&args.scene)?;
+    if let Some(integrator) = args.integrator {
+        scene.params.integrator = integrator.into();
+    }
+    scene
+        .params
+        .validate()
+        .context("the command-line options make the scene invalid")?;
+    let steps_per_frame = render::steps_per_frame(args.fps, scene.params.dt)
+        .map_err(|e| UsageError(format!("--fps: {e}")))?;
+    prepare_dir(&args.out, args.overwrite)?;
+    let context = GpuContext::new(args.adapter.as_deref())?;
+    let (width, height) = args.size;
+    let options = FrameOptions {
+        width,
+        height,
+        frames: args.frames,
+        steps_per_frame,
+        dir: args.out.clone(),
+        strain: args.strain,
+    };
+    eprintln!(
+        "rendering `{}` on {}: {} frames of {width}×{height}, {steps_per_frame} steps each",
+        scene.name,
+        context.describe(),
+        args.frames,
+    );
+    let written = render::render_scene(&context.device, &context.queue, &scene, &options, |done| {
+        progress(done, args.frames, started)
+    });
+    eprintln!();
+    let written = written?;
+    println!(
+        "wrote {written} frames to {} ({}…{}), {:.1} s simulated in {:.2} s",
+        args.out.display(),
+        png_writer::frame_name(0),
+        png_writer::frame_name(written.saturating_sub(1)),
+        f64::from(written.saturating_sub(1)) * f64::from(steps_per_frame) * scene.params.dt,
+        started.elapsed().as_secs_f64(),
+    );
+    Ok(())
+}
+
+/// Creates `dir` if needed. Frames of an earlier run are never mixed with
+/// new ones: they are refused, or removed first with `--overwrite`.
+fn prepare_dir(dir: &Path, overwrite: bool) -> anyhow::Result<()> {
+    let old = png_writer::existing_frames(dir)?;
+    if !old.is_empty() {
+        if !overwrite {
+            return Err(UsageError(format!(
+                "{} already holds {} frame file(s) (frame_*.png) from an earlier run; \
+                 pass --overwrite to replace them, or choose another --out",
+                dir.display(),
+                old.len()
+            ))
+            .into());
+        }
+        let removed = png_writer::remove_frames(dir)?;
+        eprintln!(
+            "--overwrite: removed {removed} old frame file(s) from {}",
+            dir.display()
+        );
+    }
+    std::fs::create_dir_all(dir).map_err(|source| wgcloth::Error::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    Ok(())
+}
+
+/// One `\r`-rewritten line on stderr: frames done and their rate.
+fn progress(done: u32, total: u32, started: Instant) {
+    let rate = f64::from(done) / started.elapsed().as_secs_f64().max(1e-9);
+    let width = 30;
+    let filled = (done as usize * width)
+        .checked_div(total as usize)
+        .unwrap_or(width);
+    eprint!(
+        "\r[{}{}] {done}/{total} frames, {rate:.1} frames/s",
+        "#".repeat(filled),
+        " ".repeat(width - filled)
+    );
+    let _ = std::io::stderr().flush();
+}
+
+/// `--size WxH`: two whole numbers ≥ 1.
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X', '×'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT (e.g. 640x480), got `{s}`"))?;
+    let side = |v: &str| -> Result<u32, String> {
+        match v.trim().parse::<u32>() {
+            Ok(n) if n >= 1 => Ok(n),
+            _ => Err(format!("`{v}` is not a whole number of pixels ≥ 1")),
+        }
+    };
+    Ok((side(w)?, side(h)?))
+}
+
+/// `--fps`: a finite number > 0.
+pub fn parse_fps(s: &str) -> Result<f64, String> {
+    let f: f64 = s.parse().map_err(|e| format!("{e}"))?;
+    if f.is_finite() && f > 0.0 {
+        Ok(f)
+    } else {
+        Err(format!(
+            "must be a finite number > 0 of frames per second, got {f}"
+        ))
+    }
+}
+
+/// The default `--out`.
+pub fn default_out() -> PathBuf {
+    PathBuf::from("out")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse() {
+        assert_eq!(parse_size("640x480"), Ok((640, 480)));
+        assert_eq!(parse_size("8X6"), Ok((8, 6)));
+        for bad in ["640", "0x10", "ax3", "-1x2"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn fps_must_be_positive() {
+        assert_eq!(parse_fps("30"), Ok(30.0));
+        for bad in ["0", "-1", "inf", "x"] {
+            assert!(parse_fps(bad).is_err(), "{bad}");
+        }
+    }
+}

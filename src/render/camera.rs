@@ -1,0 +1,199 @@
+//! A camera that frames a scene on its own: it looks at the box the cloth
+//! can reach from a fixed elevation and azimuth, far enough back that the
+//! box's bounding sphere fits the view.
+
+use crate::model::Model;
+use crate::params::Params;
+
+/// Vertical field of view [rad] (45°).
+const FOV_Y: f32 = std::f32::consts::FRAC_PI_4;
+/// Height of the eye above the target, as an angle [rad] (20°). With half
+/// the 45° field of view above the axis, the top edge of the image looks
+/// 2.5° above the horizon, so the sky (the background) always shows there.
+const ELEVATION: f32 = 20.0 * std::f32::consts::PI / 180.0;
+/// Direction of the eye around the vertical axis, from +z towards +x [rad]
+/// (35°): the front of a cloth facing +z, seen a little from the side.
+const AZIMUTH: f32 = 35.0 * std::f32::consts::PI / 180.0;
+/// Margin around the bounding sphere (5 %).
+const MARGIN: f32 = 1.05;
+
+/// A perspective camera: where it is and its view-projection matrix.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    /// Eye position [m].
+    pub eye: [f32; 3],
+    /// The point looked at [m].
+    pub target: [f32; 3],
+    /// Radius of the sphere the view is fitted to [m].
+    pub radius: f32,
+    /// Column-major view-projection matrix (clip space: wgpu's, depth in
+    /// 0..1), as WGSL's `mat4x4<f32>` stores it.
+    pub view_proj: [[f32; 4]; 4],
+}
+
+impl Camera {
+    /// Frames `model` under `params`: the cloth's rest bounding box, grown
+    /// downwards by the cloth's largest extent (room for it to fall or hang
+    /// down) but not below the ground, plus the spheres.
+    pub fn framing(model: &Model, params: &Params, aspect: f32) -> Camera {
+        let mut lo = [f64::INFINITY; 3];
+        let mut hi = [f64::NEG_INFINITY; 3];
+        for p in &model.rest_positions {
+            for k in 0..3 {
+                lo[k] = lo[k].min(p[k]);
+                hi[k] = hi[k].max(p[k]);
+            }
+        }
+        let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max);
+        lo[1] -= extent;
+        if let Some(ground) = &params.ground {
+            lo[1] = lo[1].max(ground.height);
+        }
+        for s in &params.spheres {
+            for k in 0..3 {
+                lo[k] = lo[k].min(s.center[k] - s.radius);
+                hi[k] = hi[k].max(s.center[k] + s.radius);
+            }
+        }
+        let target = [0, 1, 2].map(|k| (0.5 * (lo[k] + hi[k])) as f32);
+        let half = [0, 1, 2].map(|k| (0.5 * (hi[k] - lo[k])) as f32);
+        let radius = length(half).max(1e-3);
+        Camera::orbit(target, radius, aspect)
+    }
+
+    /// Looks at `target` from the fixed elevation and azimuth, far enough
+    /// back that a sphere of `radius` [m] around it fits the view whose
+    /// width / height is `aspect`.
+    pub fn orbit(target: [f32; 3], radius: f32, aspect: f32) -> Camera {
+        let half_y = 0.5 * FOV_Y;
+        let half_x = (half_y.tan() * aspect).atan();
+        let distance = MARGIN * radius / half_y.min(half_x).sin();
+        let dir = [
+            ELEVATION.cos() * AZIMUTH.sin(),
+            ELEVATION.sin(),
+            ELEVATION.cos() * AZIMUTH.cos(),
+        ];
+        let eye = [0, 1, 2].map(|k| target[k] + distance * dir[k]);
+        // The ground drawn around the scene reaches 3 radii from the target
+        // (see `Renderer`): the far plane leaves room for it.
+        let near = (distance - radius * 2.0).max(distance * 0.01);
+        let far = distance + radius * 4.0;
+        let view = look_at(eye, target);
+        let proj = perspective(FOV_Y, aspect, near, far);
+        Camera {
+            eye,
+            target,
+            radius,
+            view_proj: mul(&proj, &view),
+        }
+    }
+
+    /// Projects a point [m] to pixel coordinates (x right, y down, origin
+    /// at the top-left corner) of a `width` × `height` image; `None` if it
+    /// lies behind the eye or outside the depth range.
+    pub fn project(&self, p: [f32; 3], width: u32, height: u32) -> Option<[f32; 2]> {
+        let m = &self.view_proj;
+        let clip: [f32; 4] =
+            [0, 1, 2, 3].map(|r| m[0][r] * p[0] + m[1][r] * p[1] + m[2][r] * p[2] + m[3][r]);
+        if clip[3] <= 0.0 {
+            return None;
+        }
+        let ndc = [clip[0] / clip[3], clip[1] / clip[3], clip[2] / clip[3]];
+        if !(0.0..=1.0).contains(&ndc[2]) {
+            return None;
+        }
+        Some([
+            (ndc[0] + 1.0) * 0.5 * width as f32,
+            (1.0 - ndc[1]) * 0.5 * height as f32,
+        ])
+    }
+}
+
+fn length(v: [f32; 3]) -> f32 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+fn normalize(v: [f32; 3]) -> [f32; 3] {
+    let l = length(v);
+    v.map(|c| c / l)
+}
+
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Right-handed view matrix, y up (column-major).
+fn look_at(eye: [f32; 3], target: [f32; 3]) -> [[f32; 4]; 4] {
+    let f = normalize([0, 1, 2].map(|k| target[k] - eye[k]));
+    let s = normalize(cross(f, [0.0, 1.0, 0.0]));
+    let u = cross(s, f);
+    [
+        [s[0], u[0], -f[0], 0.0],
+        [s[1], u[1], -f[1], 0.0],
+        [s[2], u[2], -f[2], 0.0],
+        [-dot(s, eye), -dot(u, eye), dot(f, eye), 1.0],
+    ]
+}
+
+/// Right-handed perspective projection to wgpu's clip space (depth 0..1),
+/// column-major.
+fn perspective(fov_y: f32, aspect: f32, near: f32, far: f32) -> [[f32; 4]; 4] {
+    let f = 1.0 / (0.5 * fov_y).tan();
+    let r = far / (near - far);
+    [
+        [f / aspect, 0.0, 0.0, 0.0],
+        [0.0, f, 0.0, 0.0],
+        [0.0, 0.0, r, -1.0],
+        [0.0, 0.0, near * r, 0.0],
+    ]
+}
+
+/// `a · b` for column-major matrices.
+fn mul(a: &[[f32; 4]; 4], b: &[[f32; 4]; 4]) -> [[f32; 4]; 4] {
+    let mut out = [[0.0; 4]; 4];
+    for (c, col) in out.iter_mut().enumerate() {
+        for (r, v) in col.iter_mut().enumerate() {
+            *v = (0..4).map(|k| a[k][r] * b[c][k]).sum();
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_target_projects_to_the_centre_and_the_sphere_fits() {
+        let cam = Camera::orbit([1.0, 2.0, 3.0], 0.5, 4.0 / 3.0);
+        let c = cam.project(cam.target, 640, 480).expect("in front");
+        assert!(
+            (c[0] - 320.0).abs() < 1e-2 && (c[1] - 240.0).abs() < 1e-2,
+            "{c:?}"
+        );
+        for d in [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, -0.5]] {
+            let p = [0, 1, 2].map(|k| cam.target[k] + d[k]);
+            let q = cam.project(p, 640, 480).expect("in front");
+            assert!(
+                (0.0..640.0).contains(&q[0]) && (0.0..480.0).contains(&q[1]),
+                "{q:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn up_is_up_on_screen() {
+        let cam = Camera::orbit([0.0; 3], 1.0, 1.0);
+        let low = cam.project([0.0, -0.5, 0.0], 100, 100).expect("in front");
+        let high = cam.project([0.0, 0.5, 0.0], 100, 100).expect("in front");
+        assert!(high[1] < low[1]);
+    }
+}

@@ -1,0 +1,265 @@
+//! A scene to numbered PNG frames: one submit per frame (its steps, its
+//! normals, its render pass and the copy to a staging buffer), read back a
+//! few frames behind the device and written by [`PngWriter`]'s thread.
+
+use std::path::PathBuf;
+
+use super::png_writer::{frame_name, Frame, PngWriter};
+use super::{Camera, FrameTarget, Renderer};
+use crate::error::{Error, Result};
+use crate::gpu::{readback, GpuSolver};
+use crate::scene::Scene;
+
+/// Staging buffers in rotation, and so frames in flight between two status
+/// checks: the device renders these while the writer encodes the previous
+/// ones, and a blow-up is caught before any of them is written.
+pub const STAGING_BUFFERS: usize = 3;
+
+/// `wgpu::COPY_BYTES_PER_ROW_ALIGNMENT`: a texture-to-buffer copy's rows
+/// start at multiples of this many bytes.
+const ROW_ALIGNMENT: u32 = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+
+/// A quotient `(1/fps) / dt` within this relative distance of a whole
+/// number counts as that number (1/30 s at dt = 1/120 s is 4 steps, not 5).
+const WHOLE_STEPS_TOLERANCE: f64 = 1e-9;
+
+/// Most steps one frame may record (one submit): bounds the command buffer.
+pub const MAX_STEPS_PER_FRAME: u32 = 100_000;
+
+/// What [`render_frames`] renders.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameOptions {
+    /// Image width [pixels].
+    pub width: u32,
+    /// Image height [pixels].
+    pub height: u32,
+    /// Frames to write; frame `k` shows the cloth after `k` frame intervals.
+    pub frames: u32,
+    /// Solver steps between two frames (see [`steps_per_frame`]).
+    pub steps_per_frame: u32,
+    /// The folder the frames go to (it must exist).
+    pub dir: PathBuf,
+    /// [`render_scene`] only: colour the cloth by strain
+    /// ([`Renderer::show_strain`]).
+    pub strain: bool,
+}
+
+/// Steps per frame: `ceil((1/fps) / dt)`, so a frame covers at least
+/// `1/fps` seconds (a quotient within 1e-9 of a whole number counts as it).
+pub fn steps_per_frame(fps: f64, dt: f64) -> Result<u32> {
+    let invalid = |allowed: &str, got: String| Error::InvalidParameter {
+        key: "fps".into(),
+        allowed: allowed.into(),
+        got,
+    };
+    if !(fps.is_finite() && fps > 0.0) {
+        return Err(invalid(
+            "a finite number > 0 of frames per second",
+            fps.to_string(),
+        ));
+    }
+    let q = 1.0 / fps / dt;
+    let steps = if (q - q.round()).abs() <= WHOLE_STEPS_TOLERANCE * q.round() {
+        q.round()
+    } else {
+        q.ceil()
+    };
+    if steps > f64::from(MAX_STEPS_PER_FRAME) {
+        return Err(invalid(
+            &format!("at most {MAX_STEPS_PER_FRAME} steps per frame (1/fps ÷ dt)"),
+            format!("{fps} (dt = {dt} s: {steps} steps)"),
+        ));
+    }
+    Ok((steps as u32).max(1))
+}
+
+/// Renders `options.frames` frames of `solver` (which it steps) with
+/// `renderer` into `options.dir`, calling `progress(done)` as each frame
+/// is read back. The device's status is checked every
+/// [`STAGING_BUFFERS`] frames; a non-finite state stops the run with
+/// [`Error::NonFinite`] (naming the step) before the frames rendered since
+/// the last good check are written. Returns the frames written.
+pub fn render_frames(
+    device: &wgpu::Device,
+    solver: &mut GpuSolver,
+    renderer: &Renderer,
+    options: &FrameOptions,
+    mut progress: impl FnMut(u32),
+) -> Result<u32> {
+    let (width, height) = (options.width, options.height);
+    let max = device.limits().max_texture_dimension_2d;
+    for (side, limit) in [
+        (width, "max_texture_dimension_2d"),
+        (height, "max_texture_dimension_2d"),
+    ] {
+        if side == 0 || side > max {
+            return Err(Error::DeviceLimit {
+                limit,
+                available: max.into(),
+                needed: side.into(),
+            });
+        }
+    }
+    let target = FrameTarget::new(device, width, height);
+    let row = padded_row(width);
+    let staging: Vec<wgpu::Buffer> = (0..STAGING_BUFFERS)
+        .map(|i| staging_buffer(device, &format!("wgcloth.render.staging{i}"), row, height))
+        .collect();
+    let mut writer = PngWriter::spawn()?;
+    let mut in_flight = Vec::with_capacity(STAGING_BUFFERS);
+    for frame in 0..options.frames {
+        let slot = frame as usize % STAGING_BUFFERS;
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("wgcloth.render.frame"),
+        });
+        if frame > 0 {
+            solver.encode_steps(&mut encoder, options.steps_per_frame);
+        }
+        solver.encode_normals(&mut encoder);
+        renderer.encode_frame(&mut encoder, solver, &target);
+        copy_to_staging(&mut encoder, &target.color, &staging[slot], row);
+        renderer.queue.submit([encoder.finish()]);
+        let (tx, rx) = flume::bounded(1);
+        staging[slot].map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        in_flight.push((frame, slot, rx));
+        if in_flight.len() < STAGING_BUFFERS && frame + 1 < options.frames {
+            continue;
+        }
+        // Waits for the device; a blow-up ends the run here, before the
+        // frames in flight are written.
+        solver.check()?;
+        for (frame, slot, rx) in in_flight.drain(..) {
+            device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| Error::Gpu(format!("waiting for frame {frame}: {e}")))?;
+            rx.recv()
+                .map_err(|_| Error::Gpu(format!("frame {frame} was never mapped")))?
+                .map_err(|e| Error::Gpu(format!("mapping frame {frame}: {e}")))?;
+            let rgba = unpad(&staging[slot], row, width)
+                .map_err(|e| Error::Gpu(format!("reading frame {frame}: {e}")))?;
+            writer.send(Frame {
+                path: options.dir.join(frame_name(frame)),
+                width,
+                height,
+                rgba,
+            })?;
+            progress(frame + 1);
+        }
+    }
+    writer.finish()
+}
+
+/// Renders `scene` from its start: builds its model, a solver, a camera
+/// that frames it and a renderer on the host's device, then runs
+/// [`render_frames`].
+pub fn render_scene(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    scene: &Scene,
+    options: &FrameOptions,
+    progress: impl FnMut(u32),
+) -> Result<u32> {
+    let model = scene.model()?;
+    let mut solver = GpuSolver::new(device, queue, &model, &scene.params)?;
+    let aspect = options.width as f32 / options.height as f32;
+    let camera = Camera::framing(&model, &scene.params, aspect);
+    let mut renderer = Renderer::new(device, queue, &scene.params, &camera);
+    if options.strain {
+        renderer.show_strain(device, &model, &solver);
+    }
+    render_frames(device, &mut solver, &renderer, options, progress)
+}
+
+/// Reads `texture`'s colour back now (blocking): tightly packed RGBA8
+/// rows, top row first. For tests and one-off pictures (it goes through
+/// [`crate::gpu::readback`], one more copy); [`render_frames`] pipelines its
+/// read-backs instead.
+pub fn read_rgba(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    texture: &wgpu::Texture,
+) -> Result<Vec<u8>> {
+    let (width, height) = (texture.width(), texture.height());
+    let row = padded_row(width);
+    let rows = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("wgcloth.render.read_rgba"),
+        size: u64::from(row) * u64::from(height),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("wgcloth.render.read_rgba"),
+    });
+    copy_to_staging(&mut encoder, texture, &rows, row);
+    queue.submit([encoder.finish()]);
+    let padded = readback::read_buffers(device, queue, &[(&rows, 0, rows.size())])?;
+    Ok(strip_padding(&padded[0], row, width))
+}
+
+/// Bytes per row of a staging copy: `width × 4` rounded up to
+/// [`ROW_ALIGNMENT`].
+fn padded_row(width: u32) -> u32 {
+    (width * 4).div_ceil(ROW_ALIGNMENT) * ROW_ALIGNMENT
+}
+
+fn staging_buffer(device: &wgpu::Device, label: &str, row: u32, height: u32) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: u64::from(row) * u64::from(height),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    })
+}
+
+fn copy_to_staging(
+    encoder: &mut wgpu::CommandEncoder,
+    texture: &wgpu::Texture,
+    staging: &wgpu::Buffer,
+    row: u32,
+) {
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: staging,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(row),
+                rows_per_image: Some(texture.height()),
+            },
+        },
+        texture.size(),
+    );
+}
+
+/// The mapped `staging` buffer's rows without their padding; unmaps it.
+fn unpad(staging: &wgpu::Buffer, row: u32, width: u32) -> Result<Vec<u8>, wgpu::MapRangeError> {
+    let rgba = strip_padding(&staging.get_mapped_range(..)?, row, width);
+    staging.unmap();
+    Ok(rgba)
+}
+
+/// `width` pixels of each `row`-byte row.
+fn strip_padding(padded: &[u8], row: u32, width: u32) -> Vec<u8> {
+    padded
+        .chunks(row as usize)
+        .flat_map(|r| &r[..width as usize * 4])
+        .copied()
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_frame_covers_at_least_its_interval() {
+        assert_eq!(steps_per_frame(30.0, 0.001).ok(), Some(34));
+        assert_eq!(steps_per_frame(30.0, 1.0 / 120.0).ok(), Some(4));
+        assert_eq!(steps_per_frame(1000.0, 0.01).ok(), Some(1));
+        assert!(steps_per_frame(0.0, 0.01).is_err());
+        assert!(steps_per_frame(f64::NAN, 0.01).is_err());
+        assert!(steps_per_frame(1e-9, 0.01).is_err());
+    }
+}

@@ -1,0 +1,79 @@
+//! The collider meshes, made once: a unit quad (the ground) and a unit UV
+//! sphere, as interleaved position + normal vertices.
+
+/// Latitude bands of the sphere mesh.
+const STACKS: u32 = 24;
+/// Longitude segments of the sphere mesh.
+const SLICES: u32 = 48;
+
+/// Interleaved vertices (`[x, y, z, nx, ny, nz]`) and triangle indices,
+/// counter-clockwise seen from outside.
+pub struct Mesh {
+    pub vertices: Vec<[f32; 6]>,
+    pub indices: Vec<u32>,
+}
+
+/// The square −1..1 in x and z at y = 0, facing +y.
+pub fn quad() -> Mesh {
+    let v = |x: f32, z: f32| [x, 0.0, z, 0.0, 1.0, 0.0];
+    Mesh {
+        vertices: vec![v(-1.0, -1.0), v(1.0, -1.0), v(1.0, 1.0), v(-1.0, 1.0)],
+        // Seen from +y, (−1,−1) → (−1,1) → (1,1) turns counter-clockwise.
+        indices: vec![0, 3, 2, 0, 2, 1],
+    }
+}
+
+/// The unit sphere around the origin.
+pub fn sphere() -> Mesh {
+    let mut vertices = Vec::with_capacity(((STACKS + 1) * (SLICES + 1)) as usize);
+    for i in 0..=STACKS {
+        let theta = std::f32::consts::PI * i as f32 / STACKS as f32;
+        for j in 0..=SLICES {
+            let phi = std::f32::consts::TAU * j as f32 / SLICES as f32;
+            let n = [
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            ];
+            vertices.push([n[0], n[1], n[2], n[0], n[1], n[2]]);
+        }
+    }
+    let mut indices = Vec::with_capacity((STACKS * SLICES * 6) as usize);
+    let at = |i: u32, j: u32| i * (SLICES + 1) + j;
+    for i in 0..STACKS {
+        for j in 0..SLICES {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            indices.extend_from_slice(&[a, d, b, b, d, c]);
+        }
+    }
+    Mesh { vertices, indices }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every triangle turns counter-clockwise seen from outside: its
+    /// geometric normal points along the vertex normals.
+    #[test]
+    fn triangles_face_outwards() {
+        for mesh in [quad(), sphere()] {
+            for t in mesh.indices.chunks_exact(3) {
+                let p = [t[0], t[1], t[2]].map(|i| mesh.vertices[i as usize]);
+                let e1 = [0, 1, 2].map(|k| p[1][k] - p[0][k]);
+                let e2 = [0, 1, 2].map(|k| p[2][k] - p[0][k]);
+                let n = [
+                    e1[1] * e2[2] - e1[2] * e2[1],
+                    e1[2] * e2[0] - e1[0] * e2[2],
+                    e1[0] * e2[1] - e1[1] * e2[0],
+                ];
+                let out: f32 = (0..3)
+                    .map(|k| n[k] * (p[0][k + 3] + p[1][k + 3] + p[2][k + 3]))
+                    .sum();
+                // The poles' triangles are degenerate (n ≈ 0, either sign).
+                let area2 = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+                assert!(area2 < 1e-6 || out > 0.0, "{t:?} faces inwards");
+            }
+        }
+    }
+}

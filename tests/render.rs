@@ -1,0 +1,225 @@
+//! Offscreen rendering on the test adapter (lavapipe in CI): frames decode
+//! at the asked size and count, the cloth lands where the camera projects
+//! its particles, and the sky stays the background colour. No golden
+//! images: the checks follow from the camera and the colours.
+
+mod gpu_common;
+
+use std::path::{Path, PathBuf};
+
+use wgcloth::gpu::GpuSolver;
+use wgcloth::render::{self, png_writer, Camera, FrameOptions, Renderer};
+use wgcloth::Scene;
+
+/// A 9 × 9 cloth held by two corners above the ground, beside a ball:
+/// every kind of object the renderer draws, small enough for lavapipe.
+const SCENE: &str = r#"
+[simulation]
+integrator = "explicit"
+dt = 0.002
+duration = 1.0
+
+[cloth]
+resolution = [9, 9]
+size = [1.0, 1.0]
+origin = [-0.5, 1.0, -0.5]
+orientation = "horizontal"
+pins = ["top-left", "top-right"]
+
+[ground]
+height = 0.0
+
+[[sphere]]
+center = [0.8, 0.3, 0.0]
+radius = 0.2
+"#;
+
+const WIDTH: u32 = 160;
+const HEIGHT: u32 = 120;
+const FRAMES: u32 = 5;
+
+/// A pixel counts as cloth when its red channel exceeds green and blue by
+/// this much: the cloth is red (front) or orange (back); the ground is
+/// grey, the ball blue, the sky blue-grey.
+const CLOTH_RED_MARGIN: i32 = 30;
+
+/// A fresh directory under the system temp directory; kept on failure so
+/// the frames can be looked at.
+fn temp_dir(test: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wgcloth-render-{}-{test}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("create the test directory");
+    dir
+}
+
+/// Decodes a frame: its size and RGBA bytes.
+fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display()));
+    let mut rgba = vec![0; reader.output_buffer_size().expect("a PNG size")];
+    let info = reader.next_frame(&mut rgba).expect("a PNG frame");
+    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
+    rgba.truncate(info.buffer_size());
+    (info.width, info.height, rgba)
+}
+
+fn pixel(rgba: &[u8], x: u32, y: u32) -> [u8; 4] {
+    let at = ((y * WIDTH + x) * 4) as usize;
+    [rgba[at], rgba[at + 1], rgba[at + 2], rgba[at + 3]]
+}
+
+/// Checks that `positions` (interior particles of the cloth) land on
+/// cloth-coloured pixels of `frame`, and the top-left corner is sky.
+fn assert_cloth_at(frame: &Path, camera: &Camera, positions: &[[f32; 3]]) {
+    let (w, h, rgba) = decode(frame);
+    assert_eq!((w, h), (WIDTH, HEIGHT), "{}", frame.display());
+    assert_eq!(
+        pixel(&rgba, 0, 0),
+        render::BACKGROUND,
+        "{}: corner",
+        frame.display()
+    );
+    for (p, x) in positions.iter().enumerate() {
+        let [px, py] = camera
+            .project(*x, WIDTH, HEIGHT)
+            .unwrap_or_else(|| panic!("particle {p} at {x:?} is behind the camera"));
+        assert!(
+            (0.0..WIDTH as f32).contains(&px) && (0.0..HEIGHT as f32).contains(&py),
+            "particle {p} at {x:?} projects outside the image, to ({px}, {py})"
+        );
+        let c = pixel(&rgba, px as u32, py as u32);
+        let red = i32::from(c[0]) - i32::from(c[1]).max(i32::from(c[2]));
+        assert!(
+            c != render::BACKGROUND && red > CLOTH_RED_MARGIN,
+            "{}: particle {p} at {x:?} projects to ({px:.1}, {py:.1}), colour {c:?}: not cloth",
+            frame.display()
+        );
+    }
+}
+
+/// The particles of the 9 × 9 grid at least two rows and columns from
+/// every edge: a pixel there is covered by the cloth whole.
+fn interior(x: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    (0..81)
+        .filter(|p| (2..7).contains(&(p % 9)) && (2..7).contains(&(p / 9)))
+        .map(|p| x[p])
+        .collect()
+}
+
+#[test]
+fn frames_show_the_cloth_where_its_particles_project() {
+    let ctx = gpu_common::gpu();
+    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
+    let model = scene.model().expect("the model");
+    let mut solver = GpuSolver::new(&ctx.device, &ctx.queue, &model, &scene.params)
+        .unwrap_or_else(|e| panic!("GPU solver: {e}"));
+    let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
+    let renderer = Renderer::new(&ctx.device, &ctx.queue, &scene.params, &camera);
+    let dir = temp_dir("frames");
+    let options = FrameOptions {
+        width: WIDTH,
+        height: HEIGHT,
+        frames: FRAMES,
+        steps_per_frame: render::steps_per_frame(30.0, scene.params.dt).expect("fps"),
+        dir: dir.clone(),
+        strain: false,
+    };
+    let mut seen = Vec::new();
+    let written = render::render_frames(&ctx.device, &mut solver, &renderer, &options, |done| {
+        seen.push(done)
+    })
+    .unwrap_or_else(|e| panic!("rendering: {e}"));
+    assert_eq!(written, FRAMES);
+    assert_eq!(seen, (1..=FRAMES).collect::<Vec<_>>(), "progress reports");
+    let names: Vec<String> = png_writer::existing_frames(&dir)
+        .expect("list the frames")
+        .iter()
+        .map(|p| {
+            p.file_name()
+                .expect("a name")
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    let expected: Vec<String> = (0..FRAMES).map(png_writer::frame_name).collect();
+    assert_eq!(names, expected);
+
+    // Frame 0 is the rest state; the last frame the solver's state now.
+    let rest: Vec<[f32; 3]> = model
+        .rest_positions
+        .iter()
+        .map(|p| p.map(|v| v as f32))
+        .collect();
+    assert_cloth_at(
+        &dir.join(png_writer::frame_name(0)),
+        &camera,
+        &interior(&rest),
+    );
+    let now: Vec<[f32; 3]> = solver
+        .read_state()
+        .expect("read back")
+        .x
+        .iter()
+        .map(|v| [v.x, v.y, v.z])
+        .collect();
+    let last = dir.join(png_writer::frame_name(FRAMES - 1));
+    assert_cloth_at(&last, &camera, &interior(&now));
+    std::fs::remove_dir_all(&dir).expect("remove the test directory");
+}
+
+#[test]
+fn a_size_beyond_the_device_is_refused() {
+    let ctx = gpu_common::gpu();
+    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
+    let options = FrameOptions {
+        width: ctx.device.limits().max_texture_dimension_2d + 1,
+        height: 4,
+        frames: 1,
+        steps_per_frame: 1,
+        dir: std::env::temp_dir(),
+        strain: false,
+    };
+    let err = render::render_scene(&ctx.device, &ctx.queue, &scene, &options, |_| {})
+        .expect_err("too wide");
+    assert!(matches!(err, wgcloth::Error::DeviceLimit { .. }), "{err}");
+}
+
+/// The strain view at rest: every triangle at zero strain, so the pixels
+/// where the particles project are the ramp's blue.
+#[test]
+fn strain_view_at_rest_is_blue() {
+    let ctx = gpu_common::gpu();
+    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
+    let model = scene.model().expect("the model");
+    let dir = temp_dir("strain");
+    let options = FrameOptions {
+        width: WIDTH,
+        height: HEIGHT,
+        frames: 1,
+        steps_per_frame: 1,
+        dir: dir.clone(),
+        strain: true,
+    };
+    render::render_scene(&ctx.device, &ctx.queue, &scene, &options, |_| {})
+        .unwrap_or_else(|e| panic!("rendering: {e}"));
+    let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
+    let frame = dir.join(png_writer::frame_name(0));
+    let (_, _, rgba) = decode(&frame);
+    let rest: Vec<[f32; 3]> = model
+        .rest_positions
+        .iter()
+        .map(|p| p.map(|v| v as f32))
+        .collect();
+    for x in interior(&rest) {
+        let [px, py] = camera.project(x, WIDTH, HEIGHT).expect("in front");
+        let c = pixel(&rgba, px as u32, py as u32);
+        assert!(
+            i32::from(c[2]) > i32::from(c[0]).max(i32::from(c[1])) + CLOTH_RED_MARGIN,
+            "{}: particle at {x:?} projects to ({px:.1}, {py:.1}), colour {c:?}: not blue",
+            frame.display()
+        );
+    }
+    std::fs::remove_dir_all(&dir).expect("remove the test directory");
+}
