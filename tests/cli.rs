@@ -634,3 +634,36 @@ fn no_arguments_render_the_default_job_to_out() {
     );
     assert_eq!(frames_in(&dir.join("out")), expected_frames(60, (640, 480)));
 }
+
+/// `--verbose` lists the passes of one step; a scene without fix-up and
+/// wind records fewer (the explicit integration and step end fuse).
+#[test]
+fn verbose_shows_the_passes_and_what_a_scene_skips() {
+    let dispatches = |scene: &str| -> u32 {
+        let out = wgcloth(&[
+            "run",
+            scene,
+            "--backend",
+            "gpu",
+            "--steps",
+            "3",
+            "--verbose",
+        ]);
+        assert_status(&out, 0);
+        let text = stdout(&out);
+        assert!(text.contains("passes per step"), "{text}");
+        text.lines()
+            .find_map(|l| l.strip_prefix("dispatches per step: "))
+            .and_then(|n| n.trim().parse().ok())
+            .unwrap_or_else(|| panic!("no dispatch count in:\n{text}"))
+    };
+    let dir = std::env::temp_dir().join(format!("wgcloth-verbose-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let scene = dir.join("no_fixup.toml");
+    std::fs::write(&scene, "[fixup]\niterations = 0\n").expect("scene file");
+    let with_fixup = dispatches("hanging");
+    let minimal = dispatches(path_str(&scene));
+    assert_eq!(minimal, 2, "spring forces + the fused integrate-and-finish");
+    assert!(minimal < with_fixup, "{minimal} vs {with_fixup}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

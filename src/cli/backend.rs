@@ -47,6 +47,11 @@ pub trait Solver {
     fn state(&mut self) -> wgcloth::Result<State<'_, Self::Real>>;
     /// The solver's statistics of the run so far, given its parameters.
     fn stats(&self, params: &Params) -> SolverStats;
+    /// The passes one step records: (kernel, dispatches, invocations each);
+    /// empty for the CPU, which dispatches nothing.
+    fn passes(&self) -> Vec<(&'static str, u32, u32)> {
+        Vec::new()
+    }
 }
 
 /// The CPU reference solver, with its per-step statistics summed.
@@ -200,6 +205,10 @@ impl Solver for Gpu {
 
     fn device(&self) -> Option<String> {
         Some(self.context.describe())
+    }
+
+    fn passes(&self) -> Vec<(&'static str, u32, u32)> {
+        self.solver.describe_step()
     }
 
     fn advance(&mut self, mut n: u64) -> wgcloth::Result<()> {

@@ -187,6 +187,12 @@ struct RunArgs {
     /// and refuses `--precision f64`.
     #[arg(long, value_enum)]
     precision: Option<Precision>,
+
+    /// Also print the passes each step records (kernel, dispatches per
+    /// step, invocations each) and a line `dispatches per step: N`, so that
+    /// what the scene does not need is seen to be skipped (GPU backend).
+    #[arg(long, short)]
+    verbose: bool,
 }
 
 /// The integrators, as the CLI spells them (the scene-file spelling).

@@ -74,7 +74,23 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         outcome,
     };
     print!("{summary}");
+    if args.verbose {
+        print_passes(&summary.outcome.passes, summary.outcome.backend);
+    }
     Ok(())
+}
+
+/// `--verbose`: the passes of one step, then `dispatches per step: N`.
+fn print_passes(passes: &[(&str, u32, u32)], backend: &str) {
+    if passes.is_empty() {
+        println!("passes per step       none: the {backend} backend dispatches no GPU work");
+    }
+    for (k, (kernel, count, items)) in passes.iter().enumerate() {
+        let head = if k == 0 { "passes per step" } else { "" };
+        println!("{head:<21} {kernel:<20} {count:>4} × {items} invocations");
+    }
+    let total: u32 = passes.iter().map(|p| p.1).sum();
+    println!("dispatches per step: {total}");
 }
 
 /// The solver's precision: `--precision` on the CPU (default f64); f32 on
@@ -160,6 +176,7 @@ impl Run<'_> {
         }
 
         let (steps, time, device) = (solver.steps(), solver.time(), solver.device());
+        let passes = solver.passes();
         let stats = solver.stats(self.params);
         let s = solver.state()?;
         if let Some(mut file) = positions {
@@ -170,6 +187,7 @@ impl Run<'_> {
             trace.finish(steps, time, &s.x, &s.v)?;
         }
         Ok(Outcome {
+            passes,
             backend: S::BACKEND,
             precision: S::Real::NAME,
             device,

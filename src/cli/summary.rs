@@ -32,6 +32,8 @@ pub struct Summary<'a> {
 
 /// What a finished run measured.
 pub struct Outcome {
+    /// The passes of one step (see `Solver::passes`), as last recorded.
+    pub passes: Vec<(&'static str, u32, u32)>,
     /// Backend name (`"cpu"`, `"gpu"`).
     pub backend: &'static str,
     /// `"f64"` or `"f32"`.
@@ -278,6 +280,7 @@ mod tests {
             dt: params.dt,
             wall: Duration::from_secs(2),
             outcome: Outcome {
+                passes: Vec::new(),
                 backend: "gpu",
                 precision: "f32",
                 device: Some("llvmpipe (Vulkan, Cpu)".into()),
