@@ -537,6 +537,21 @@ const BAD_SCENES: &[Row] = &[
         &["`implicit.tolerance`", "0 < tolerance < 1", "got 0"],
     ),
     row(
+        "camera field of view out of range",
+        "[camera]\nfov = 200\n",
+        &["`camera.fov`", "5 ≤ fov ≤ 150", "degrees", "got 200"],
+    ),
+    row(
+        "camera distance not positive",
+        "[camera]\ndistance = -1\n",
+        &["`camera.distance`", "> 0", "got -1"],
+    ),
+    row(
+        "unknown camera key",
+        "[camera]\nzoom = 2\n",
+        &["camera", "zoom", "fov"],
+    ),
+    row(
         "sphere radius 0",
         "[[sphere]]\nradius = 1\n[[sphere]]\nradius = 0\n",
         &["`sphere[1].radius`", "radius > 0", "(m)", "got 0"],

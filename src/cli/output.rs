@@ -135,7 +135,7 @@ impl Trace {
 
     /// Whether [`Trace::step`] records `step`: a multiple of K.
     pub fn wants(&self, step: u64) -> bool {
-        step % self.every == 0
+        step.is_multiple_of(self.every)
     }
 
     /// Records the state after `step` if `step` is a multiple of K.

@@ -4,6 +4,7 @@
 
 use crate::model::Model;
 use crate::params::Params;
+use crate::scene::Scene;
 
 /// Vertical field of view [rad] (45°).
 const FOV_Y: f32 = std::f32::consts::FRAC_PI_4;
@@ -16,6 +17,15 @@ const ELEVATION: f32 = 20.0 * std::f32::consts::PI / 180.0;
 const AZIMUTH: f32 = 35.0 * std::f32::consts::PI / 180.0;
 /// Margin around the bounding sphere (5 %).
 const MARGIN: f32 = 1.05;
+
+/// Where the eye is and what it sees, as angles [rad] and a distance [m].
+#[derive(Clone, Copy, Debug)]
+struct View {
+    elevation: f32,
+    azimuth: f32,
+    fov_y: f32,
+    distance: Option<f32>,
+}
 
 /// A perspective camera: where it is and its view-projection matrix.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -61,30 +71,61 @@ impl Camera {
         Camera::orbit(target, radius, aspect)
     }
 
+    /// The scene's camera: the automatic framing of
+    /// [`Camera::framing`] with the choices its `[camera]` table makes
+    /// instead (target, distance, elevation, azimuth, field of view).
+    pub fn for_scene(scene: &Scene, model: &Model, aspect: f32) -> Camera {
+        let auto = Camera::framing(model, &scene.params, aspect);
+        let c = &scene.camera;
+        let deg = |d: f64| (d as f32).to_radians();
+        let view = View {
+            elevation: c.elevation.map_or(ELEVATION, deg),
+            azimuth: c.azimuth.map_or(AZIMUTH, deg),
+            fov_y: c.fov.map_or(FOV_Y, deg),
+            distance: c.distance.map(|d| d as f32),
+        };
+        let target = c.target.map_or(auto.target, |t| t.map(|v| v as f32));
+        Camera::look(target, auto.radius, view, aspect)
+    }
+
     /// Looks at `target` from the fixed elevation and azimuth, far enough
     /// back that a sphere of `radius` [m] around it fits the view whose
     /// width / height is `aspect`.
     pub fn orbit(target: [f32; 3], radius: f32, aspect: f32) -> Camera {
-        let half_y = 0.5 * FOV_Y;
+        let view = View {
+            elevation: ELEVATION,
+            azimuth: AZIMUTH,
+            fov_y: FOV_Y,
+            distance: None,
+        };
+        Camera::look(target, radius, view, aspect)
+    }
+
+    /// Looks at `target` as `view` says; without a distance, far enough back
+    /// that a sphere of `radius` [m] fits.
+    fn look(target: [f32; 3], radius: f32, view: View, aspect: f32) -> Camera {
+        let half_y = 0.5 * view.fov_y;
         let half_x = (half_y.tan() * aspect).atan();
-        let distance = MARGIN * radius / half_y.min(half_x).sin();
+        let distance = view
+            .distance
+            .unwrap_or(MARGIN * radius / half_y.min(half_x).sin());
+        let (elevation, azimuth) = (view.elevation, view.azimuth);
         let dir = [
-            ELEVATION.cos() * AZIMUTH.sin(),
-            ELEVATION.sin(),
-            ELEVATION.cos() * AZIMUTH.cos(),
+            elevation.cos() * azimuth.sin(),
+            elevation.sin(),
+            elevation.cos() * azimuth.cos(),
         ];
         let eye = [0, 1, 2].map(|k| target[k] + distance * dir[k]);
         // The ground drawn around the scene reaches 3 radii from the target
         // (see `Renderer`): the far plane leaves room for it.
         let near = (distance - radius * 2.0).max(distance * 0.01);
         let far = distance + radius * 4.0;
-        let view = look_at(eye, target);
-        let proj = perspective(FOV_Y, aspect, near, far);
+        let proj = perspective(view.fov_y, aspect, near, far);
         Camera {
             eye,
             target,
             radius,
-            view_proj: mul(&proj, &view),
+            view_proj: mul(&proj, &look_at(eye, target)),
         }
     }
 
@@ -195,5 +236,22 @@ mod tests {
         let low = cam.project([0.0, -0.5, 0.0], 100, 100).expect("in front");
         let high = cam.project([0.0, 0.5, 0.0], 100, 100).expect("in front");
         assert!(high[1] < low[1]);
+    }
+
+    #[test]
+    fn a_scene_camera_table_overrides_the_framing() {
+        let mut scene = Scene::builtin("hanging").expect("built in");
+        let model = scene.model().expect("valid");
+        let auto = Camera::for_scene(&scene, &model, 4.0 / 3.0);
+        assert_eq!(auto, Camera::framing(&model, &scene.params, 4.0 / 3.0));
+        scene.camera.target = Some([0.0, 0.5, 0.0]);
+        scene.camera.distance = Some(3.0);
+        scene.camera.elevation = Some(90.0 - 1.0);
+        let cam = Camera::for_scene(&scene, &model, 4.0 / 3.0);
+        assert_eq!(cam.target, [0.0, 0.5, 0.0]);
+        let d = length([0, 1, 2].map(|k| cam.eye[k] - cam.target[k]));
+        assert!((d - 3.0).abs() < 1e-5, "distance {d}");
+        // 89° elevation: the eye is nearly straight above the target.
+        assert!(cam.eye[1] - cam.target[1] > 0.99 * 3.0, "{:?}", cam.eye);
     }
 }

@@ -164,7 +164,7 @@ pub fn render_scene(
     let model = scene.model()?;
     let mut solver = GpuSolver::new(device, queue, &model, &scene.params)?;
     let aspect = options.width as f32 / options.height as f32;
-    let camera = Camera::framing(&model, &scene.params, aspect);
+    let camera = Camera::for_scene(scene, &model, aspect);
     let mut renderer = Renderer::new(device, queue, &scene.params, &camera);
     if options.strain {
         renderer.show_strain(device, &model, &solver);

@@ -14,6 +14,7 @@ use std::marker::PhantomData;
 use serde::de::{self, Deserializer, Visitor};
 use serde::Deserialize;
 
+use super::CameraSpec;
 use crate::model::{ClothSpec, Orientation, Pin};
 use crate::params::{
     FilterMethod, FixupMethod, Ground, Integrator, Params, Sphere, SpringKind, Wind,
@@ -48,6 +49,18 @@ pub(super) struct SceneFile {
     #[serde(default)]
     sphere: Vec<SphereTable>,
     wind: Option<WindTable>,
+    #[serde(default)]
+    camera: CameraTable,
+}
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct CameraTable {
+    target: Option<[f64; 3]>,
+    distance: Option<f64>,
+    elevation: Option<f64>,
+    azimuth: Option<f64>,
+    fov: Option<f64>,
 }
 
 #[derive(Deserialize, Default)]
@@ -142,9 +155,9 @@ fn set<T>(slot: &mut T, value: Option<T>) {
 }
 
 impl SceneFile {
-    /// The cloth, the parameters and the duration [s] this file describes,
-    /// not yet validated.
-    pub(super) fn into_parts(self) -> (ClothSpec, Params, f64) {
+    /// The cloth, the parameters, the duration [s] and the camera this file
+    /// describes, not yet validated.
+    pub(super) fn into_parts(self) -> (ClothSpec, Params, f64, CameraSpec) {
         let mut p = Params::default();
         let s = self.simulation;
         set(&mut p.integrator, s.integrator.map(|c| c.0));
@@ -210,7 +223,15 @@ impl SceneFile {
             drag: w.drag.unwrap_or(DEFAULT_WIND_DRAG),
             lift: w.lift.unwrap_or(0.0),
         });
-        (cloth, p, s.duration.unwrap_or(DEFAULT_DURATION))
+        let c = self.camera;
+        let camera = CameraSpec {
+            target: c.target,
+            distance: c.distance,
+            elevation: c.elevation,
+            azimuth: c.azimuth,
+            fov: c.fov,
+        };
+        (cloth, p, s.duration.unwrap_or(DEFAULT_DURATION), camera)
     }
 }
 

@@ -29,6 +29,70 @@ pub struct Scene {
     pub params: Params,
     /// How long the scene runs by default [s] (`[simulation] duration`).
     pub duration: f64,
+    /// How `wgcloth render` looks at it (`[camera]`; absent keys: framed
+    /// automatically).
+    pub camera: CameraSpec,
+}
+
+/// The `[camera]` table: each key overrides one choice of the automatic
+/// framing (which looks at everything the cloth can reach, from 20° above
+/// and 35° around, at a 45° field of view, far enough back to fit it all).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CameraSpec {
+    /// The point looked at [m].
+    pub target: Option<[f64; 3]>,
+    /// Distance from the eye to the target [m], `> 0`.
+    pub distance: Option<f64>,
+    /// Height of the eye as an angle above the target [deg], `−89..=89`.
+    pub elevation: Option<f64>,
+    /// Direction of the eye around the vertical axis, from +z towards +x
+    /// [deg].
+    pub azimuth: Option<f64>,
+    /// Vertical field of view [deg], `5..=150`.
+    pub fov: Option<f64>,
+}
+
+impl CameraSpec {
+    /// Refuses a distance that is not positive, an elevation beyond ±89°,
+    /// a field of view outside 5°–150°, and anything non-finite.
+    pub fn validate(&self) -> Result<()> {
+        let check = |key: &str, v: Option<f64>, ok: fn(f64) -> bool, allowed: &str| match v {
+            Some(x) if !(x.is_finite() && ok(x)) => Err(Error::InvalidParameter {
+                key: format!("camera.{key}"),
+                allowed: allowed.into(),
+                got: x.to_string(),
+            }),
+            _ => Ok(()),
+        };
+        check("distance", self.distance, |x| x > 0.0, "> 0 (m)")?;
+        check(
+            "elevation",
+            self.elevation,
+            |x| x.abs() <= 89.0,
+            "−89 ≤ elevation ≤ 89 (degrees)",
+        )?;
+        check(
+            "azimuth",
+            self.azimuth,
+            |_| true,
+            "a finite number (degrees)",
+        )?;
+        check(
+            "fov",
+            self.fov,
+            |x| (5.0..=150.0).contains(&x),
+            "5 ≤ fov ≤ 150 (degrees)",
+        )?;
+        for (k, c) in self.target.iter().flatten().enumerate() {
+            check(
+                &format!("target[{k}]"),
+                Some(*c),
+                |_| true,
+                "a finite number (m)",
+            )?;
+        }
+        Ok(())
+    }
 }
 
 impl Scene {
@@ -48,13 +112,14 @@ impl Scene {
         })?;
         let parsed: file::SceneFile =
             serde_path_to_error::deserialize(de).map_err(|e| fail(describe(text, &e)))?;
-        let (cloth, params, duration) = parsed.into_parts();
+        let (cloth, params, duration, camera) = parsed.into_parts();
         // The key names in `InvalidParameter` are already the file's
         // spelling, so its message is the scene message as is.
         params
             .validate()
             .and_then(|()| check_duration(duration))
             .and_then(|()| cloth.validate())
+            .and_then(|()| camera.validate())
             .map_err(|e| fail(e.to_string()))?;
         let name = path
             .file_stem()
@@ -64,6 +129,7 @@ impl Scene {
             cloth,
             params,
             duration,
+            camera,
         })
     }
 
