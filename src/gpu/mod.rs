@@ -9,12 +9,16 @@
 //! - [`context`] opens an adapter and device for tools and tests (the solver
 //!   itself never does).
 
+mod build;
 pub mod context;
+mod control;
 pub mod layout;
 pub mod pipelines;
 pub mod readback;
+mod semi_filter;
 pub mod shaders;
 mod solver;
 
 pub use context::GpuContext;
+pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 pub use solver::{GpuSolver, GpuState, GpuStatus, WORKGROUP};

@@ -1,0 +1,315 @@
+//! Building a [`GpuSolver`]: the buffers, the one bind group and the
+//! pipelines of the scene's variant.
+
+use wgpu::util::DeviceExt;
+
+use super::layout::{self, section, GpuParams, GpuSpring};
+use super::pipelines::Pipelines;
+use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
+use super::solver::{gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND, WORKGROUP};
+use crate::error::Result;
+use crate::model::Model;
+use crate::params::Params;
+
+impl GpuSolver {
+    /// Allocates the buffers, the bind group and the pipelines (the limits
+    /// were checked by [`GpuSolver::new`]).
+    pub(super) fn build(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        model: &Model,
+        params: &Params,
+        filter: Option<SemiFilter>,
+    ) -> Result<GpuSolver> {
+        let n = model.particle_count() as u32;
+        let partial_count = n.div_ceil(WORKGROUP);
+        let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
+        let (cg_tolerance, cg_max_iterations) = if semi_cg {
+            (FILTER_CG_TOLERANCE, FILTER_CG_MAX_ITERATIONS)
+        } else {
+            (params.implicit.tolerance, params.implicit.max_iterations)
+        };
+
+        // Topology: spring CSR (offsets, entries, then each entry's other
+        // particle), triangle CSR, triangles, one u32 array.
+        let mut topo: Vec<u32> = model.particle_springs.offsets.clone();
+        let spring_adj_entries = topo.len() as u32;
+        topo.extend(&model.particle_springs.entries);
+        topo.extend(model.particle_springs.entries.iter().map(|&e| {
+            let sp = &model.springs[(e >> 1) as usize];
+            if e & 1 == 0 {
+                sp.j
+            } else {
+                sp.i
+            }
+        }));
+        let tri_adj_offsets = topo.len() as u32;
+        topo.extend(&model.particle_triangles.offsets);
+        let tri_adj_entries = topo.len() as u32;
+        topo.extend(&model.particle_triangles.entries);
+        let triangles = topo.len() as u32;
+        topo.extend(model.triangles.iter().flatten());
+
+        let gpu_springs: Vec<GpuSpring> = model
+            .springs
+            .iter()
+            .map(|sp| {
+                let m = params.spring(sp.kind);
+                let max_len = match m.max_stretch {
+                    Some(f) if params.fixup.iterations > 0 => (f * sp.rest) as f32,
+                    _ => 0.0,
+                };
+                GpuSpring {
+                    i: sp.i,
+                    j: sp.j,
+                    rest: sp.rest as f32,
+                    k: m.stiffness as f32,
+                    kd: m.damping as f32,
+                    max_len,
+                    _pad: [0; 2],
+                }
+            })
+            .collect();
+
+        let spheres = gpu_spheres(&params.spheres);
+        let wind = params.wind.unwrap_or(NO_WIND);
+        let ground = params.ground.unwrap_or(NO_GROUND);
+        let gpu_params = GpuParams {
+            gravity: params.gravity.map(|g| g as f32),
+            dt: params.dt as f32,
+            wind_velocity: wind.velocity.map(|c| c as f32),
+            wind_drag: wind.drag as f32,
+            wind_lift: wind.lift as f32,
+            ground_height: ground.height as f32,
+            ground_friction: ground.friction as f32,
+            fixup_omega: params.fixup.omega as f32,
+            particle_count: n,
+            spring_count: model.springs.len() as u32,
+            triangle_count: model.triangles.len() as u32,
+            sphere_count: params.spheres.len() as u32,
+            spring_adj_entries,
+            tri_adj_offsets,
+            tri_adj_entries,
+            triangles,
+            cg_tolerance_sq: (cg_tolerance * cg_tolerance) as f32,
+            partial_count,
+            filter_count: filter.as_ref().map_or(0, |f| f.count),
+            torque_compensation: u32::from(
+                params.semi_implicit.torque_compensation && model.pinned_count() == 0,
+            ),
+            spheres,
+        };
+
+        let x0: Vec<[f32; 4]> = model
+            .rest_positions
+            .iter()
+            .zip(model.mass.iter().zip(&model.pinned))
+            .map(|(p, (&m, &pinned))| {
+                let w = if pinned { 0.0 } else { (1.0 / m) as f32 };
+                [p[0] as f32, p[1] as f32, p[2] as f32, w]
+            })
+            .collect();
+        let v0: Vec<[f32; 4]> = model
+            .mass
+            .iter()
+            .map(|&m| [0.0, 0.0, 0.0, m as f32])
+            .collect();
+
+        let storage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_DST
+            | wgpu::BufferUsages::COPY_SRC;
+        let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents,
+                usage,
+            })
+        };
+        let zeroed = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: size.max(16),
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        let params_buffer = init(
+            "wgcloth.params",
+            bytemuck::bytes_of(&gpu_params),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let springs_buffer = init(
+            "wgcloth.springs",
+            bytemuck::cast_slice(&gpu_springs),
+            storage,
+        );
+        let topo_buffer = init("wgcloth.topo", bytemuck::cast_slice(&topo), storage);
+        let x = init(
+            "wgcloth.positions",
+            bytemuck::cast_slice(&x0),
+            storage | wgpu::BufferUsages::VERTEX,
+        );
+        let v = init("wgcloth.velocities", bytemuck::cast_slice(&v0), storage);
+        let work = zeroed(
+            "wgcloth.work",
+            u64::from(section::COUNT) * u64::from(n) * 16,
+            storage,
+        );
+        // The CG filter's constant blocks (m = 0, a = dt² k); the implicit
+        // integrator overwrites this buffer every step.
+        let mut blocks = vec![[0f32; 4]; layout::SPRING_SECTIONS as usize * gpu_springs.len()];
+        if semi_cg {
+            let dt2 = (params.dt * params.dt) as f32;
+            for (b, s) in blocks.iter_mut().zip(&gpu_springs) {
+                b[3] = dt2 * s.k;
+            }
+        }
+        let spring_work = init(
+            "wgcloth.spring_work",
+            bytemuck::cast_slice(&blocks),
+            storage,
+        );
+        let partials = zeroed(
+            "wgcloth.partials",
+            (u64::from(layout::PARTIAL_SLOTS) * u64::from(partial_count)
+                + u64::from(layout::CG_SCALARS))
+                * 4,
+            storage,
+        );
+        let mut status0 = [0u32; layout::status::COUNT];
+        status0[layout::status::BAD_STEP] = u32::MAX;
+        status0[layout::status::BAD_PARTICLE] = u32::MAX;
+        let status = init("wgcloth.status", bytemuck::cast_slice(&status0), storage);
+        let normals = zeroed(
+            "wgcloth.normals",
+            u64::from(n) * 16,
+            storage | wgpu::BufferUsages::VERTEX,
+        );
+        // Sized for every particle free, so that changing pins (which
+        // rebuilds W) never needs a new buffer.
+        let dense = match &filter {
+            Some(f) if !f.words.is_empty() => {
+                let all = u64::from(n) * u64::from(n) + u64::from(n);
+                let buffer = zeroed("wgcloth.dense", all * 4, storage);
+                queue.write_buffer(&buffer, 0, bytemuck::cast_slice(&f.words));
+                buffer
+            }
+            _ => zeroed("wgcloth.dense", 16, storage),
+        };
+        let indices = init(
+            "wgcloth.indices",
+            bytemuck::cast_slice(&model.triangles),
+            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+        );
+
+        let storage_entry = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Storage { read_only },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let mut entries = vec![wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }];
+        for (binding, read_only) in [
+            (1, true),
+            (2, true),
+            (3, false),
+            (4, false),
+            (5, false),
+            (6, false),
+            (7, false),
+            (8, false),
+            (9, false),
+            (10, true),
+        ] {
+            entries.push(storage_entry(binding, read_only));
+        }
+        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("wgcloth.bindings"),
+            entries: &entries,
+        });
+        let buffers = [
+            &params_buffer,
+            &springs_buffer,
+            &topo_buffer,
+            &x,
+            &v,
+            &work,
+            &spring_work,
+            &partials,
+            &status,
+            &normals,
+            &dense,
+        ];
+        let bind_entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| wgpu::BindGroupEntry {
+                binding: k as u32,
+                resource: b.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("wgcloth.bindings"),
+            layout: &bgl,
+            entries: &bind_entries,
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("wgcloth.pipeline_layout"),
+            bind_group_layouts: &[Some(&bgl)],
+            immediate_size: 0,
+        });
+
+        let features = scene_features(model, params);
+        let mut pipelines = Pipelines::new(layout);
+        pipelines.ensure(device, params.integrator, features)?;
+        queue.submit([]);
+
+        Ok(GpuSolver {
+            device: device.clone(),
+            queue: queue.clone(),
+            integrator: params.integrator,
+            particles: n,
+            springs: model.springs.len() as u32,
+            triangles: model.triangles.len() as u32,
+            fixup_iterations: if params.springs.iter().any(|s| s.max_stretch.is_some()) {
+                params.fixup.iterations
+            } else {
+                0
+            },
+            cg_max_iterations,
+            cg_budget: cg_max_iterations,
+            adaptive_budget: true,
+            budget_hits: 0,
+            params: gpu_params,
+            params_buffer,
+            x,
+            v,
+            normals,
+            indices,
+            status,
+            bind_group,
+            pipelines,
+            features,
+            steps_recorded: 0,
+            dt: params.dt,
+            model: model.clone(),
+            recorded: std::cell::Cell::new((0, 0)),
+            specialised: true,
+            host_params: params.clone(),
+            dense,
+        })
+    }
+}

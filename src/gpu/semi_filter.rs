@@ -1,0 +1,68 @@
+//! The semi-implicit filter as the GPU applies it, built on the host.
+
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::params::{FilterMethod, Params};
+
+/// The semi-implicit filter as the GPU applies it: `Wᵀ` followed by the
+/// filter order (`u32` bits), built on the host by the CPU reference's own
+/// filter code in `f32`.
+///
+/// A cloth with more free particles than the dense crossover gets no
+/// matrix: its filter is solved by CG on the device instead.
+#[derive(Debug)]
+pub(super) struct SemiFilter {
+    /// Free particles in the dense filter (0: solved by CG instead).
+    pub(super) count: u32,
+    /// `Wᵀ` then the order, as uploaded (empty: solved by CG).
+    pub(super) words: Vec<f32>,
+}
+
+/// Relative tolerance of the semi-implicit filter's CG solve: a hundred
+/// f32 epsilons, about where single-precision CG stops making progress.
+pub const FILTER_CG_TOLERANCE: f64 = 1e-5;
+
+/// Iteration cap of the semi-implicit filter's CG solve. The matrix is
+/// constant and the solve warm-started, so after the first steps it needs
+/// far fewer; the recorded budget adapts (see [`GpuSolver::check`]).
+pub const FILTER_CG_MAX_ITERATIONS: u32 = 1000;
+
+impl SemiFilter {
+    /// The filter of `model` under `params`, built in `f32` on the host.
+    pub(super) fn new(model: &Model, params: &Params) -> Result<SemiFilter> {
+        let sys = crate::cpu::System::<f32>::new(model, params);
+        let grid = model.grid.as_ref().map(|g| (g.nx, g.ny));
+        let fs = crate::cpu::filter::FilterSystem::new(&sys, grid);
+        let dense = match params.semi_implicit.filter {
+            FilterMethod::Dense => true,
+            FilterMethod::Banded => false,
+            FilterMethod::Auto => fs.len() <= crate::cpu::DENSE_FILTER_MAX_PARTICLES,
+        };
+        if !dense {
+            return Ok(SemiFilter {
+                count: 0,
+                words: Vec::new(),
+            });
+        }
+        let w = crate::cpu::filter::DenseFilter::<f32>::new(&fs).map_err(|_| {
+            Error::InvalidParameter {
+                key: "semi_implicit".into(),
+                allowed: "a positive-definite filter matrix M − dt²H".into(),
+                got: "a matrix that is not".into(),
+            }
+        })?;
+        let n = fs.len();
+        let m = w.matrix();
+        let mut words = Vec::with_capacity(n * n + n);
+        for q in 0..n {
+            for k in 0..n {
+                words.push(m[k * n + q]);
+            }
+        }
+        words.extend(w.order().iter().map(|&p| f32::from_bits(p)));
+        Ok(SemiFilter {
+            count: n as u32,
+            words,
+        })
+    }
+}
