@@ -181,6 +181,9 @@ pub struct Gpu {
     /// What the device reported after the last batch (`None` before the
     /// first).
     status: Option<GpuStatus>,
+    /// The most CG iterations of any step so far (the device reports the
+    /// most since its previous report).
+    cg_max: u32,
 }
 
 impl Gpu {
@@ -195,6 +198,7 @@ impl Gpu {
             solver,
             dt: params.dt,
             status: None,
+            cg_max: 0,
         })
     }
 }
@@ -215,7 +219,9 @@ impl Solver for Gpu {
         while n > 0 {
             let batch = n.min(MAX_BATCH);
             // MAX_BATCH fits a u32.
-            self.status = Some(self.solver.step(batch as u32)?);
+            let status = self.solver.step(batch as u32)?;
+            self.cg_max = self.cg_max.max(status.cg_max_iterations);
+            self.status = Some(status);
             n -= batch;
         }
         Ok(())
@@ -239,16 +245,16 @@ impl Solver for Gpu {
     }
 
     fn stats(&self, params: &Params) -> SolverStats {
-        let status = self.status.unwrap_or_default();
         SolverStats {
             cg: (params.integrator == Integrator::Implicit).then(|| CgSummary {
-                max: status.cg_max_iterations,
+                max: self.cg_max,
                 cap: params.implicit.max_iterations,
                 tolerance: params.implicit.tolerance,
                 detail: CgDetail::Last(self.status.map(|s| s.cg_iterations)),
             }),
             fixup: (params.integrator != Integrator::Implicit).then_some(FixupSummary::GpuJacobi {
                 iterations: params.fixup.iterations,
+                last: self.status.map(|s| s.fixup_passes),
             }),
             filter: None,
         }

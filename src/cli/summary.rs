@@ -104,10 +104,13 @@ pub enum FixupSummary {
         max: u32,
     },
     /// The GPU always uses Jacobi, whatever the scene's `[fixup] method`,
-    /// and does not count its passes.
+    /// and stops on the device once a pass moves nothing; it reports the
+    /// passes of the last step.
     GpuJacobi {
         /// `[fixup] iterations`: the most passes per step.
         iterations: u32,
+        /// Passes run in the last step (`None` before any step).
+        last: Option<u32>,
     },
 }
 
@@ -186,10 +189,15 @@ impl Display for Summary<'_> {
                 "fix-up passes",
                 &format!("mean {}, max {max} per step", mean(*m)),
             )?,
-            Some(FixupSummary::GpuJacobi { iterations }) => row(
+            Some(FixupSummary::GpuJacobi { iterations, last }) => row(
                 f,
                 "fix-up passes",
-                &format!("at most {iterations} per step, fix-up jacobi (GPU)"),
+                &match last {
+                    Some(n) => {
+                        format!("last {n}, at most {iterations} per step, fix-up jacobi (GPU)")
+                    }
+                    None => format!("at most {iterations} per step, fix-up jacobi (GPU)"),
+                },
             )?,
             None => {}
         }
@@ -296,7 +304,10 @@ mod tests {
                         tolerance: 1e-4,
                         detail: CgDetail::Last(Some(12)),
                     }),
-                    fixup: Some(FixupSummary::GpuJacobi { iterations: 10 }),
+                    fixup: Some(FixupSummary::GpuJacobi {
+                        iterations: 10,
+                        last: Some(4),
+                    }),
                     filter: None,
                 },
             },
@@ -306,7 +317,7 @@ mod tests {
             "backend               gpu (f32) on llvmpipe (Vulkan, Cpu)\n",
             "steps per second      100 (stepping and status read-backs only)\n",
             "CG iterations         last 12, max 40 per step (cap 200; tolerance 1e-4)\n",
-            "fix-up passes         at most 10 per step, fix-up jacobi (GPU)\n",
+            "fix-up passes         last 4, at most 10 per step, fix-up jacobi (GPU)\n",
         ] {
             assert!(text.contains(row), "no `{row}` in\n{text}");
         }
