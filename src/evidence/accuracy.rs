@@ -16,7 +16,7 @@
 
 use std::time::Instant;
 
-use super::{GpuHandles, Runner};
+use super::{GpuHandles, Points, Runner};
 use crate::diagnostics::max_stretch_strain;
 use crate::error::{Error, Result};
 use crate::model::Model;
@@ -215,7 +215,7 @@ fn model_of(scene: &Scene, resolution: Option<usize>) -> Result<Model> {
 /// Positions sampled at the sample times, and whether the run stayed
 /// stable; plus the wall time of the stepping [s].
 struct Trajectory {
-    samples: Vec<Vec<[f64; 3]>>,
+    samples: Vec<Points>,
     stable: bool,
     wall: f64,
 }
@@ -268,7 +268,7 @@ fn trajectory(
 }
 
 /// (RMS, max) distance [m] between two sampled trajectories.
-fn errors(a: &[Vec<[f64; 3]>], b: &[Vec<[f64; 3]>]) -> (f64, f64) {
+fn errors(a: &[Points], b: &[Points]) -> (f64, f64) {
     let (mut sum, mut n, mut max) = (0.0, 0usize, 0.0f64);
     for (sa, sb) in a.iter().zip(b) {
         for (p, q) in sa.iter().zip(sb) {
@@ -298,7 +298,7 @@ pub fn accuracy(
     if let Some(&m) = options
         .dt_multiples
         .iter()
-        .find(|&&m| m == 0 || options.sample_every % m != 0)
+        .find(|&&m| m == 0 || !options.sample_every.is_multiple_of(m))
     {
         return Err(invalid(
             "bench.accuracy.dt_multiples",
@@ -319,7 +319,7 @@ pub fn accuracy(
     let mut references = Vec::new();
     let mut reference_change = Vec::new();
     for &fix in &fixups {
-        let run = |divisor: u64| -> Result<Vec<Vec<[f64; 3]>>> {
+        let run = |divisor: u64| -> Result<Vec<Points>> {
             let mut p = scene.params.clone();
             p.integrator = Integrator::Explicit;
             p.fixup.iterations = fix;

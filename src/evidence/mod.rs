@@ -19,6 +19,9 @@ use crate::params::Params;
 use crate::real::Real;
 use crate::Result;
 
+/// One vector per particle, in `f64` ([m] or [m/s]).
+type Points = Vec<[f64; 3]>;
+
 /// A borrowed GPU device and queue (the host owns them).
 #[derive(Clone, Copy, Debug)]
 pub struct GpuHandles<'a> {
@@ -71,8 +74,8 @@ impl Runner {
     }
 
     /// Positions [m] and velocities [m/s] in `f64` (a read-back on the GPU).
-    fn state(&self) -> Result<(Vec<[f64; 3]>, Vec<[f64; 3]>)> {
-        fn conv<R: Real>(s: &CpuSolver<R>) -> (Vec<[f64; 3]>, Vec<[f64; 3]>) {
+    fn state(&self) -> Result<(Points, Points)> {
+        fn conv<R: Real>(s: &CpuSolver<R>) -> (Points, Points) {
             (
                 s.positions().iter().map(|p| p.to_f64()).collect(),
                 s.velocities().iter().map(|p| p.to_f64()).collect(),
