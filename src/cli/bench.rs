@@ -124,31 +124,27 @@ fn accuracy_table(r: &AccuracyReport) -> String {
             .cg_tolerance
             .map(|t| format!("{t:.0e}"))
             .unwrap_or_default();
-        if row.stable {
-            let _ = writeln!(
+        let _ = write!(
+            s,
+            "{:<14} {:<8} {:>8.4} {:>5} {:>7}",
+            row.integrator.as_str(),
+            row.backend.as_str(),
+            row.dt,
+            row.fixup_iterations,
+            tol
+        );
+        let _ = if row.stable {
+            writeln!(
                 s,
-                "{:<14} {:<8} {:>8.4} {:>5} {:>7} {:>12.3e} {:>10.2e} {:>10.2e}{}",
-                row.integrator.as_str(),
-                row.backend.as_str(),
-                row.dt,
-                row.fixup_iterations,
-                tol,
+                " {:>12.3e} {:>10.2e} {:>10.2e}{}",
                 row.wall_per_sim_second,
                 row.rms_error,
                 row.max_error,
                 if front.contains(&i) { "  pareto" } else { "" }
-            );
+            )
         } else {
-            let _ = writeln!(
-                s,
-                "{:<14} {:<8} {:>8.4} {:>5} {:>7}  unstable",
-                row.integrator.as_str(),
-                row.backend.as_str(),
-                row.dt,
-                row.fixup_iterations,
-                tol
-            );
-        }
+            writeln!(s, "  unstable")
+        };
     }
     s
 }

@@ -84,7 +84,7 @@ struct BenchAccuracyArgs {
     #[arg(long, value_name = "DIR", default_value = "bench")]
     out: PathBuf,
 
-    /// A run of seconds: 9 × 9 particles, 5 samples, reference at dt / 16.
+    /// A run of seconds: 9 × 9 particles, 5 samples, reference at dt / 64.
     #[arg(long)]
     quick: bool,
 
