@@ -76,7 +76,7 @@ pub fn accuracy_csv(r: &AccuracyReport) -> String {
     let times: Vec<String> = r.sample_times.iter().map(|t| format!("{t}")).collect();
     let _ = writeln!(s, "# sample times [s]: {}", times.join(" "));
     for (fix, change) in &r.reference_change {
-        let _ = writeln!(s, "# reference convergence (fix-up {fix}): max |x(dt_ref) - x(dt_ref/2)| = {change:.3e} m");
+        let _ = writeln!(s, "# reference convergence (fix-up {fix}): max |x(dt_ref) - x(dt_ref/2)| = {change:.3e} m, smallest RMS error against it {:.3e} m", r.smallest_error_with_fixup(*fix));
     }
     let _ = writeln!(
         s,

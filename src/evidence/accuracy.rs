@@ -168,9 +168,19 @@ impl AccuracyReport {
 
     /// The smallest RMS error of a stable row [m] (NaN when none).
     pub fn smallest_error(&self) -> f64 {
+        self.smallest_error_where(|_| true)
+    }
+
+    /// The smallest RMS error [m] of the stable rows compared with the
+    /// reference of `fixup_iterations` fix-up passes (NaN when none).
+    pub fn smallest_error_with_fixup(&self, fixup_iterations: u32) -> f64 {
+        self.smallest_error_where(|r| r.fixup_iterations == fixup_iterations)
+    }
+
+    fn smallest_error_where(&self, keep: impl Fn(&AccuracyRow) -> bool) -> f64 {
         self.rows
             .iter()
-            .filter(|r| r.stable)
+            .filter(|r| r.stable && keep(r))
             .map(|r| r.rms_error)
             .fold(f64::NAN, f64::min)
     }
