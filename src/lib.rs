@@ -18,6 +18,7 @@
 pub mod cpu;
 pub mod diagnostics;
 pub mod error;
+pub mod evidence;
 pub mod gpu;
 pub mod model;
 pub mod params;

@@ -667,3 +667,25 @@ fn verbose_shows_the_passes_and_what_a_scene_skips() {
     assert!(minimal < with_fixup, "{minimal} vs {with_fixup}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn bench_stability_writes_its_csv_chart_and_table() {
+    let dir = TempDir::new("bench-stability");
+    let out = wgcloth(&["bench", "stability", "--quick", "--out", path_str(&dir.0)]);
+    assert_status(&out, 0);
+    assert!(
+        stdout(&out).contains("largest stable dt"),
+        "{}",
+        stdout(&out)
+    );
+    let csv = fs::read_to_string(dir.join("stability.csv")).expect("stability.csv");
+    let mut rows = csv.lines().filter(|l| !l.starts_with('#'));
+    assert_eq!(
+        rows.next(),
+        Some("integrator,stiffness,dt,simulated,stable,reason")
+    );
+    // 3 integrators × 7 stiffnesses × 6 time steps.
+    assert_eq!(rows.count(), 3 * 7 * 6);
+    let svg = fs::read_to_string(dir.join("stability.svg")).expect("stability.svg");
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+}

@@ -4,6 +4,8 @@
 //! README's "CLI reference"): scripts run parameter sweeps through them.
 
 mod backend;
+mod bench;
+mod chart;
 mod output;
 mod render;
 mod run;
@@ -53,6 +55,59 @@ enum Command {
     Scenes,
     /// Simulate a scene on the GPU and write each frame as a PNG.
     Render(RenderArgs),
+    /// Measure accuracy against cost, or stability regions; write a CSV and
+    /// an SVG chart and print a table.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+/// The measurements of `wgcloth bench`.
+#[derive(Subcommand, Debug)]
+enum BenchCommand {
+    /// Error against a converged reference vs wall time, for every
+    /// integrator, backend and a range of time steps (`accuracy.csv`,
+    /// `accuracy.svg`).
+    Accuracy(BenchAccuracyArgs),
+    /// Stable or not over stretch stiffness × time step, per integrator
+    /// (`stability.csv`, `stability.svg`).
+    Stability(BenchStabilityArgs),
+}
+
+/// The options of `wgcloth bench accuracy`.
+#[derive(Args, Debug)]
+struct BenchAccuracyArgs {
+    /// A scene file (`*.toml`) or the name of a built-in scene.
+    #[arg(value_name = "SCENE.toml | name", default_value = "hanging")]
+    scene: String,
+
+    /// The folder the CSV and SVG go to; created if missing.
+    #[arg(long, value_name = "DIR", default_value = "bench")]
+    out: PathBuf,
+
+    /// A run of seconds: 9 × 9 particles, 5 samples, reference at dt / 64.
+    #[arg(long)]
+    quick: bool,
+
+    /// Leave out the GPU rows even when an adapter is available.
+    #[arg(long)]
+    no_gpu: bool,
+
+    /// Use the first GPU adapter whose name contains NAME
+    /// (case-insensitive).
+    #[arg(long, value_name = "NAME")]
+    adapter: Option<String>,
+}
+
+/// The options of `wgcloth bench stability`.
+#[derive(Args, Debug)]
+struct BenchStabilityArgs {
+    /// The folder the CSV and SVG go to; created if missing.
+    #[arg(long, value_name = "DIR", default_value = "bench")]
+    out: PathBuf,
+
+    /// A sweep of seconds: 9 × 9 particles, 0.5 s, at most 500 steps.
+    #[arg(long)]
+    quick: bool,
 }
 
 /// The options of `wgcloth render`.
@@ -259,6 +314,8 @@ pub fn main() -> ExitCode {
         Some(Command::Run(args)) => run::run(&args),
         Some(Command::Scenes) => scenes::list(),
         Some(Command::Render(args)) => render::render(&args),
+        Some(Command::Bench(BenchCommand::Accuracy(args))) => bench::accuracy(&args),
+        Some(Command::Bench(BenchCommand::Stability(args))) => bench::stability(&args),
         None => render::render(&RenderArgs::default_job()),
     };
     match outcome {

@@ -1,0 +1,255 @@
+//! `wgcloth bench accuracy` and `wgcloth bench stability`: run the
+//! measurements of [`wgcloth::evidence`], write a CSV and an SVG chart, and
+//! print a short table.
+
+use std::fmt::Write as _;
+use std::fs;
+use std::path::Path;
+
+use anyhow::Context as _;
+use wgcloth::evidence::{
+    self, AccuracyOptions, AccuracyReport, GpuHandles, StabilityOptions, StabilityReport,
+};
+use wgcloth::gpu::GpuContext;
+use wgcloth::Scene;
+
+use super::{chart, BenchAccuracyArgs, BenchStabilityArgs};
+
+/// Stiffness range [N/m] the article reached with its semi-implicit
+/// integrator (see the README): 10⁵.
+const ARTICLE_STIFFNESS: f64 = 1e5;
+/// Stiffness range Desbrun et al. claimed: 10⁶.
+const DESBRUN_STIFFNESS: f64 = 1e6;
+
+/// Writes `text` to `dir/name`, creating `dir`.
+fn write(dir: &Path, name: &str, text: &str) -> anyhow::Result<()> {
+    fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let path = dir.join(name);
+    fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// `wgcloth bench accuracy`.
+pub fn accuracy(args: &BenchAccuracyArgs) -> anyhow::Result<()> {
+    let scene = Scene::resolve(&args.scene)?;
+    let options = if args.quick {
+        AccuracyOptions::quick()
+    } else {
+        AccuracyOptions::default()
+    };
+    // No adapter is not an error here: the GPU rows are left out, and said so.
+    let context = if args.no_gpu {
+        None
+    } else {
+        match GpuContext::new(args.adapter.as_deref()) {
+            Ok(c) => Some(c),
+            Err(e) => {
+                eprintln!("note: no GPU rows ({e})");
+                None
+            }
+        }
+    };
+    let gpu = context.as_ref().map(|c| GpuHandles {
+        device: &c.device,
+        queue: &c.queue,
+    });
+    if let Some(c) = &context {
+        println!("GPU adapter: {}", c.adapter.get_info().name);
+    }
+    let report = evidence::accuracy(&scene, &options, gpu)?;
+    write(&args.out, "accuracy.csv", &accuracy_csv(&report))?;
+    write(&args.out, "accuracy.svg", &chart::accuracy_svg(&report))?;
+    print!("{}", accuracy_table(&report));
+    Ok(())
+}
+
+/// The accuracy CSV: `#` comment lines, then
+/// `integrator,backend,dt,fixup_iterations,cg_tolerance,stable,wall_per_sim_second,rms_error,max_error,pareto`.
+pub fn accuracy_csv(r: &AccuracyReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# scene {}, {} particles, reference: CPU f64 explicit at dt_ref = {} s",
+        r.scene, r.particles, r.reference_dt
+    );
+    let times: Vec<String> = r.sample_times.iter().map(|t| format!("{t}")).collect();
+    let _ = writeln!(s, "# sample times [s]: {}", times.join(" "));
+    for (fix, change) in &r.reference_change {
+        let _ = writeln!(s, "# reference convergence (fix-up {fix}): max |x(dt_ref) - x(dt_ref/2)| = {change:.3e} m, smallest RMS error against it {:.3e} m", r.smallest_error_with_fixup(*fix));
+    }
+    let _ = writeln!(
+        s,
+        "# smallest RMS error measured: {:.3e} m",
+        r.smallest_error()
+    );
+    let _ = writeln!(s, "integrator,backend,dt,fixup_iterations,cg_tolerance,stable,wall_per_sim_second,rms_error,max_error,pareto");
+    let front = r.pareto_front();
+    for (i, row) in r.rows.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{}",
+            row.integrator,
+            row.backend.as_str(),
+            row.dt,
+            row.fixup_iterations,
+            row.cg_tolerance.map(|t| t.to_string()).unwrap_or_default(),
+            row.stable,
+            row.wall_per_sim_second,
+            row.rms_error,
+            row.max_error,
+            front.contains(&i)
+        );
+    }
+    s
+}
+
+fn accuracy_table(r: &AccuracyReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "reference: dt_ref = {:.3e} s, converged to {:.2e} m (smallest RMS error measured {:.2e} m)",
+        r.reference_dt,
+        r.worst_reference_change(),
+        r.smallest_error()
+    );
+    let _ = writeln!(
+        s,
+        "{:<14} {:<8} {:>8} {:>5} {:>7} {:>12} {:>10} {:>10}",
+        "integrator", "backend", "dt [s]", "fixup", "cg tol", "wall [s/s]", "rms [m]", "max [m]"
+    );
+    let front = r.pareto_front();
+    for (i, row) in r.rows.iter().enumerate() {
+        let tol = row
+            .cg_tolerance
+            .map(|t| format!("{t:.0e}"))
+            .unwrap_or_default();
+        let _ = write!(
+            s,
+            "{:<14} {:<8} {:>8.4} {:>5} {:>7}",
+            row.integrator.as_str(),
+            row.backend.as_str(),
+            row.dt,
+            row.fixup_iterations,
+            tol
+        );
+        let _ = if row.stable {
+            writeln!(
+                s,
+                " {:>12.3e} {:>10.2e} {:>10.2e}{}",
+                row.wall_per_sim_second,
+                row.rms_error,
+                row.max_error,
+                if front.contains(&i) { "  pareto" } else { "" }
+            )
+        } else {
+            writeln!(s, "  unstable")
+        };
+    }
+    s
+}
+
+/// `wgcloth bench stability`.
+pub fn stability(args: &BenchStabilityArgs) -> anyhow::Result<()> {
+    let options = if args.quick {
+        StabilityOptions::quick()
+    } else {
+        StabilityOptions::default()
+    };
+    let report = evidence::stability(&options)?;
+    write(&args.out, "stability.csv", &stability_csv(&report))?;
+    write(&args.out, "stability.svg", &chart::stability_svg(&report))?;
+    print!("{}", stability_table(&report));
+    Ok(())
+}
+
+/// The stability CSV: `#` comment lines, then
+/// `integrator,stiffness,dt,simulated,stable,reason`.
+pub fn stability_csv(r: &StabilityReport) -> String {
+    let o = &r.options;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# {0} x {0} cloth, {1} kg/m^2, shear = stretch x {2}, bend = stretch x {3}, up to {4} s or {5} steps",
+        o.resolution,
+        o.areal_mass,
+        evidence::stability::SHEAR_RATIO,
+        evidence::stability::BEND_RATIO,
+        o.duration,
+        o.max_steps
+    );
+    let _ = writeln!(s, "integrator,stiffness,dt,simulated,stable,reason");
+    for c in &r.cells {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{}",
+            c.integrator,
+            c.stiffness,
+            c.dt,
+            c.simulated,
+            c.verdict.is_stable(),
+            c.verdict.reason()
+        );
+    }
+    s
+}
+
+fn stability_table(r: &StabilityReport) -> String {
+    let o = &r.options;
+    let mut s = String::from("largest stable dt [s] (every smaller swept dt stable too)\n");
+    let _ = write!(s, "{:>12}", "k [N/m]");
+    for i in &o.integrators {
+        let _ = write!(s, " {:>14}", i.as_str());
+    }
+    s.push('\n');
+    for &k in &o.stiffnesses {
+        let _ = write!(s, "{k:>12.0e}");
+        for &i in &o.integrators {
+            let cell = r
+                .largest_stable_dt(i, k)
+                .map(|dt| format!("{dt:.1e}"))
+                .unwrap_or_else(|| "none".into());
+            let _ = write!(s, " {cell:>14}");
+        }
+        s.push('\n');
+    }
+    for &i in &o.integrators {
+        let stable: Vec<f64> = o
+            .stiffnesses
+            .iter()
+            .copied()
+            .filter(|&k| r.largest_stable_dt(i, k).is_some())
+            .collect();
+        let range = match (stable.first(), stable.last()) {
+            (Some(lo), Some(hi)) => hi / lo,
+            _ => 0.0,
+        };
+        let _ = writeln!(
+            s,
+            "{i}: stable at some swept dt over a stiffness range of {range:.0e} \
+             (the article reached {ARTICLE_STIFFNESS:.0e}, Desbrun claimed {DESBRUN_STIFFNESS:.0e})"
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use wgcloth::Integrator;
+
+    #[test]
+    fn csv_has_header_and_one_row_per_cell() {
+        let options = StabilityOptions {
+            resolution: 3,
+            stiffnesses: vec![10.0],
+            dts: vec![1e-2],
+            duration: 0.05,
+            integrators: vec![Integrator::Explicit],
+            ..StabilityOptions::default()
+        };
+        let report = evidence::stability(&options).expect("sweep");
+        let csv = stability_csv(&report);
+        assert_eq!(csv.lines().filter(|l| !l.starts_with('#')).count(), 2);
+    }
+}

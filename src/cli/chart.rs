@@ -1,0 +1,268 @@
+//! The two SVG charts of `wgcloth bench`, written by hand.
+//!
+//! Why not `plotters`: a log–log scatter and a grid of coloured cells are a
+//! few dozen SVG elements; SVG text needs no font (the viewer lays it out),
+//! whereas plotters measures text with a font backend, and its lean
+//! `svg_backend`-only build would add a dependency tree for what
+//! `format!` does here.
+
+use std::fmt::Write as _;
+
+use wgcloth::evidence::{AccuracyReport, Backend, StabilityReport};
+use wgcloth::Integrator;
+
+/// Chart size [px].
+const WIDTH: f64 = 720.0;
+/// Chart size [px].
+const HEIGHT: f64 = 480.0;
+/// Space for the axes' labels [px].
+const MARGIN: f64 = 70.0;
+
+/// A colour per integrator, a marker per backend.
+fn colour(i: Integrator) -> &'static str {
+    match i {
+        Integrator::Explicit => "#1f77b4",
+        Integrator::Implicit => "#d62728",
+        Integrator::SemiImplicit => "#2ca02c",
+    }
+}
+
+fn marker(out: &mut String, b: Backend, x: f64, y: f64, fill: &str) {
+    // `write!` into a `String` cannot fail.
+    let _ = match b {
+        Backend::CpuF64 => writeln!(
+            out,
+            r#"<circle cx="{x:.1}" cy="{y:.1}" r="4" fill="{fill}"/>"#
+        ),
+        Backend::CpuF32 => writeln!(
+            out,
+            r#"<rect x="{:.1}" y="{:.1}" width="8" height="8" fill="{fill}"/>"#,
+            x - 4.0,
+            y - 4.0
+        ),
+        Backend::Gpu => writeln!(
+            out,
+            r#"<path d="M{x:.1} {:.1} L{:.1} {:.1} L{:.1} {:.1} Z" fill="{fill}"/>"#,
+            y - 5.0,
+            x + 5.0,
+            y + 4.0,
+            x - 5.0,
+            y + 4.0
+        ),
+    };
+}
+
+/// Decades `[floor(log10 lo), ceil(log10 hi)]` covering `values`.
+fn decades(values: impl Iterator<Item = f64>) -> (i32, i32) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if !lo.is_finite() {
+        return (0, 1);
+    }
+    let (a, b) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    (a, b.max(a + 1))
+}
+
+/// Error (RMS, log) against wall time per simulated second (log), one
+/// colour per integrator, one marker per backend; the Pareto front joined
+/// by a black line.
+pub fn accuracy_svg(report: &AccuracyReport) -> String {
+    let stable: Vec<_> = report.rows.iter().filter(|r| r.stable).collect();
+    let (x0, x1) = decades(stable.iter().map(|r| r.wall_per_sim_second));
+    let (y0, y1) = decades(stable.iter().map(|r| r.rms_error));
+    let px =
+        |v: f64| MARGIN + (v.log10() - f64::from(x0)) / f64::from(x1 - x0) * (WIDTH - 2.0 * MARGIN);
+    let py = |v: f64| {
+        HEIGHT - MARGIN - (v.log10() - f64::from(y0)) / f64::from(y1 - y0) * (HEIGHT - 2.0 * MARGIN)
+    };
+    let mut s = header(&format!(
+        "{}: RMS position error vs cost ({} particles, reference dt = {:.3e} s)",
+        report.scene, report.particles, report.reference_dt
+    ));
+    axes(
+        &mut s,
+        (x0, x1),
+        (y0, y1),
+        "wall time per simulated second [s]",
+        "RMS error [m]",
+    );
+    let mut front: Vec<_> = report
+        .pareto_front()
+        .into_iter()
+        .map(|i| &report.rows[i])
+        .collect();
+    front.sort_by(|a, b| a.wall_per_sim_second.total_cmp(&b.wall_per_sim_second));
+    let pts: Vec<String> = front
+        .iter()
+        .map(|r| format!("{:.1},{:.1}", px(r.wall_per_sim_second), py(r.rms_error)))
+        .collect();
+    let _ = writeln!(
+        s,
+        r#"<polyline points="{}" fill="none" stroke="black" stroke-dasharray="4 3"/>"#,
+        pts.join(" ")
+    );
+    for r in &stable {
+        marker(
+            &mut s,
+            r.backend,
+            px(r.wall_per_sim_second),
+            py(r.rms_error),
+            colour(r.integrator),
+        );
+    }
+    // Legend.
+    let mut y = MARGIN;
+    for i in Integrator::ALL {
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.0}" y="{y:.0}" fill="{}">{i}</text>"#,
+            WIDTH - MARGIN - 150.0,
+            colour(i)
+        );
+        y += 16.0;
+    }
+    for b in Backend::ALL {
+        marker(&mut s, b, WIDTH - MARGIN - 145.0, y - 4.0, "#555");
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.0}" y="{y:.0}">{}</text>"#,
+            WIDTH - MARGIN - 135.0,
+            b.as_str()
+        );
+        y += 16.0;
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.0}" y="{y:.0}">- - Pareto front</text>"#,
+        WIDTH - MARGIN - 150.0
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// One panel per integrator: stiffness (rows) × dt (columns), green for
+/// stable cells, red for unstable ones.
+pub fn stability_svg(report: &StabilityReport) -> String {
+    let o = &report.options;
+    let (cols, rows) = (o.dts.len().max(1) as f64, o.stiffnesses.len().max(1) as f64);
+    let panel_w = (WIDTH - MARGIN) / 3.0;
+    let cell_w = (panel_w - 20.0) / cols;
+    let cell_h = (HEIGHT - 2.0 * MARGIN) / rows;
+    let mut s = header("Stable (green) and unstable (red) runs: stretch stiffness × dt");
+    for (p, integrator) in o.integrators.iter().enumerate() {
+        let left = MARGIN + p as f64 * panel_w;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.0}" y="{:.0}">{integrator}</text>"#,
+            left,
+            MARGIN - 10.0
+        );
+        for (r, &k) in o.stiffnesses.iter().enumerate() {
+            let y = HEIGHT - MARGIN - (r as f64 + 1.0) * cell_h;
+            if p == 0 {
+                let _ = writeln!(
+                    s,
+                    r#"<text x="{:.0}" y="{:.0}" text-anchor="end" font-size="11">{k:.0e}</text>"#,
+                    left - 4.0,
+                    y + cell_h / 2.0 + 4.0
+                );
+            }
+            for (c, &dt) in o.dts.iter().enumerate() {
+                let x = left + c as f64 * cell_w;
+                let fill = match report.cell(*integrator, k, dt) {
+                    Some(cell) if cell.verdict.is_stable() => "#8fd18f",
+                    Some(_) => "#e58a8a",
+                    None => "#ddd",
+                };
+                let _ = writeln!(
+                    s,
+                    r#"<rect x="{x:.1}" y="{y:.1}" width="{:.1}" height="{:.1}" fill="{fill}" stroke="white"/>"#,
+                    cell_w, cell_h
+                );
+                if r == 0 {
+                    let _ = writeln!(
+                        s,
+                        r#"<text x="{:.1}" y="{:.0}" font-size="9" text-anchor="middle">{dt:.1e}</text>"#,
+                        x + cell_w / 2.0,
+                        HEIGHT - MARGIN + 14.0
+                    );
+                }
+            }
+        }
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.0}" y="{:.0}" text-anchor="middle">dt [s]</text>"#,
+        WIDTH / 2.0,
+        HEIGHT - MARGIN + 40.0
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="14" y="{:.0}" transform="rotate(-90 14 {:.0})" text-anchor="middle">stretch stiffness [N/m]</text>"#,
+        HEIGHT / 2.0,
+        HEIGHT / 2.0
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+fn header(title: &str) -> String {
+    format!(
+        "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{WIDTH}\" height=\"{HEIGHT}\" \
+         font-family=\"sans-serif\" font-size=\"12\">\n\
+         <rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n\
+         <text x=\"{:.0}\" y=\"24\" text-anchor=\"middle\" font-size=\"14\">{title}</text>\n",
+        WIDTH / 2.0
+    )
+}
+
+/// Log axes with a tick per decade.
+fn axes(s: &mut String, (x0, x1): (i32, i32), (y0, y1): (i32, i32), xl: &str, yl: &str) {
+    let (l, r, t, b) = (MARGIN, WIDTH - MARGIN, MARGIN, HEIGHT - MARGIN);
+    let _ = writeln!(
+        s,
+        r#"<rect x="{l}" y="{t}" width="{}" height="{}" fill="none" stroke="black"/>"#,
+        r - l,
+        b - t
+    );
+    for e in x0..=x1 {
+        let x = l + f64::from(e - x0) / f64::from(x1 - x0) * (r - l);
+        let _ = writeln!(
+            s,
+            r##"<line x1="{x:.1}" y1="{t}" x2="{x:.1}" y2="{b}" stroke="#ddd"/>"##
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{x:.1}" y="{:.0}" text-anchor="middle">1e{e}</text>"#,
+            b + 16.0
+        );
+    }
+    for e in y0..=y1 {
+        let y = b - f64::from(e - y0) / f64::from(y1 - y0) * (b - t);
+        let _ = writeln!(
+            s,
+            r##"<line x1="{l}" y1="{y:.1}" x2="{r}" y2="{y:.1}" stroke="#ddd"/>"##
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.0}" y="{:.1}" text-anchor="end">1e{e}</text>"#,
+            l - 6.0,
+            y + 4.0
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.0}" y="{:.0}" text-anchor="middle">{xl}</text>"#,
+        (l + r) / 2.0,
+        b + 40.0
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="16" y="{:.0}" transform="rotate(-90 16 {:.0})" text-anchor="middle">{yl}</text>"#,
+        (t + b) / 2.0,
+        (t + b) / 2.0
+    );
+}

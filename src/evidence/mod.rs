@@ -1,0 +1,100 @@
+//! Measured evidence for the README's claims: accuracy against a converged
+//! reference trajectory ([`accuracy`]) and stability regions over stiffness
+//! and time step ([`stability`]).
+//!
+//! Pure functions over a [`Scene`](crate::Scene): no files, no printing, no
+//! device creation (the GPU is borrowed, like everywhere in the library), so
+//! the `wgcloth bench` subcommands and the tests share them.
+
+pub mod accuracy;
+pub mod stability;
+
+pub use accuracy::{accuracy, AccuracyOptions, AccuracyReport, AccuracyRow, Backend};
+pub use stability::{stability, StabilityCell, StabilityOptions, StabilityReport, Verdict};
+
+use crate::cpu::CpuSolver;
+use crate::gpu::GpuSolver;
+use crate::model::Model;
+use crate::params::Params;
+use crate::real::Real;
+use crate::Result;
+
+/// One vector per particle, in `f64` ([m] or [m/s]).
+type Points = Vec<[f64; 3]>;
+
+/// A borrowed GPU device and queue (the host owns them).
+#[derive(Clone, Copy, Debug)]
+pub struct GpuHandles<'a> {
+    /// The device the solver's buffers and pipelines live on.
+    pub device: &'a wgpu::Device,
+    /// The queue its steps are submitted to.
+    pub queue: &'a wgpu::Queue,
+}
+
+/// One solver of any backend, seen through what the benches need.
+enum Runner {
+    F64(Box<CpuSolver<f64>>),
+    F32(Box<CpuSolver<f32>>),
+    Gpu(Box<GpuSolver>),
+}
+
+impl Runner {
+    fn new(
+        backend: Backend,
+        gpu: Option<GpuHandles<'_>>,
+        model: &Model,
+        params: &Params,
+    ) -> Result<Option<Runner>> {
+        Ok(Some(match backend {
+            Backend::CpuF64 => Runner::F64(Box::new(CpuSolver::new(model, params)?)),
+            Backend::CpuF32 => Runner::F32(Box::new(CpuSolver::new(model, params)?)),
+            Backend::Gpu => match gpu {
+                Some(g) => Runner::Gpu(Box::new(GpuSolver::new(g.device, g.queue, model, params)?)),
+                None => return Ok(None),
+            },
+        }))
+    }
+
+    /// Advances `n` steps; an error when the state stops being finite.
+    fn advance(&mut self, n: u64) -> Result<()> {
+        match self {
+            Runner::F64(s) => s.step_n(n).map(drop),
+            Runner::F32(s) => s.step_n(n).map(drop),
+            Runner::Gpu(s) => {
+                let mut left = n;
+                while left > 0 {
+                    let batch = left.min(u64::from(GPU_BATCH));
+                    // `batch ≤ GPU_BATCH`, a u32.
+                    s.step(batch as u32)?;
+                    left -= batch;
+                }
+                Ok(())
+            }
+        }
+    }
+
+    /// Positions [m] and velocities [m/s] in `f64` (a read-back on the GPU).
+    fn state(&self) -> Result<(Points, Points)> {
+        fn conv<R: Real>(s: &CpuSolver<R>) -> (Points, Points) {
+            (
+                s.positions().iter().map(|p| p.to_f64()).collect(),
+                s.velocities().iter().map(|p| p.to_f64()).collect(),
+            )
+        }
+        Ok(match self {
+            Runner::F64(s) => conv(s),
+            Runner::F32(s) => conv(s),
+            Runner::Gpu(s) => {
+                let st = s.read_state()?;
+                (
+                    st.x.iter().map(|p| p.to_f64()).collect(),
+                    st.v.iter().map(|p| p.to_f64()).collect(),
+                )
+            }
+        })
+    }
+}
+
+/// Most steps one GPU submission records (as in `wgcloth run`): bounds the
+/// command buffer.
+const GPU_BATCH: u32 = 256;

@@ -1,0 +1,278 @@
+//! Stability regions: for each integrator, which (stretch stiffness, time
+//! step) pairs keep a hanging cloth bounded.
+//!
+//! The cloth is the `hanging` scene's 1 m × 1 m patch pinned at its two top
+//! corners, without the floor, at a realistic areal mass (0.2 kg/m² by
+//! default), with shear = stretch / 4 and bend = stretch / 50 and the
+//! scene's damping and fix-up (10 Gauss–Seidel passes to 110 % of the rest
+//! length). It starts at rest, horizontal, and falls.
+//!
+//! A run is **stable** when, at every check (every [`CHECK_EVERY`] steps and
+//! at the end):
+//! - every position and velocity is finite;
+//! - its total energy (kinetic + gravitational + elastic) stays below
+//!   `E₀ + ENERGY_MARGIN · M·|g|·L` — gravity is in the total, so a
+//!   physical run never gains energy; the margin, a fraction of the work
+//!   gravity does dropping the whole cloth (mass `M`) by its side `L`,
+//!   leaves room for symplectic Euler's bounded energy oscillation;
+//! - its largest stretch strain stays below [`MAX_STRAIN`].
+
+use super::{GpuHandles, Runner};
+use crate::diagnostics::{energy, max_stretch_strain};
+use crate::error::{Error, Result};
+use crate::evidence::Backend;
+use crate::model::Model;
+use crate::params::{Integrator, SpringKind};
+use crate::real::Vec3;
+use crate::scene::Scene;
+
+/// Steps between two checks of a run: the energy costs about one step, so
+/// checking every step would double the sweep's time.
+pub const CHECK_EVERY: u64 = 10;
+
+/// Fraction of `M·|g|·L` the total energy may exceed its initial value by.
+/// Symplectic Euler's energy oscillates by `O(dt)` around the exact value;
+/// a blow-up grows without bound, so it soon passes any margin of this
+/// size; half the gravity work is far above the oscillation of a stable run.
+pub const ENERGY_MARGIN: f64 = 0.5;
+
+/// Largest stretch strain `(l − L) / L` of a stable run: a spring at twice
+/// its rest length is no cloth any more.
+pub const MAX_STRAIN: f64 = 1.0;
+
+/// Ratio of shear stiffness to stretch stiffness in the sweep.
+pub const SHEAR_RATIO: f64 = 0.25;
+
+/// Ratio of bend stiffness to stretch stiffness in the sweep.
+pub const BEND_RATIO: f64 = 0.02;
+
+/// What [`stability`] sweeps.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StabilityOptions {
+    /// Particles per side.
+    pub resolution: usize,
+    /// Areal mass [kg/m²] (the cloth is 1 m², so also its mass [kg]).
+    pub areal_mass: f64,
+    /// Stretch stiffnesses [N/m].
+    pub stiffnesses: Vec<f64>,
+    /// Time steps [s].
+    pub dts: Vec<f64>,
+    /// Simulated time of each run [s].
+    pub duration: f64,
+    /// Cap on the steps of one run: the smallest time steps cover only
+    /// `max_steps · dt` (< `duration`) so the sweep ends in minutes.
+    pub max_steps: u64,
+    /// Integrators swept.
+    pub integrators: Vec<Integrator>,
+}
+
+impl Default for StabilityOptions {
+    /// 17 × 17 particles, 0.2 kg, stiffness 10 … 10⁷ N/m (×10), dt 10⁻⁴ …
+    /// 1/30 s (six steps, about ×3.2), 1 s, at most 2000 steps.
+    fn default() -> Self {
+        StabilityOptions {
+            resolution: 17,
+            areal_mass: 0.2,
+            stiffnesses: (1..=7).map(|e| 10f64.powi(e)).collect(),
+            dts: vec![1e-4, 3.2e-4, 1e-3, 3.2e-3, 1e-2, 1.0 / 30.0],
+            duration: 1.0,
+            max_steps: 2000,
+            integrators: Integrator::ALL.to_vec(),
+        }
+    }
+}
+
+impl StabilityOptions {
+    /// A sweep of seconds: 9 × 9 particles, 0.5 s, at most 500 steps.
+    pub fn quick() -> Self {
+        StabilityOptions {
+            resolution: 9,
+            duration: 0.5,
+            max_steps: 500,
+            ..StabilityOptions::default()
+        }
+    }
+}
+
+/// Why a run was judged as it was.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Verdict {
+    /// Bounded to the end.
+    Stable,
+    /// A position or velocity became non-finite at this time [s].
+    NonFinite(f64),
+    /// Total energy exceeded the bound at this time [s].
+    EnergyGrew(f64),
+    /// A stretch spring passed [`MAX_STRAIN`] at this time [s].
+    Overstretched(f64),
+    /// The solver refused the parameters (e.g. a semi-implicit filter that
+    /// is not positive definite).
+    Refused,
+}
+
+impl Verdict {
+    /// `true` for [`Verdict::Stable`].
+    pub fn is_stable(self) -> bool {
+        self == Verdict::Stable
+    }
+
+    /// A short reason for tables and CSV.
+    pub fn reason(self) -> String {
+        match self {
+            Verdict::Stable => "stable".into(),
+            Verdict::NonFinite(t) => format!("non-finite at {t:.3} s"),
+            Verdict::EnergyGrew(t) => format!("energy grew at {t:.3} s"),
+            Verdict::Overstretched(t) => format!("strain > 100 % at {t:.3} s"),
+            Verdict::Refused => "refused".into(),
+        }
+    }
+}
+
+/// One (integrator, stiffness, dt) run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StabilityCell {
+    /// The integrator.
+    pub integrator: Integrator,
+    /// Stretch stiffness [N/m].
+    pub stiffness: f64,
+    /// Time step [s].
+    pub dt: f64,
+    /// Simulated time covered [s] (`min(duration, max_steps · dt)`).
+    pub simulated: f64,
+    /// The outcome.
+    pub verdict: Verdict,
+}
+
+/// Result of [`stability`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct StabilityReport {
+    /// What was swept.
+    pub options: StabilityOptions,
+    /// One cell per integrator × stiffness × dt, in that nesting order.
+    pub cells: Vec<StabilityCell>,
+}
+
+impl StabilityReport {
+    /// The cell of one run, if swept.
+    pub fn cell(&self, integrator: Integrator, stiffness: f64, dt: f64) -> Option<&StabilityCell> {
+        self.cells
+            .iter()
+            .find(|c| c.integrator == integrator && c.stiffness == stiffness && c.dt == dt)
+    }
+
+    /// Largest swept dt [s] at `stiffness` such that it and every smaller
+    /// swept dt are stable; `None` when even the smallest is not.
+    pub fn largest_stable_dt(&self, integrator: Integrator, stiffness: f64) -> Option<f64> {
+        let mut dts = self.options.dts.clone();
+        dts.sort_by(f64::total_cmp);
+        let mut best = None;
+        for dt in dts {
+            match self.cell(integrator, stiffness, dt) {
+                Some(c) if c.verdict.is_stable() => best = Some(dt),
+                _ => break,
+            }
+        }
+        best
+    }
+}
+
+/// The hanging scene set up for one cell of the sweep.
+fn cell_scene(
+    options: &StabilityOptions,
+    integrator: Integrator,
+    k: f64,
+    dt: f64,
+) -> Result<Scene> {
+    let mut scene = Scene::builtin("hanging")?;
+    scene.cloth.nx = options.resolution;
+    scene.cloth.ny = options.resolution;
+    scene.cloth.mass = options.areal_mass * scene.cloth.size[0] * scene.cloth.size[1];
+    let p = &mut scene.params;
+    p.integrator = integrator;
+    p.dt = dt;
+    p.ground = None;
+    p.springs[SpringKind::Stretch.index()].stiffness = k;
+    p.springs[SpringKind::Shear.index()].stiffness = k * SHEAR_RATIO;
+    p.springs[SpringKind::Bend.index()].stiffness = k * BEND_RATIO;
+    Ok(scene)
+}
+
+/// Runs one cell on the CPU in `f64`.
+fn run_cell(
+    options: &StabilityOptions,
+    integrator: Integrator,
+    k: f64,
+    dt: f64,
+) -> Result<StabilityCell> {
+    let scene = cell_scene(options, integrator, k, dt)?;
+    let model: Model = scene.model()?;
+    let params = &scene.params;
+    let steps = ((options.duration / dt).ceil() as u64).min(options.max_steps);
+    let mut cell = StabilityCell {
+        integrator,
+        stiffness: k,
+        dt,
+        simulated: steps as f64 * dt,
+        verdict: Verdict::Stable,
+    };
+    let mut runner = match Runner::new(Backend::CpuF64, None::<GpuHandles<'_>>, &model, params) {
+        Ok(Some(r)) => r,
+        Ok(None) | Err(Error::InvalidParameter { .. }) => {
+            cell.verdict = Verdict::Refused;
+            return Ok(cell);
+        }
+        Err(e) => return Err(e),
+    };
+    let g = params.gravity;
+    let g_norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
+    let side = scene.cloth.size[0].max(scene.cloth.size[1]);
+    let total_mass: f64 = model.mass.iter().sum();
+    let to_vec =
+        |a: &[[f64; 3]]| -> Vec<Vec3<f64>> { a.iter().map(|&p| Vec3::from_f64(p)).collect() };
+    let (x0, v0) = runner.state()?;
+    let e0 = energy(&model, params, &to_vec(&x0), &to_vec(&v0)).total();
+    let bound = e0 + ENERGY_MARGIN * total_mass * g_norm * side;
+    let mut done = 0;
+    while done < steps {
+        let n = CHECK_EVERY.min(steps - done);
+        let stepped = runner.advance(n);
+        done += n;
+        let t = done as f64 * dt;
+        match stepped {
+            Ok(()) => {}
+            Err(Error::NonFinite { time, .. }) => {
+                cell.verdict = Verdict::NonFinite(time);
+                return Ok(cell);
+            }
+            Err(e) => return Err(e),
+        }
+        let (x, v) = runner.state()?;
+        let (x, v) = (to_vec(&x), to_vec(&v));
+        if energy(&model, params, &x, &v).total() > bound {
+            cell.verdict = Verdict::EnergyGrew(t);
+            return Ok(cell);
+        }
+        if max_stretch_strain(&model, &x) > MAX_STRAIN {
+            cell.verdict = Verdict::Overstretched(t);
+            return Ok(cell);
+        }
+    }
+    Ok(cell)
+}
+
+/// Sweeps every integrator × stiffness × dt of `options` (CPU, `f64`; see
+/// the module docs for the stability rule).
+pub fn stability(options: &StabilityOptions) -> Result<StabilityReport> {
+    let mut cells = Vec::new();
+    for &integrator in &options.integrators {
+        for &k in &options.stiffnesses {
+            for &dt in &options.dts {
+                cells.push(run_cell(options, integrator, k, dt)?);
+            }
+        }
+    }
+    Ok(StabilityReport {
+        options: options.clone(),
+        cells,
+    })
+}
