@@ -2,7 +2,7 @@
 //! second beside the figures of the article the project grew from.
 //!
 //! `cargo bench --bench cpu_step` runs criterion over the article's sizes
-//! (15², 25², 33²) and 65², 129² for each integrator on the `hanging`
+//! (15², 25², 33²) and 65², 129², 257² for each integrator on the `hanging`
 //! scene grown to each resolution at constant particle spacing and particle
 //! mass (so every size has the same local dynamics and stays stable at the
 //! same dt), at the scene's dt (1/1000 s) for the explicit integrator and
@@ -20,7 +20,7 @@ use wgcloth::cpu::CpuSolver;
 use wgcloth::params::{FilterMethod, Integrator};
 
 /// Sizes benchmarked (particles per side).
-const SIZES: [usize; 5] = [15, 25, 33, 65, 129];
+const SIZES: [usize; 6] = [15, 25, 33, 65, 129, 257];
 
 /// The article's frame rates (Pentium III 600 MHz, dt = 0.02 s, rendering
 /// included), by size and integrator (explicit, implicit, semi-implicit).
