@@ -21,7 +21,6 @@ use crate::diagnostics::max_stretch_strain;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::params::{Integrator, Params};
-use crate::real::Vec3;
 use crate::scene::Scene;
 
 /// Which solver and arithmetic a row measures.
@@ -265,8 +264,7 @@ fn trajectory(
             }
             (Err(e), _) | (_, Err(e)) => return Err(e),
         };
-        let xs: Vec<Vec3<f64>> = x.iter().map(|&p| Vec3::from_f64(p)).collect();
-        if max_stretch_strain(model, &xs) > UNSTABLE_STRAIN {
+        if max_stretch_strain(model, &x) > UNSTABLE_STRAIN {
             return Ok(Some(Trajectory {
                 samples: out,
                 stable: false,
@@ -287,7 +285,7 @@ fn errors(a: &[Points], b: &[Points]) -> (f64, f64) {
     let (mut sum, mut n, mut max) = (0.0, 0usize, 0.0f64);
     for (sa, sb) in a.iter().zip(b) {
         for (p, q) in sa.iter().zip(sb) {
-            let d2 = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2);
+            let d2 = (*p - *q).length_squared();
             sum += d2;
             n += 1;
             max = max.max(d2.sqrt());

@@ -16,11 +16,12 @@ use crate::cpu::CpuSolver;
 use crate::gpu::GpuSolver;
 use crate::model::Model;
 use crate::params::Params;
-use crate::real::Real;
+use crate::real::{Real, Vec3};
 use crate::Result;
 
-/// One vector per particle, in `f64` ([m] or [m/s]).
-type Points = Vec<[f64; 3]>;
+/// One vector per particle, in `f64` ([m] or [m/s]): the form the
+/// diagnostics take, so a state is widened once.
+type Points = Vec<Vec3<f64>>;
 
 /// A borrowed GPU device and queue (the host owns them).
 #[derive(Clone, Copy, Debug)]
@@ -77,8 +78,14 @@ impl Runner {
     fn state(&self) -> Result<(Points, Points)> {
         fn conv<R: Real>(s: &CpuSolver<R>) -> (Points, Points) {
             (
-                s.positions().iter().map(|p| p.to_f64()).collect(),
-                s.velocities().iter().map(|p| p.to_f64()).collect(),
+                s.positions()
+                    .iter()
+                    .map(|p| Vec3::from_f64(p.to_f64()))
+                    .collect(),
+                s.velocities()
+                    .iter()
+                    .map(|p| Vec3::from_f64(p.to_f64()))
+                    .collect(),
             )
         }
         Ok(match self {
@@ -87,8 +94,8 @@ impl Runner {
             Runner::Gpu(s) => {
                 let st = s.read_state()?;
                 (
-                    st.x.iter().map(|p| p.to_f64()).collect(),
-                    st.v.iter().map(|p| p.to_f64()).collect(),
+                    st.x.iter().map(|p| Vec3::from_f64(p.to_f64())).collect(),
+                    st.v.iter().map(|p| Vec3::from_f64(p.to_f64())).collect(),
                 )
             }
         })

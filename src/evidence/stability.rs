@@ -23,7 +23,6 @@ use crate::error::{Error, Result};
 use crate::evidence::Backend;
 use crate::model::Model;
 use crate::params::{Integrator, SpringKind};
-use crate::real::Vec3;
 use crate::scene::Scene;
 
 /// Steps between two checks of a run: the energy costs about one step, so
@@ -227,10 +226,8 @@ fn run_cell(
     let g_norm = (g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt();
     let side = scene.cloth.size[0].max(scene.cloth.size[1]);
     let total_mass: f64 = model.mass.iter().sum();
-    let to_vec =
-        |a: &[[f64; 3]]| -> Vec<Vec3<f64>> { a.iter().map(|&p| Vec3::from_f64(p)).collect() };
     let (x0, v0) = runner.state()?;
-    let e0 = energy(&model, params, &to_vec(&x0), &to_vec(&v0)).total();
+    let e0 = energy(&model, params, &x0, &v0).total();
     let bound = e0 + ENERGY_MARGIN * total_mass * g_norm * side;
     let mut done = 0;
     while done < steps {
@@ -247,7 +244,6 @@ fn run_cell(
             Err(e) => return Err(e),
         }
         let (x, v) = runner.state()?;
-        let (x, v) = (to_vec(&x), to_vec(&v));
         if energy(&model, params, &x, &v).total() > bound {
             cell.verdict = Verdict::EnergyGrew(t);
             return Ok(cell);
