@@ -1,16 +1,19 @@
-// CG iteration, scalars: α = δ / cᵀq (one workgroup, one invocation). A
-// cᵀAc that is not positive means c vanished to rounding: CG stops (twin:
-// the CPU's break before the update).
+// CG iteration, scalars: α = δ / cᵀq, cᵀq summed from the w of W_Q (one
+// workgroup). A cᵀAc that is not positive means c vanished to rounding: CG
+// stops (twin: the CPU's break before the update).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
 
-@compute @workgroup_size(1)
-fn cg_alpha() {
-    if (atomicLoad(&status[STATUS_CG_STOPPED]) != 0u) {
+@compute @workgroup_size(WORKGROUP)
+fn cg_alpha(@builtin(local_invocation_id) lid: vec3<u32>) {
+    if (cg_stopped(lid.x)) {
         return;
     }
-    let cq = sum_partials(P_CQ);
+    let cq = sum_w(W_Q, P_CQ, lid.x);
+    if (lid.x != 0u) {
+        return;
+    }
     if (!(finite1(cq) && cq > 0.0)) {
         atomicStore(&status[STATUS_CG_STOPPED], 1u);
         return;

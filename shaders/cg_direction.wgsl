@@ -6,7 +6,7 @@
 @compute @workgroup_size(WORKGROUP)
 fn cg_direction(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
-    if (p >= params.particle_count || atomicLoad(&status[STATUS_CG_STOPPED]) != 0u) {
+    if (p >= params.particle_count || cg_done()) {
         return;
     }
     let beta = partials[scalar_index(C_BETA)];

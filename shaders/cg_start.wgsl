@@ -1,15 +1,17 @@
-// CG scalars, once per solve (one workgroup, one invocation working):
-// δ0 and δ from the partials in the CPU's order, and whether CG is done
-// before its first iteration (twin: the loop condition of
-// cpu::implicit::step).
+// CG scalars, once per solve (one workgroup): δ0 from the w of W_RHS and
+// δ from the w of W_S, in the CPU's order, and whether CG is done before
+// its first iteration (twin: the loop condition of cpu::implicit::step).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
 
-@compute @workgroup_size(1)
-fn cg_start() {
-    let delta0 = sum_partials(P_D0);
-    let delta = sum_partials(P_RS);
+@compute @workgroup_size(WORKGROUP)
+fn cg_start(@builtin(local_invocation_id) lid: vec3<u32>) {
+    let delta0 = sum_w(W_RHS, P_D0, lid.x);
+    let delta = sum_w(W_S, P_RS, lid.x);
+    if (lid.x != 0u) {
+        return;
+    }
     partials[scalar_index(C_DELTA0)] = delta0;
     partials[scalar_index(C_DELTA)] = delta;
     if (!(delta > params.cg_tolerance_sq * delta0)) {

@@ -1,6 +1,6 @@
 // Implicit step, per particle: forces, constraint filter and z, right-hand
 // side, block-diagonal preconditioner, warm-started Δv, and the partial
-// sums of δ0 = (Sb)ᵀP(Sb). Twin: the particle loop of cpu::implicit::step.
+// term of δ0 = (Sb)ᵀP(Sb) in the w of W_RHS. Twin: the particle loop of cpu::implicit::step.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
@@ -9,18 +9,13 @@
 const CONTACT_SLOP: f32 = 1e-5;
 
 @compute @workgroup_size(WORKGROUP)
-fn implicit_prepare(
-    @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(local_invocation_id) lid: vec3<u32>,
-    @builtin(workgroup_id) wg: vec3<u32>,
-) {
+fn implicit_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (p == 0u) {
         atomicAdd(&status[STATUS_STEP], 1u);
         atomicStore(&status[STATUS_CG_ITERATIONS], 0u);
         atomicStore(&status[STATUS_CG_STOPPED], 0u);
     }
-    var d0 = 0.0;
     if (p < params.particle_count) {
         let f = total_force(p);
         let m = v[p].w;
@@ -75,7 +70,6 @@ fn implicit_prepare(
         if (inv.ok) {
             pre = inv.m;
         }
-        work[wi(W_RHS, p)] = vec4<f32>(rhs, 0.0);
         work[wi(W_Z, p)] = vec4<f32>(z, kind);
         work[wi(W_FILTER, p)] = vec4<f32>(normal, friction);
         work[wi(W_PRE_DIAG, p)] = vec4<f32>(pre.d, 0.0);
@@ -83,7 +77,6 @@ fn implicit_prepare(
         let dv = filter_apply(kind, normal, work[wi(W_DV, p)].xyz) + z;
         work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
         let sb = filter_apply(kind, normal, rhs);
-        d0 = dot3(sb, precond_mul(p, sb));
+        work[wi(W_RHS, p)] = vec4<f32>(rhs, dot3(sb, precond_mul(p, sb)));
     }
-    reduce_to_partial(d0, lid.x, wg.x, P_D0);
 }

@@ -28,6 +28,9 @@ fn implicit_springs(@builtin(global_invocation_id) gid: vec3<u32>) {
     let kv = -(u * (sp.k * transverse) + dir * (k_long * dot3(dir, u)));
     spring_work[si(S_BLOCK, s)] = vec4<f32>(m, a);
     spring_work[si(S_KV, s)] = vec4<f32>(kv, 0.0);
-    let f = spring_force(sp, x[sp.i].xyz, x[sp.j].xyz, v[sp.i].xyz, v[sp.j].xyz);
-    spring_work[si(S_FORCE, s)] = vec4<f32>(f, 0.0);
+    // On a grid, implicit_prepare computes the forces where it sums them.
+    if (!GRID) {
+        let f = spring_force(sp, x[sp.i].xyz, x[sp.j].xyz, v[sp.i].xyz, v[sp.j].xyz);
+        spring_work[si(S_FORCE, s)] = vec4<f32>(f, 0.0);
+    }
 }

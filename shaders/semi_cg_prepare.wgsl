@@ -1,24 +1,19 @@
 // Semi-implicit step with the scalable filter: set up CG on the constant
 // matrix A = M − dt² H (spring blocks a = dt² k, b = 0, uploaded once),
 // pins as fixed filters, a Jacobi preconditioner, the warm start and the
-// partial sums of δ0. The CPU twin solves the same system exactly with a
+// term of δ0 in the w of W_RHS. The CPU twin solves the same system exactly with a
 // banded Cholesky factor (cpu::filter::BandedFilter).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
 
 @compute @workgroup_size(WORKGROUP)
-fn semi_cg_prepare(
-    @builtin(global_invocation_id) gid: vec3<u32>,
-    @builtin(local_invocation_id) lid: vec3<u32>,
-    @builtin(workgroup_id) wg: vec3<u32>,
-) {
+fn semi_cg_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (p == 0u) {
         atomicStore(&status[STATUS_CG_ITERATIONS], 0u);
         atomicStore(&status[STATUS_CG_STOPPED], 0u);
     }
-    var d0 = 0.0;
     if (p < params.particle_count) {
         var kind = FILTER_FREE;
         if (x[p].w <= 0.0) {
@@ -36,8 +31,8 @@ fn semi_cg_prepare(
         work[wi(W_PRE_OFF, p)] = vec4<f32>(0.0);
         let dv = filter_apply(kind, vec3<f32>(0.0), work[wi(W_DV, p)].xyz);
         work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
-        let sb = filter_apply(kind, vec3<f32>(0.0), work[wi(W_RHS, p)].xyz);
-        d0 = dot3(sb, precond_mul(p, sb));
+        let rhs = work[wi(W_RHS, p)].xyz;
+        let sb = filter_apply(kind, vec3<f32>(0.0), rhs);
+        work[wi(W_RHS, p)] = vec4<f32>(rhs, dot3(sb, precond_mul(p, sb)));
     }
-    reduce_to_partial(d0, lid.x, wg.x, P_D0);
 }

@@ -75,7 +75,10 @@ fn specialised_kernels_equal_the_general_ones_for_every_feature() {
 fn switching_a_feature_off_records_fewer_dispatches() {
     let corners = vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)];
     let dispatches = |p: &Params, pins: Vec<Pin>| run(&model(p, pins), p, true).1;
-    // Explicit: without fix-up and wind, integration and step end fuse.
+    // Explicit: fix-up passes are recorded only when asked for. Wind adds
+    // a dispatch only to the general kernels (without fix-up and wind,
+    // their integration and step end fuse); the grid kernels compute wind
+    // in the integration pass.
     let mut minimal = base(Integrator::Explicit);
     minimal.fixup.iterations = 0;
     let mut windy = minimal.clone();
@@ -92,7 +95,7 @@ fn switching_a_feature_off_records_fewer_dispatches() {
         dispatches(&fixed_up, vec![]),
     );
     assert!(
-        a < b && b < c,
+        a <= b && b < c,
         "explicit: minimal {a}, wind {b}, fix-up {c}"
     );
     // Semi-implicit: a pinned cloth needs no torque compensation.

@@ -100,6 +100,11 @@ fn pod_twins_match_their_wgsl_structs() {
             partial_count,
             filter_count,
             torque_compensation,
+            grid,
+            grid_rest_a,
+            grid_rest_b,
+            kind_k,
+            kind_kd,
             spheres
         }),
         std::mem::size_of::<GpuParams>(),

@@ -14,6 +14,9 @@ override HAS_SPHERES: bool = true;
 override HAS_FILTER: bool = true;
 // Some spring has damping.
 override HAS_DAMPING: bool = true;
+// The springs are in grid layout (src/gpu/grid.rs) and the kernels find
+// them by row and column instead of through the adjacency lists.
+override GRID: bool = false;
 
 const MAX_SPHERES: u32 = 16u;
 
@@ -52,6 +55,13 @@ struct Params {
     // Free particles in the dense filter.
     filter_count: u32,
     torque_compensation: u32,
+    // Grid layout (src/gpu/grid.rs): columns, rows, a bit per spring kind
+    // present; rest length per direction; stiffness and damping per kind.
+    grid: vec4<u32>,
+    grid_rest_a: vec4<f32>,
+    grid_rest_b: vec4<f32>,
+    kind_k: vec4<f32>,
+    kind_kd: vec4<f32>,
     spheres: array<Sphere, 16>,
 }
 

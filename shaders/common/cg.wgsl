@@ -75,6 +75,25 @@ fn precond_mul(p: u32, a: vec3<f32>) -> vec3<f32> {
     return sym3_mul(Sym3(work[wi(W_PRE_DIAG, p)].xyz, work[wi(W_PRE_OFF, p)].xyz), a);
 }
 
+// `acc` plus ±B_s (a_i − a_j) of grid spring `t` (see GRID_INCIDENT in
+// physics.wgsl) at particle p.
+fn grid_apply_term(
+    acc: vec3<f32>,
+    sec: u32,
+    p: u32,
+    rc: vec2<i32>,
+    own: vec3<f32>,
+    t: vec4<i32>,
+) -> vec3<f32> {
+    let inc = grid_incident(p, rc, t);
+    let other = work[wi(sec, inc.other)].xyz;
+    let d = select(own - other, other - own, inc.at_j);
+    let blk = spring_work[si(S_BLOCK, inc.slot)];
+    let y = d * blk.w + blk.xyz * dot3(blk.xyz, d);
+    // `a − y` is `a + (−y)` exactly.
+    return acc + grid_term(y, inc);
+}
+
 // (A a)_p, unfiltered, for the vector in work section `sec`: m a_p, then
 // ±B_s (a_i − a_j) over the incident springs in adjacency order — the order
 // in which the CPU's scatter reaches particle p. B_s = a I + m mᵀ from the
@@ -82,6 +101,23 @@ fn precond_mul(p: u32, a: vec3<f32>) -> vec3<f32> {
 fn apply_a(sec: u32, p: u32) -> vec3<f32> {
     let own = work[wi(sec, p)].xyz;
     var acc = own * v[p].w;
+    if (GRID) {
+        // The same terms in the same order; two loads per spring.
+        let rc = grid_row_col(p);
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(-1, 0, 1, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(0, -1, 0, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(0, 1, 0, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(1, 0, 1, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(-1, -1, 2, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(-1, 1, 3, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(1, -1, 3, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(1, 1, 2, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(-2, 0, 5, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(0, -2, 4, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(0, 2, 4, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(2, 0, 5, 0));
+        return acc;
+    }
     let begin = topo[p];
     let end = topo[p + 1u];
     let others = spring_adj_others();
@@ -102,30 +138,53 @@ var<workgroup> scratch: array<f32, WORKGROUP>;
 var<workgroup> shared_value: f32;
 var<workgroup> shared_flag: u32;
 
-// Twin: implicit::tree_sum inside one block: writes this workgroup's sum of
-// `value` to partials[slot]. Every invocation of the workgroup must call it.
+// Twin: implicit::block_sum inside one block: writes this workgroup's sum
+// of `value`, in invocation order, to partials[slot]. Every invocation of
+// the workgroup must call it. Two barriers and one invocation adding up:
+// on lavapipe a barrier costs more than the additions of a whole tree.
 fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
+    // Invocation 0 may still be reading the previous reduction's values.
+    workgroupBarrier();
     scratch[lid] = value;
     workgroupBarrier();
-    for (var s = WORKGROUP / 2u; s > 0u; s = s >> 1u) {
-        if (lid < s) {
-            scratch[lid] += scratch[lid + s];
-        }
-        workgroupBarrier();
-    }
     if (lid == 0u) {
-        partials[slot * params.partial_count + wid] = scratch[0];
+        let count = min(WORKGROUP, params.particle_count - wid * WORKGROUP);
+        var total = 0.0;
+        for (var k = 0u; k < count; k++) {
+            total += scratch[k];
+        }
+        partials[slot * params.partial_count + wid] = total;
     }
 }
 
 // Sum of the partials of `slot`, in sequence (twin: the block loop of
-// tree_sum). Call from one invocation.
+// block_sum).
 fn sum_partials(slot: u32) -> f32 {
     var total = 0.0;
     for (var k = 0u; k < params.partial_count; k++) {
         total += partials[slot * params.partial_count + k];
     }
     return total;
+}
+
+// Σ_p work[wi(sec, p)].w in block_sum's order, by one workgroup:
+// invocation l adds up blocks l, l + WORKGROUP, … into partials[slot],
+// then every invocation adds the block sums in sequence. The per-particle
+// kernels leave their dot-product terms in the w of a vector they write
+// anyway, so they need no workgroup barrier. Call from uniform control
+// flow.
+fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
+    for (var b = lid; b < params.partial_count; b += WORKGROUP) {
+        let start = b * WORKGROUP;
+        let end = min(start + WORKGROUP, params.particle_count);
+        var block = 0.0;
+        for (var p = start; p < end; p++) {
+            block += work[wi(sec, p)].w;
+        }
+        partials[slot * params.partial_count + b] = block;
+    }
+    storageBarrier();
+    return sum_partials(slot);
 }
 
 // CG scalars, after the partials: δ0, δ (current r·P r), α, β.
@@ -139,10 +198,16 @@ fn scalar_index(k: u32) -> u32 {
 }
 
 // Whether CG has stopped (converged or broken down; set by the one-group
-// kernels cg_start, cg_alpha and cg_beta), uniform over the workgroup.
+// kernels cg_start, cg_alpha and cg_beta), uniform over the workgroup (for
+// those kernels, which have barriers after it).
 fn cg_stopped(lid: u32) -> bool {
     if (lid == 0u) {
         shared_flag = atomicLoad(&status[STATUS_CG_STOPPED]);
     }
     return workgroupUniformLoad(&shared_flag) != 0u;
+}
+
+// Whether CG has stopped, for a per-particle kernel (no barrier).
+fn cg_done() -> bool {
+    return atomicLoad(&status[STATUS_CG_STOPPED]) != 0u;
 }

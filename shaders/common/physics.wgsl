@@ -30,18 +30,30 @@ fn finite3(a: vec3<f32>) -> bool {
 // gets the negative. Both ends evaluate it from i − j, so they agree bit
 // for bit.
 fn spring_force(sp: Spring, xi: vec3<f32>, xj: vec3<f32>, vi: vec3<f32>, vj: vec3<f32>) -> vec3<f32> {
+    return spring_force_of(sp.rest, sp.k, sp.kd, xi, xj, vi, vj);
+}
+
+fn spring_force_of(
+    rest: f32,
+    k: f32,
+    kd: f32,
+    xi: vec3<f32>,
+    xj: vec3<f32>,
+    vi: vec3<f32>,
+    vj: vec3<f32>,
+) -> vec3<f32> {
     let d = xi - xj;
     let l = len3(d);
     var n = vec3<f32>(0.0);
     if (l > TINY) {
         n = d / l;
     }
-    let stretch = l - sp.rest;
+    let stretch = l - rest;
     if (!HAS_DAMPING) {
-        return n * (-(sp.k * stretch));
+        return n * (-(k * stretch));
     }
     let rate = dot3(vi - vj, n);
-    return n * (-(sp.k * stretch + sp.kd * rate));
+    return n * (-(k * stretch + kd * rate));
 }
 
 // Twin: cpu::forces::wind_triangle_force. Wind force on triangle t, already
@@ -71,20 +83,131 @@ fn wind_triangle_force(t: u32) -> vec3<f32> {
     return f * third;
 }
 
-// Total force on particle p (twin: cpu::forces::total_forces): gravity,
-// then the spring forces of the spring pass (spring_forces or
-// implicit_springs, section S_FORCE) gathered with their signs in
-// adjacency order, then wind triangles in adjacency order.
-fn total_force(p: u32) -> vec3<f32> {
-    var springs_sum = vec3<f32>(0.0);
+// A particle's incident springs on a grid cloth, in adjacency order, each
+// as (row offset, column offset of the other end, direction, 1 if the
+// particle is the spring's second end). Twin: grid::INCIDENT (whose test
+// checks the order against the model's adjacency). The grid loops are
+// written out with these as literals: lavapipe compiles a constant
+// array indexed in a loop to per-lane scratch loads, four times slower.
+//   (-1, 0, 1, 1)  (0, -1, 0, 1)  (0, 1, 0, 0)  (1, 0, 1, 0)
+//   (-1, -1, 2, 1) (-1, 1, 3, 1)  (1, -1, 3, 0) (1, 1, 2, 0)
+//   (-2, 0, 5, 1)  (0, -2, 4, 1)  (0, 2, 4, 0)  (2, 0, 5, 0)
+
+// Spring `t` (a row of the table above) at particle p = (row, col). Where
+// it does not exist (`ok` false), `other` is p and `slot` p's own slot of
+// the direction, so loads stay in bounds.
+struct Incident {
+    ok: bool,
+    other: u32,
+    slot: u32,
+    // Spring kind: 0 stretch, 1 shear, 2 bend.
+    kind: u32,
+    // The particle is the spring's second end (it receives −f_i).
+    at_j: bool,
+    rest: f32,
+}
+
+fn grid_row_col(p: u32) -> vec2<i32> {
+    return vec2<i32>(i32(p / params.grid.x), i32(p % params.grid.x));
+}
+
+fn grid_incident(p: u32, rc: vec2<i32>, t: vec4<i32>) -> Incident {
+    let r = rc.x + t.x;
+    let c = rc.y + t.y;
+    let dir = u32(t.z);
+    let kind = dir >> 1u;
+    let at_j = t.w != 0;
+    let ok = r >= 0 && r < i32(params.grid.y) && c >= 0 && c < i32(params.grid.x)
+        && (params.grid.z & (1u << kind)) != 0u;
+    let other = select(p, u32(r) * params.grid.x + u32(c), ok);
+    let owner = select(p, other, at_j);
+    var rest = params.grid_rest_b[(dir - 4u) & 3u];
+    if (dir < 4u) {
+        rest = params.grid_rest_a[dir];
+    }
+    return Incident(ok, other, dir * params.particle_count + owner, kind, at_j, rest);
+}
+
+// `sum` plus the force of grid spring `t` on particle p, evaluated from
+// i − j as every kernel does, so both ends agree bit for bit.
+fn grid_force_term(
+    sum: vec3<f32>,
+    p: u32,
+    rc: vec2<i32>,
+    xp: vec3<f32>,
+    vp: vec3<f32>,
+    t: vec4<i32>,
+) -> vec3<f32> {
+    let inc = grid_incident(p, rc, t);
+    let xo = x[inc.other].xyz;
+    var vo = vec3<f32>(0.0);
+    if (HAS_DAMPING) {
+        vo = v[inc.other].xyz;
+    }
+    let k = params.kind_k[inc.kind];
+    let kd = params.kind_kd[inc.kind];
+    let f = spring_force_of(
+        inc.rest,
+        k,
+        kd,
+        select(xp, xo, inc.at_j),
+        select(xo, xp, inc.at_j),
+        select(vp, vo, inc.at_j),
+        select(vo, vp, inc.at_j),
+    );
+    return sum + grid_term(f, inc);
+}
+
+// ±`y` for the sum of a grid spring, or −0 where the spring does not exist
+// (adding −0 changes nothing, not even the sign of a zero): branch-free
+// for SIMD lanes, which lavapipe runs markedly faster.
+fn grid_term(y: vec3<f32>, inc: Incident) -> vec3<f32> {
+    return select(vec3<f32>(-0.0), select(y, -y, inc.at_j), inc.ok);
+}
+
+// The spring forces on particle p, summed with their signs in adjacency
+// order (twin: the spring loop of cpu::forces::total_forces): from the
+// spring pass's S_FORCE, or on a grid computed here from the neighbours'
+// state.
+fn spring_sum(p: u32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    if (GRID) {
+        let rc = grid_row_col(p);
+        let xp = x[p].xyz;
+        var vp = vec3<f32>(0.0);
+        if (HAS_DAMPING) {
+            vp = v[p].xyz;
+        }
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-1, 0, 1, 1));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, -1, 0, 1));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, 1, 0, 0));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(1, 0, 1, 0));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-1, -1, 2, 1));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-1, 1, 3, 1));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(1, -1, 3, 0));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(1, 1, 2, 0));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-2, 0, 5, 1));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, -2, 4, 1));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, 2, 4, 0));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(2, 0, 5, 0));
+        return sum;
+    }
     let begin = topo[p];
     let end = topo[p + 1u];
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
         let f = spring_work[si(S_FORCE, e >> 1u)].xyz;
         // `a − f` is `a + (−f)` exactly: branch-free for SIMD lanes.
-        springs_sum += select(f, -f, (e & 1u) != 0u);
+        sum += select(f, -f, (e & 1u) != 0u);
     }
+    return sum;
+}
+
+// Total force on particle p (twin: cpu::forces::total_forces): gravity,
+// then the spring forces (spring_sum), then wind triangles in adjacency
+// order.
+fn total_force(p: u32) -> vec3<f32> {
+    let springs_sum = spring_sum(p);
     var f = params.gravity * v[p].w;
     f += springs_sum;
     return add_wind(p, f);

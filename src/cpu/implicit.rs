@@ -144,31 +144,20 @@ fn apply_a_unfiltered<R: Real>(
     }
 }
 
-/// `Σ terms(p)` over `n` particles in the GPU's reduction order: a binary
-/// tree inside each block of [`REDUCTION_BLOCK`] particles (what one
-/// workgroup reduces in shared memory), then the block sums in sequence.
-/// Summing in the GPU's order lets the `f32` mirror reproduce the GPU's CG
-/// iterates; in `f64` a tree is also more accurate than a running sum.
-pub fn tree_sum<R: Real>(n: usize, mut terms: impl FnMut(usize) -> R) -> R {
+/// `Σ terms(p)` over `n` particles in the GPU's reduction order: a running
+/// sum inside each block of [`REDUCTION_BLOCK`] particles, then the block
+/// sums in sequence. Summing in the GPU's order lets the `f32` mirror
+/// reproduce the GPU's CG iterates. (A tree inside each block was tried
+/// first; on lavapipe its six workgroup barriers per reduction cost half a
+/// millisecond at 129², more than the rest of a CG iteration's pass.)
+pub fn block_sum<R: Real>(n: usize, mut terms: impl FnMut(usize) -> R) -> R {
     let mut total = R::ZERO;
-    let mut scratch = [R::ZERO; REDUCTION_BLOCK];
     for start in (0..n).step_by(REDUCTION_BLOCK) {
-        for (l, slot) in scratch.iter_mut().enumerate() {
-            *slot = if start + l < n {
-                terms(start + l)
-            } else {
-                R::ZERO
-            };
+        let mut block = R::ZERO;
+        for p in start..(start + REDUCTION_BLOCK).min(n) {
+            block += terms(p);
         }
-        let mut stride = REDUCTION_BLOCK / 2;
-        while stride > 0 {
-            for l in 0..stride {
-                let other = scratch[l + stride];
-                scratch[l] += other;
-            }
-            stride /= 2;
-        }
-        total += scratch[0];
+        total += block;
     }
     total
 }
@@ -176,7 +165,7 @@ pub fn tree_sum<R: Real>(n: usize, mut terms: impl FnMut(usize) -> R) -> R {
 /// Sum of `a[p]·b[p]` in the GPU's order.
 #[inline]
 fn dot<R: Real>(a: &[Vec3<R>], b: &[Vec3<R>]) -> R {
-    tree_sum(a.len(), |p| a[p].dot(b[p]))
+    block_sum(a.len(), |p| a[p].dot(b[p]))
 }
 
 /// One implicit step.
@@ -250,7 +239,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
     for p in 0..n {
         w.dv[p] = w.filter[p].apply(w.dv[p]) + w.z[p];
     }
-    let delta0 = tree_sum(n, |p| {
+    let delta0 = block_sum(n, |p| {
         let sb = w.filter[p].apply(w.rhs[p]);
         sb.dot(w.precond[p].mul(sb))
     });

@@ -27,7 +27,7 @@
 //! exactly backward Euler.
 
 use super::forces::external_forces;
-use super::implicit::tree_sum;
+use super::implicit::block_sum;
 use super::mat3::Sym3;
 use super::{finish_with_fixup, State, StepStats, System, Workspace};
 use crate::real::{Real, Vec3};
@@ -64,7 +64,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
 /// Removes from `dv` the angular impulse (about the centre of mass) that
 /// is not accounted for by the external forces `f_ext`.
 ///
-/// Every sum is a [`tree_sum`], the GPU's reduction order.
+/// Every sum is a [`block_sum`], the GPU's reduction order.
 fn compensate_torque<R: Real>(
     sys: &System<R>,
     x: &[Vec3<R>],
@@ -73,15 +73,15 @@ fn compensate_torque<R: Real>(
 ) {
     let n = x.len();
     let m = &sys.mass;
-    let total = tree_sum(n, |p| m[p]);
-    let weighted = |k: usize| tree_sum(n, |p| (x[p] * m[p]).get(k));
+    let total = block_sum(n, |p| m[p]);
+    let weighted = |k: usize| block_sum(n, |p| (x[p] * m[p]).get(k));
     let centre = Vec3::new(weighted(0), weighted(1), weighted(2)) / total;
     let r = |p: usize| x[p] - centre;
     let moment = |p: usize| r(p).cross(dv[p] * m[p] - f_ext[p] * sys.dt);
     let excess = Vec3::new(
-        tree_sum(n, |p| moment(p).x),
-        tree_sum(n, |p| moment(p).y),
-        tree_sum(n, |p| moment(p).z),
+        block_sum(n, |p| moment(p).x),
+        block_sum(n, |p| moment(p).y),
+        block_sum(n, |p| moment(p).z),
     );
     // Inertia Σ m (|r|² I − r rᵀ), one tree sum per stored entry.
     let term = |p: usize, k: usize| {
@@ -90,7 +90,7 @@ fn compensate_torque<R: Real>(
         t.m[k]
     };
     let inertia = Sym3 {
-        m: std::array::from_fn(|k| tree_sum(n, |p| term(p, k))),
+        m: std::array::from_fn(|k| block_sum(n, |p| term(p, k))),
     };
     // A cloth collapsed onto a line or point has a singular inertia tensor:
     // it has no well-defined rotation to remove, so leave it.

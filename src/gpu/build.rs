@@ -3,6 +3,7 @@
 
 use wgpu::util::DeviceExt;
 
+use super::grid::GridLayout;
 use super::layout::{self, section, GpuParams, GpuSpring};
 use super::pipelines::Pipelines;
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
@@ -20,6 +21,7 @@ impl GpuSolver {
         model: &Model,
         params: &Params,
         filter: Option<SemiFilter>,
+        grid: Option<GridLayout>,
     ) -> Result<GpuSolver> {
         let n = model.particle_count() as u32;
         let partial_count = n.div_ceil(WORKGROUP);
@@ -30,11 +32,23 @@ impl GpuSolver {
             (params.implicit.tolerance, params.implicit.max_iterations)
         };
 
-        // Topology: spring CSR (offsets, entries, then each entry's other
-        // particle), triangle CSR, triangles, one u32 array.
+        // Where each spring lives on the device: its slot in grid layout,
+        // else its index.
+        let slot_of = |s: usize| grid.as_ref().map_or(s as u32, |g| g.slot[s]);
+        let slots = grid.as_ref().map_or(model.springs.len(), GridLayout::slots);
+
+        // Topology: spring CSR (offsets, entries — with slots for spring
+        // indices — then each entry's other particle), triangle CSR,
+        // triangles, one u32 array.
         let mut topo: Vec<u32> = model.particle_springs.offsets.clone();
         let spring_adj_entries = topo.len() as u32;
-        topo.extend(&model.particle_springs.entries);
+        topo.extend(
+            model
+                .particle_springs
+                .entries
+                .iter()
+                .map(|&e| slot_of((e >> 1) as usize) << 1 | (e & 1)),
+        );
         topo.extend(model.particle_springs.entries.iter().map(|&e| {
             let sp = &model.springs[(e >> 1) as usize];
             if e & 1 == 0 {
@@ -50,26 +64,43 @@ impl GpuSolver {
         let triangles = topo.len() as u32;
         topo.extend(model.triangles.iter().flatten());
 
-        let gpu_springs: Vec<GpuSpring> = model
-            .springs
-            .iter()
-            .map(|sp| {
-                let m = params.spring(sp.kind);
-                let max_len = match m.max_stretch {
-                    Some(f) if params.fixup.iterations > 0 => (f * sp.rest) as f32,
-                    _ => 0.0,
-                };
-                GpuSpring {
-                    i: sp.i,
-                    j: sp.j,
-                    rest: sp.rest as f32,
-                    k: m.stiffness as f32,
-                    kd: m.damping as f32,
-                    max_len,
-                    _pad: [0; 2],
-                }
+        // Unused grid slots: a spring of zero stiffness from the owner to
+        // itself (no kernel reaches them; see `super::grid`).
+        let owner = |slot: usize| (slot % model.particle_count().max(1)) as u32;
+        let mut gpu_springs: Vec<GpuSpring> = (0..slots)
+            .map(|slot| GpuSpring {
+                i: owner(slot),
+                j: owner(slot),
+                ..GpuSpring::default()
             })
             .collect();
+        let placed = model.springs.iter().map(|sp| {
+            let m = params.spring(sp.kind);
+            let max_len = match m.max_stretch {
+                Some(f) if params.fixup.iterations > 0 => (f * sp.rest) as f32,
+                _ => 0.0,
+            };
+            GpuSpring {
+                i: sp.i,
+                j: sp.j,
+                rest: sp.rest as f32,
+                k: m.stiffness as f32,
+                kd: m.damping as f32,
+                max_len,
+                _pad: [0; 2],
+            }
+        });
+        for (s, spring) in placed.enumerate() {
+            gpu_springs[slot_of(s) as usize] = spring;
+        }
+        let kind = |f: fn(&crate::params::SpringParams) -> f64| {
+            let k = params.springs.map(|m| f(&m) as f32);
+            [k[0], k[1], k[2], 0.0]
+        };
+        let (grid_words, rest) = match &grid {
+            Some(g) => ([g.nx, g.ny, g.kinds, 0], g.rest),
+            None => ([0; 4], [0.0; 6]),
+        };
 
         let spheres = gpu_spheres(&params.spheres);
         let wind = params.wind.unwrap_or(NO_WIND);
@@ -84,7 +115,7 @@ impl GpuSolver {
             ground_friction: ground.friction as f32,
             fixup_omega: params.fixup.omega as f32,
             particle_count: n,
-            spring_count: model.springs.len() as u32,
+            spring_count: slots as u32,
             triangle_count: model.triangles.len() as u32,
             sphere_count: params.spheres.len() as u32,
             spring_adj_entries,
@@ -97,6 +128,11 @@ impl GpuSolver {
             torque_compensation: u32::from(
                 params.semi_implicit.torque_compensation && model.pinned_count() == 0,
             ),
+            grid: grid_words,
+            grid_rest_a: [rest[0], rest[1], rest[2], rest[3]],
+            grid_rest_b: [rest[4], rest[5], 0.0, 0.0],
+            kind_k: kind(|m| m.stiffness),
+            kind_kd: kind(|m| m.damping),
             spheres,
         };
 
@@ -272,7 +308,7 @@ impl GpuSolver {
             immediate_size: 0,
         });
 
-        let features = scene_features(model, params);
+        let features = scene_features(model, params, grid.is_some());
         let mut pipelines = Pipelines::new(layout);
         pipelines.ensure(device, params.integrator, features)?;
         queue.submit([]);
@@ -283,6 +319,8 @@ impl GpuSolver {
             integrator: params.integrator,
             particles: n,
             springs: model.springs.len() as u32,
+            spring_slots: slots as u32,
+            grid: grid.is_some(),
             triangles: model.triangles.len() as u32,
             fixup_iterations: if params.springs.iter().any(|s| s.max_stretch.is_some()) {
                 params.fixup.iterations

@@ -135,7 +135,7 @@ impl GpuSolver {
     /// not cached yet) and uploads the parameters.
     fn update_features(&mut self) -> Result<()> {
         let features = if self.specialised {
-            scene_features(&self.model, &self.host_params)
+            scene_features(&self.model, &self.host_params, self.grid)
         } else {
             Features {
                 wind: true,
@@ -143,6 +143,7 @@ impl GpuSolver {
                 spheres: true,
                 filter: true,
                 damping: true,
+                grid: false,
             }
         };
         self.pipelines

@@ -67,10 +67,21 @@ pub struct GpuParams {
     pub filter_count: u32,
     /// 1 when the semi-implicit torque compensation applies.
     pub torque_compensation: u32,
+    /// Grid layout (see [`super::grid`]): columns, rows, a bit per spring
+    /// kind present, unused; zero for the general kernels.
+    pub grid: [u32; 4],
+    /// Rest length of grid directions 0–3 [m].
+    pub grid_rest_a: [f32; 4],
+    /// Rest length of grid directions 4–5 [m] (two unused).
+    pub grid_rest_b: [f32; 4],
+    /// Stiffness of each spring kind [N/m] (one unused).
+    pub kind_k: [f32; 4],
+    /// Damping of each spring kind [N·s/m] (one unused).
+    pub kind_kd: [f32; 4],
     /// Sphere colliders; the first `sphere_count` are used.
     pub spheres: [GpuSphere; MAX_SPHERES],
 }
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 96 + 32 * MAX_SPHERES);
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 176 + 32 * MAX_SPHERES);
 
 /// Twin of WGSL `Spring`.
 #[repr(C)]

@@ -12,6 +12,7 @@
 mod build;
 pub mod context;
 mod control;
+pub mod grid;
 pub mod layout;
 pub mod pipelines;
 pub mod readback;

@@ -29,6 +29,9 @@ pub struct Features {
     pub filter: bool,
     /// Some spring is damped.
     pub damping: bool,
+    /// The springs are in grid layout (see [`super::grid`]): gather by row
+    /// and column.
+    pub grid: bool,
 }
 
 /// One kernel variant: entry point, name suffix, extra constants.
@@ -206,6 +209,7 @@ impl Pipelines {
                 ("HAS_SPHERES", flag(features.spheres)),
                 ("HAS_FILTER", flag(features.filter)),
                 ("HAS_DAMPING", flag(features.damping)),
+                ("GRID", flag(features.grid)),
             ];
             constants.extend_from_slice(variant.constants);
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

@@ -1,5 +1,6 @@
 //! The GPU solver: buffers, pipelines and the recording of steps.
 
+use super::grid::GridLayout;
 use super::layout::{self, section, GpuParams, GpuSphere, MAX_SPHERES};
 use super::pipelines::{fixup_variant, Features, Pipelines};
 use super::readback;
@@ -65,6 +66,11 @@ pub struct GpuSolver {
     pub(super) integrator: Integrator,
     pub(super) particles: u32,
     pub(super) springs: u32,
+    /// Spring slots on the device: the springs, or six per particle in
+    /// grid layout.
+    pub(super) spring_slots: u32,
+    /// The springs are in grid layout (see [`super::grid`]).
+    pub(super) grid: bool,
     pub(super) triangles: u32,
     pub(super) fixup_iterations: u32,
     pub(super) cg_max_iterations: u32,
@@ -96,7 +102,7 @@ pub struct GpuSolver {
 }
 
 /// What the scene uses, for the kernel variants.
-pub(super) fn scene_features(model: &Model, params: &Params) -> Features {
+pub(super) fn scene_features(model: &Model, params: &Params, grid: bool) -> Features {
     let colliders = params.ground.is_some() || !params.spheres.is_empty();
     Features {
         wind: params.wind.is_some(),
@@ -107,6 +113,7 @@ pub(super) fn scene_features(model: &Model, params: &Params) -> Features {
             .springs
             .iter()
             .any(|k| k.stiffness > 0.0 && k.damping > 0.0),
+        grid,
     }
 }
 
@@ -166,8 +173,9 @@ impl GpuSolver {
             Integrator::SemiImplicit => Some(SemiFilter::new(model, params)?),
             _ => None,
         };
+        let grid = GridLayout::of(model);
         let n = model.particle_count() as u64;
-        let s = model.springs.len() as u64;
+        let s = grid.as_ref().map_or(model.springs.len(), GridLayout::slots) as u64;
         let limits = device.limits();
         limit(
             "max_storage_buffers_per_shader_stage",
@@ -209,15 +217,16 @@ impl GpuSolver {
         }
 
         let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let solver = Self::build(device, queue, model, params, filter);
+        let solver = Self::build(device, queue, model, params, filter, grid);
         if let Some(e) = pollster::block_on(scope.pop()) {
             return Err(Error::Gpu(e.to_string()));
         }
         solver
     }
 
-    /// Dispatches `name` over `items` invocations (a one-invocation kernel,
-    /// `@workgroup_size(1)`, is dispatched as one workgroup).
+    /// Dispatches `name` over `items` invocations, in workgroups of
+    /// [`WORKGROUP`] (a one-invocation kernel, `@workgroup_size(1)`, is
+    /// dispatched as one workgroup).
     fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, name: &str, items: u32) {
         if let Some(p) = self.pipelines.get(name, self.features) {
             let (d, s) = self.recorded.get();
@@ -261,19 +270,22 @@ impl GpuSolver {
     /// (see [`GpuSolver::check`]) and stops on the device. The fix-up, too,
     /// stops on the device once a pass moves nothing.
     pub fn step_plan(&self) -> Vec<(&'static str, u32)> {
-        let (n, s) = (self.particles, self.springs);
+        let (n, s) = (self.particles, self.spring_slots);
         let mut plan = Vec::new();
         let cg = |plan: &mut Vec<(&'static str, u32)>| {
-            // δ0, α, β and the convergence test are each reduced once, by a
-            // one-invocation kernel, not by every workgroup.
+            // The per-particle kernels leave their dot-product terms in
+            // their output vectors; δ0, α, β and the convergence test are
+            // each summed once, by a one-workgroup kernel — no workgroup
+            // barrier in any per-particle pass.
+            let one = WORKGROUP;
             plan.push(("cg_init", n));
-            plan.push(("cg_start", 1));
+            plan.push(("cg_start", one));
             for _ in 0..self.cg_budget {
                 plan.extend([
                     ("cg_apply", n),
-                    ("cg_alpha", 1),
+                    ("cg_alpha", one),
                     ("cg_update", n),
-                    ("cg_beta", 1),
+                    ("cg_beta", one),
                     ("cg_direction", n),
                 ]);
             }
@@ -286,6 +298,10 @@ impl GpuSolver {
                 plan.push(("implicit_finish", n));
                 return plan;
             }
+            // The grid kernels compute spring forces where they gather them.
+            Integrator::Explicit if self.features.grid => {
+                plan.push(("explicit_integrate", n));
+            }
             Integrator::Explicit => {
                 plan.push(("spring_forces", s));
                 if self.fused_explicit() {
@@ -295,7 +311,9 @@ impl GpuSolver {
                 plan.push(("explicit_integrate", n));
             }
             Integrator::SemiImplicit => {
-                plan.push(("spring_forces", s));
+                if !self.features.grid {
+                    plan.push(("spring_forces", s));
+                }
                 if self.params.filter_count > 0 {
                     plan.push(("semi_rhs", n));
                     plan.push(("filter_dense", self.params.filter_count));
@@ -340,7 +358,10 @@ impl GpuSolver {
     /// kernel (it then reads no other particle's state, so it may write
     /// its own in place).
     fn fused_explicit(&self) -> bool {
-        self.integrator == Integrator::Explicit && self.fixup_iterations == 0 && !self.features.wind
+        self.integrator == Integrator::Explicit
+            && self.fixup_iterations == 0
+            && !self.features.wind
+            && !self.features.grid
     }
 
     /// Records the vertex-normal pass (for rendering; stepping never needs

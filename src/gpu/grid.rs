@@ -1,0 +1,255 @@
+//! The regular-grid layout of a cloth's springs on the device.
+//!
+//! A cloth built by [`Model::new`] is a grid: every spring joins a particle
+//! to the one a fixed row/column offset away, and springs of one direction
+//! share their rest length. For such a cloth the solver stores spring `s`
+//! at *slot* `direction × particles + owner` (owner = its first end), and
+//! the grid kernels (`override GRID` in `shaders/common/bindings.wgsl`)
+//! find a particle's springs and neighbours by arithmetic on its row and
+//! column instead of loading an adjacency list: on lavapipe every storage
+//! load costs more than the arithmetic around it, so a per-particle gather
+//! that loads only the neighbours' state runs about twice as fast.
+//!
+//! The grid kernels visit a particle's springs in [`INCIDENT`] order, which
+//! is the order of the model's adjacency (ascending spring index), so they
+//! sum in the CPU reference's order and stay bit-identical to it. Slots of
+//! springs that do not exist (at the border, or of a kind with zero
+//! stiffness) hold a spring of zero stiffness from the owner to itself; no
+//! kernel reaches them through the adjacency or [`INCIDENT`].
+
+use crate::model::Model;
+use crate::params::SpringKind;
+
+/// Directions of the springs a particle owns: `(row offset, column offset,
+/// kind)` of its second end. Twin: the `dir` column of `GRID_INCIDENT` in
+/// `shaders/common/physics.wgsl`.
+pub const DIRECTIONS: [(i32, i32, SpringKind); 6] = [
+    (0, 1, SpringKind::Stretch),
+    (1, 0, SpringKind::Stretch),
+    (1, 1, SpringKind::Shear),
+    (1, -1, SpringKind::Shear),
+    (0, 2, SpringKind::Bend),
+    (2, 0, SpringKind::Bend),
+];
+
+/// A particle's incident springs in adjacency order: `(row offset, column
+/// offset of the other end, direction, the particle is the spring's second
+/// end)`. Twin: `GRID_INCIDENT` in `shaders/common/physics.wgsl`.
+pub const INCIDENT: [(i32, i32, u32, bool); 12] = [
+    (-1, 0, 1, true),
+    (0, -1, 0, true),
+    (0, 1, 0, false),
+    (1, 0, 1, false),
+    (-1, -1, 2, true),
+    (-1, 1, 3, true),
+    (1, -1, 3, false),
+    (1, 1, 2, false),
+    (-2, 0, 5, true),
+    (0, -2, 4, true),
+    (0, 2, 4, false),
+    (2, 0, 5, false),
+];
+
+/// Where a grid cloth's springs live on the device.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridLayout {
+    /// Columns.
+    pub nx: u32,
+    /// Rows.
+    pub ny: u32,
+    /// Slot of each of the model's springs.
+    pub slot: Vec<u32>,
+    /// Rest length of each direction [m], as the device holds it (0 where
+    /// the direction has no springs).
+    pub rest: [f32; 6],
+    /// Bit `k` set: springs of kind `k` exist.
+    pub kinds: u32,
+}
+
+impl GridLayout {
+    /// The layout of `model`, or `None` when it is not a grid whose springs
+    /// all follow [`DIRECTIONS`] with one rest length (in `f32`) per
+    /// direction — then the solver keeps the general adjacency kernels.
+    pub fn of(model: &Model) -> Option<GridLayout> {
+        let spec = model.grid.as_ref()?;
+        let (nx, ny) = (spec.nx, spec.ny);
+        let n = model.particle_count();
+        if nx * ny != n || 6 * n > u32::MAX as usize / 2 {
+            return None;
+        }
+        let mut slot = Vec::with_capacity(model.springs.len());
+        let mut rest: [Option<f32>; 6] = [None; 6];
+        let mut kinds = 0u32;
+        for sp in &model.springs {
+            let (i, j) = (sp.i as usize, sp.j as usize);
+            let dr = (j / nx) as i64 - (i / nx) as i64;
+            let dc = (j % nx) as i64 - (i % nx) as i64;
+            let dir = DIRECTIONS.iter().position(|&(r, c, kind)| {
+                i64::from(r) == dr && i64::from(c) == dc && kind == sp.kind
+            })?;
+            let r = sp.rest as f32;
+            match rest[dir] {
+                None => rest[dir] = Some(r),
+                Some(seen) if seen.to_bits() == r.to_bits() => {}
+                Some(_) => return None,
+            }
+            kinds |= 1 << sp.kind.index();
+            slot.push((dir * n + i) as u32);
+        }
+        Some(GridLayout {
+            nx: nx as u32,
+            ny: ny as u32,
+            slot,
+            rest: rest.map(|r| r.unwrap_or(0.0)),
+            kinds,
+        })
+    }
+
+    /// Slots on the device (six per particle).
+    pub fn slots(&self) -> usize {
+        6 * (self.nx as usize) * (self.ny as usize)
+    }
+
+    /// The spring slots incident to particle `p`, in [`INCIDENT`] order,
+    /// with the other particle and whether `p` is the second end — what the
+    /// grid kernels visit.
+    pub fn incident(&self, p: usize) -> Vec<(u32, usize, bool)> {
+        let (nx, ny) = (self.nx as i64, self.ny as i64);
+        let n = (nx * ny) as usize;
+        let (row, col) = ((p as i64) / nx, (p as i64) % nx);
+        INCIDENT
+            .iter()
+            .filter_map(|&(dr, dc, dir, at_j)| {
+                let (r, c) = (row + i64::from(dr), col + i64::from(dc));
+                let kind = DIRECTIONS[dir as usize].2;
+                let inside = (0..ny).contains(&r) && (0..nx).contains(&c);
+                if !inside || self.kinds & (1 << kind.index()) == 0 {
+                    return None;
+                }
+                let other = (r * nx + c) as usize;
+                let owner = if at_j { other } else { p };
+                Some(((dir as usize * n + owner) as u32, other, at_j))
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{decode_incidence, ClothSpec, Orientation, Pin};
+    use crate::params::SpringParams;
+
+    fn grid(nx: usize, ny: usize, stiff: [f64; 3], orientation: Orientation) -> Model {
+        let spec = ClothSpec {
+            nx,
+            ny,
+            size: [0.7, 1.3],
+            origin: [-0.35, 1.0, -0.65],
+            orientation,
+            mass: 0.4,
+            pins: vec![Pin::Index(0)],
+        };
+        let m = |k: f64| SpringParams {
+            stiffness: k,
+            damping: 0.01,
+            max_stretch: None,
+        };
+        match Model::new(&spec, &stiff.map(m)) {
+            Ok(model) => model,
+            Err(e) => panic!("{nx}×{ny}: {e}"),
+        }
+    }
+
+    /// The grid kernels' enumeration is the model's adjacency, spring for
+    /// spring and in order, for grids small enough to have every border
+    /// case and with each kind missing in turn.
+    #[test]
+    fn incident_order_is_the_adjacency_order() {
+        for (nx, ny) in [(2, 2), (3, 2), (2, 5), (4, 4), (5, 7), (9, 3)] {
+            for stiff in [
+                [1.0, 1.0, 1.0],
+                [1.0, 0.0, 1.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 1.0, 1.0],
+            ] {
+                for orientation in [Orientation::Horizontal, Orientation::Vertical] {
+                    let model = grid(nx, ny, stiff, orientation);
+                    let Some(layout) = GridLayout::of(&model) else {
+                        panic!("{nx}×{ny} {stiff:?}: not a grid layout");
+                    };
+                    for p in 0..model.particle_count() {
+                        let want: Vec<(u32, usize, bool)> = model
+                            .particle_springs
+                            .of(p)
+                            .iter()
+                            .map(|&e| {
+                                let (s, at_j) = decode_incidence(e);
+                                let sp = &model.springs[s];
+                                let other = if at_j { sp.i } else { sp.j };
+                                (layout.slot[s], other as usize, at_j)
+                            })
+                            .collect();
+                        assert_eq!(
+                            layout.incident(p),
+                            want,
+                            "{nx}×{ny} {stiff:?}, particle {p}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn slots_are_distinct_and_in_range() {
+        let model = grid(6, 5, [1.0; 3], Orientation::Horizontal);
+        let Some(layout) = GridLayout::of(&model) else {
+            panic!("not a grid layout");
+        };
+        let mut seen = vec![false; layout.slots()];
+        for &s in &layout.slot {
+            assert!(!seen[s as usize], "slot {s} twice");
+            seen[s as usize] = true;
+        }
+    }
+
+    #[test]
+    fn a_model_from_parts_has_no_grid_layout() {
+        let model = grid(3, 3, [1.0; 3], Orientation::Horizontal);
+        let parts = match Model::from_parts(
+            model.rest_positions.clone(),
+            model.mass.clone(),
+            model.pinned.clone(),
+            model.springs.clone(),
+            model.triangles.clone(),
+        ) {
+            Ok(m) => m,
+            Err(e) => panic!("{e}"),
+        };
+        assert!(GridLayout::of(&parts).is_none());
+    }
+
+    #[test]
+    fn uneven_rest_lengths_keep_the_general_kernels() {
+        let mut model = grid(4, 4, [1.0; 3], Orientation::Horizontal);
+        model.springs[0].rest *= 1.01;
+        assert!(GridLayout::of(&model).is_none());
+    }
+
+    /// Every built-in scene gets the grid kernels.
+    #[test]
+    fn built_in_scenes_are_grids() {
+        for &name in crate::Scene::builtin_names() {
+            let scene = match crate::Scene::builtin(name) {
+                Ok(s) => s,
+                Err(e) => panic!("{name}: {e}"),
+            };
+            let model = match scene.model() {
+                Ok(m) => m,
+                Err(e) => panic!("{name}: {e}"),
+            };
+            assert!(GridLayout::of(&model).is_some(), "{name}");
+        }
+    }
+}
