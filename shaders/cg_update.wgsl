@@ -1,5 +1,5 @@
-// CG iteration, part 2: Δv += α c; r −= α q; s = P r, and the next
-// δ = r·s's term in s's w.
+// CG iteration, part 2: Δv += α c; r −= α q; s = S P r, and the next
+// δ = r·(P r)'s term in s's w.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
@@ -16,5 +16,5 @@ fn cg_update(@builtin(global_invocation_id) gid: vec3<u32>) {
     let s = precond_mul(p, r);
     work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
     work[wi(W_R, p)] = vec4<f32>(r, 0.0);
-    work[wi(W_S, p)] = vec4<f32>(s, dot3(r, s));
+    work[wi(W_S, p)] = vec4<f32>(filter_of(p, s), dot3(r, s));
 }

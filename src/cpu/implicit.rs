@@ -246,13 +246,27 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
     apply_a(sys, &w.blocks, &w.filter, &w.dv, &mut w.q);
     for p in 0..n {
         w.r[p] = w.filter[p].apply(w.rhs[p]) - w.q[p];
-        w.c[p] = w.filter[p].apply(w.precond[p].mul(w.r[p]));
+        w.s[p] = w.filter[p].apply(w.precond[p].mul(w.r[p]));
+        // The "previous" direction and its product, for β = 0.
+        w.c[p] = Vec3::ZERO;
+        w.q[p] = Vec3::ZERO;
     }
-    let mut delta = dot(&w.r, &w.c);
+    let mut delta = dot(&w.r, &w.s);
+    let mut beta = R::ZERO;
     let tol2 = R::from_f64(sys.cg_tolerance * sys.cg_tolerance);
     let mut iterations = 0;
+    // Baraff and Witkin's modified PCG, with the direction update folded
+    // into the matrix product: c = S P r + β c, so S A c = S A (S P r) +
+    // β S A c_old — the product of the filtered preconditioned residual
+    // plus the old product. On the GPU this saves the direction pass (its
+    // neighbours' c would otherwise have to be complete before the
+    // product). The same iterates in exact arithmetic.
     while delta > tol2 * delta0 && iterations < sys.cg_max_iterations {
-        apply_a(sys, &w.blocks, &w.filter, &w.c, &mut w.q);
+        apply_a(sys, &w.blocks, &w.filter, &w.s, &mut w.t);
+        for p in 0..n {
+            w.c[p] = w.s[p] + w.c[p] * beta;
+            w.q[p] = w.t[p] + w.q[p] * beta;
+        }
         let cq = dot(&w.c, &w.q);
         // A is positive definite on the filtered subspace, so cq > 0 unless
         // c vanished to rounding: then the solve is as good as it gets.
@@ -264,13 +278,13 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         for p in 0..n {
             w.dv[p] += w.c[p] * alpha;
             w.r[p] -= w.q[p] * alpha;
-            w.s[p] = w.precond[p].mul(w.r[p]);
+            let s = w.precond[p].mul(w.r[p]);
+            // δ's term before the filter: r is filtered already.
+            w.t[p] = s;
+            w.s[p] = w.filter[p].apply(s);
         }
-        delta = dot(&w.r, &w.s);
-        let beta = delta / delta_old;
-        for p in 0..n {
-            w.c[p] = w.filter[p].apply(w.s[p] + w.c[p] * beta);
-        }
+        delta = dot(&w.r, &w.t);
+        beta = delta / delta_old;
         iterations += 1;
     }
     let residual = if delta0 > R::ZERO {

@@ -273,10 +273,12 @@ pub struct Workspace<R> {
     pub r: Vec<Vec3<R>>,
     /// CG search direction.
     pub c: Vec<Vec3<R>>,
-    /// CG `A c`.
+    /// CG `S A c`.
     pub q: Vec<Vec3<R>>,
-    /// CG preconditioned residual.
+    /// CG filtered preconditioned residual `S P r`.
     pub s: Vec<Vec3<R>>,
+    /// CG `S A s`.
+    pub t: Vec<Vec3<R>>,
     /// CG prescribed constrained velocity changes.
     pub z: Vec<Vec3<R>>,
     /// CG constraint filter.
@@ -319,6 +321,7 @@ impl<R: Real> Workspace<R> {
             c: pv(),
             q: pv(),
             s: pv(),
+            t: pv(),
             z: pv(),
             filter: vec![Filter::Free; particles],
             precond: vec![Sym3::default(); particles],

@@ -123,7 +123,6 @@ const CG: &[Variant] = &[
     v("cg_alpha", "", &[]),
     v("cg_update", "", &[]),
     v("cg_beta", "", &[]),
-    v("cg_direction", "", &[]),
 ];
 
 const EXPLICIT: &[Variant] = &[

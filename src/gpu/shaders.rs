@@ -41,7 +41,6 @@ pub const KERNELS: &[(&str, &str)] = &[
     wgsl!("cg_alpha"),
     wgsl!("cg_update"),
     wgsl!("cg_beta"),
-    wgsl!("cg_direction"),
     wgsl!("implicit_finish"),
     wgsl!("semi_rhs"),
     wgsl!("filter_dense"),

@@ -286,7 +286,6 @@ impl GpuSolver {
                     ("cg_alpha", one),
                     ("cg_update", n),
                     ("cg_beta", one),
-                    ("cg_direction", n),
                 ]);
             }
         };
