@@ -4,9 +4,10 @@
 //! cloths and each integrator, the median wall time per step of the GPU
 //! solver (a batch of steps recorded into one encoder, one submit, then a
 //! wait) and of the CPU reference in f32, their ratio, and the dispatches
-//! and submits per step; then criterion times the GPU step (`iter_custom`:
-//! submit plus wait) at the same sizes. The adapter is the default one
-//! (`WGPU_ADAPTER_NAME` picks another). `WGCLOTH_BENCH_QUICK=1` shortens
+//! and submits per step; the grid kernels against the general ones at
+//! 129²; what skipping saves at 65²; then criterion times the GPU step
+//! (`iter_custom`: submit plus wait) at the same sizes. The adapter is the
+//! default one (`WGPU_ADAPTER_NAME` picks another). `WGCLOTH_BENCH_QUICK=1` shortens
 //! the run; `WGCLOTH_BENCH_SIZES=33,65` picks sizes (on lavapipe the 257²
 //! semi-implicit step takes over a second: leave it out for a short run).
 //!
@@ -228,6 +229,40 @@ fn skipping_table(ctx: &GpuContext) {
     );
 }
 
+/// The grid kernels (springs found by row and column) against the general
+/// adjacency kernels, on the yardstick scene at 129², each on its
+/// own solver with the same history.
+fn grid_table(ctx: &GpuContext) {
+    let n = 129;
+    println!("\nGrid against general kernels ({n}², median ms per step)");
+    println!(
+        "{:>14} {:>9} {:>9} {:>8} {:>9}",
+        "integrator", "grid", "general", "ratio", "dispatch"
+    );
+    let samples = if quick() { 3 } else { 7 };
+    for integrator in Integrator::ALL {
+        let (model, params) = scene(integrator, n);
+        let batch = if integrator == Integrator::Explicit {
+            20
+        } else {
+            2
+        };
+        let mut grid = gpu_solver(ctx, &model, &params);
+        let t_grid = gpu_median(&mut grid, batch, samples);
+        let mut general = gpu_solver_with(ctx, &model, &params, false);
+        let t_general = gpu_median(&mut general, batch, samples);
+        println!(
+            "{:>14} {:>9.3} {:>9.3} {:>7.2}× {:>4.0}/{:<4.0}",
+            integrator.as_str(),
+            t_grid * 1e3,
+            t_general * 1e3,
+            t_general / t_grid,
+            grid.dispatches_per_step(),
+            general.dispatches_per_step()
+        );
+    }
+}
+
 fn gpu_step(c: &mut Criterion) {
     let ctx = match GpuContext::new(None) {
         Ok(c) => c,
@@ -264,6 +299,7 @@ fn main() {
     match GpuContext::new(None) {
         Ok(ctx) => {
             table(&ctx);
+            grid_table(&ctx);
             skipping_table(&ctx);
         }
         Err(e) => panic!("the GPU benchmark needs an adapter: {e}"),

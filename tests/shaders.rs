@@ -105,6 +105,7 @@ fn pod_twins_match_their_wgsl_structs() {
             grid_rest_b,
             kind_k,
             kind_kd,
+            kind_a,
             spheres
         }),
         std::mem::size_of::<GpuParams>(),

@@ -17,6 +17,10 @@ override HAS_DAMPING: bool = true;
 // The springs are in grid layout (src/gpu/grid.rs) and the kernels find
 // them by row and column instead of through the adjacency lists.
 override GRID: bool = false;
+// The CG matrix is the semi-implicit constant one: every spring block is
+// a I with a = dt² k of its kind (params.kind_a), so the grid kernels need
+// not load it.
+override CONSTANT_BLOCKS: bool = false;
 
 const MAX_SPHERES: u32 = 16u;
 
@@ -62,6 +66,8 @@ struct Params {
     grid_rest_b: vec4<f32>,
     kind_k: vec4<f32>,
     kind_kd: vec4<f32>,
+    // Semi-implicit CG: the constant block a = dt² k of each spring kind.
+    kind_a: vec4<f32>,
     spheres: array<Sphere, 16>,
 }
 

@@ -88,8 +88,15 @@ fn grid_apply_term(
     let inc = grid_incident(p, rc, t);
     let other = work[wi(sec, inc.other)].xyz;
     let d = select(own - other, other - own, inc.at_j);
-    let blk = spring_work[si(S_BLOCK, inc.slot)];
-    let y = d * blk.w + blk.xyz * dot3(blk.xyz, d);
+    var y: vec3<f32>;
+    if (CONSTANT_BLOCKS) {
+        // m = 0: the general kernels' d a + 0 (0·d), to within the sign
+        // of a zero.
+        y = d * params.kind_a[inc.kind];
+    } else {
+        let blk = spring_work[si(S_BLOCK, inc.slot)];
+        y = d * blk.w + blk.xyz * dot3(blk.xyz, d);
+    }
     // `a − y` is `a + (−y)` exactly.
     return acc + grid_term(y, inc);
 }

@@ -133,6 +133,12 @@ impl GpuSolver {
             grid_rest_b: [rest[4], rest[5], 0.0, 0.0],
             kind_k: kind(|m| m.stiffness),
             kind_kd: kind(|m| m.damping),
+            kind_a: if semi_cg {
+                let dt2 = (params.dt * params.dt) as f32;
+                kind(|m| m.stiffness).map(|k| dt2 * k)
+            } else {
+                [0.0; 4]
+            },
             spheres,
         };
 

@@ -78,10 +78,13 @@ pub struct GpuParams {
     pub kind_k: [f32; 4],
     /// Damping of each spring kind [N·s/m] (one unused).
     pub kind_kd: [f32; 4],
+    /// Semi-implicit CG: the constant block `a = dt² k` of each spring
+    /// kind [kg] (zero otherwise; one unused).
+    pub kind_a: [f32; 4],
     /// Sphere colliders; the first `sphere_count` are used.
     pub spheres: [GpuSphere; MAX_SPHERES],
 }
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 176 + 32 * MAX_SPHERES);
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 192 + 32 * MAX_SPHERES);
 
 /// Twin of WGSL `Spring`.
 #[repr(C)]

@@ -209,6 +209,10 @@ impl Pipelines {
                 ("HAS_FILTER", flag(features.filter)),
                 ("HAS_DAMPING", flag(features.damping)),
                 ("GRID", flag(features.grid)),
+                (
+                    "CONSTANT_BLOCKS",
+                    flag(integrator == Integrator::SemiImplicit),
+                ),
             ];
             constants.extend_from_slice(variant.constants);
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
