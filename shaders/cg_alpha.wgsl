@@ -16,6 +16,7 @@ fn cg_alpha(@builtin(local_invocation_id) lid: vec3<u32>) {
     }
     if (!(finite1(cq) && cq > 0.0)) {
         atomicStore(&status[STATUS_CG_STOPPED], 1u);
+        set_cg_args(false);
         return;
     }
     partials[scalar_index(C_ALPHA)] = partials[scalar_index(C_DELTA)] / cq;

@@ -19,5 +19,6 @@ fn cg_beta(@builtin(local_invocation_id) lid: vec3<u32>) {
     // The direction update of this iteration is only needed by the next.
     if (!(delta > params.cg_tolerance_sq * partials[scalar_index(C_DELTA0)])) {
         atomicStore(&status[STATUS_CG_STOPPED], 1u);
+        set_cg_args(false);
     }
 }

@@ -15,7 +15,9 @@ fn cg_start(@builtin(local_invocation_id) lid: vec3<u32>) {
     partials[scalar_index(C_DELTA0)] = delta0;
     partials[scalar_index(C_DELTA)] = delta;
     partials[scalar_index(C_BETA)] = 0.0;
-    if (!(delta > params.cg_tolerance_sq * delta0)) {
+    let running = delta > params.cg_tolerance_sq * delta0;
+    if (!running) {
         atomicStore(&status[STATUS_CG_STOPPED], 1u);
     }
+    set_cg_args(running);
 }

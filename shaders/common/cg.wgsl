@@ -141,6 +141,15 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
     return acc;
 }
 
+// Indirect dispatch arguments of cg_apply and cg_update (group 1, bound
+// only to cg_start, cg_alpha and cg_beta, which write them): workgroups,
+// or 0 once CG has stopped, so a stopped iteration runs no workgroup.
+@group(1) @binding(0) var<storage, read_write> cg_args: array<u32>;
+
+fn set_cg_args(running: bool) {
+    cg_args[0] = select(0u, params.partial_count, running);
+}
+
 var<workgroup> scratch: array<f32, WORKGROUP>;
 var<workgroup> shared_value: f32;
 var<workgroup> shared_flag: u32;

@@ -313,9 +313,36 @@ impl GpuSolver {
             bind_group_layouts: &[Some(&bgl)],
             immediate_size: 0,
         });
+        // The per-particle CG kernels are dispatched indirectly from
+        // `cg_args`, which the CG scalar kernels zero when CG stops: a
+        // stopped iteration then runs no workgroup. It lives in its own
+        // group, bound only to the kernels that write it (a dispatch may
+        // not read its arguments from a buffer its kernel binds).
+        let cg_args = init(
+            "wgcloth.cg_args",
+            bytemuck::cast_slice(&[partial_count, 1, 1, 0]),
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+        );
+        let args_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("wgcloth.cg_args"),
+            entries: &[storage_entry(0, false)],
+        });
+        let args_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("wgcloth.cg_args"),
+            layout: &args_bgl,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: cg_args.as_entire_binding(),
+            }],
+        });
+        let args_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("wgcloth.pipeline_layout.cg_args"),
+            bind_group_layouts: &[Some(&bgl), Some(&args_bgl)],
+            immediate_size: 0,
+        });
 
         let features = scene_features(model, params, grid.is_some());
-        let mut pipelines = Pipelines::new(layout);
+        let mut pipelines = Pipelines::new(layout, args_layout);
         pipelines.ensure(device, params.integrator, features)?;
         queue.submit([]);
 
@@ -345,6 +372,8 @@ impl GpuSolver {
             indices,
             status,
             bind_group,
+            cg_args,
+            args_bind_group,
             pipelines,
             features,
             steps_recorded: 0,

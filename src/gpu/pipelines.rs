@@ -115,6 +115,9 @@ pub fn fixup_variant(k: u32) -> &'static str {
     }
 }
 
+/// The kernels that write the CG kernels' indirect dispatch arguments.
+const ARGS_WRITERS: [&str; 3] = ["cg_start", "cg_alpha", "cg_beta"];
+
 /// CG, shared by implicit and the scalable semi-implicit filter.
 const CG: &[Variant] = &[
     v("cg_init", "", &[]),
@@ -165,15 +168,19 @@ fn variants(integrator: Integrator) -> impl Iterator<Item = &'static Variant> {
 #[derive(Debug)]
 pub struct Pipelines {
     layout: wgpu::PipelineLayout,
+    /// With the CG dispatch arguments as group 1, for [`ARGS_WRITERS`].
+    args_layout: wgpu::PipelineLayout,
     modules: HashMap<&'static str, wgpu::ShaderModule>,
     cache: HashMap<(String, Features), wgpu::ComputePipeline>,
 }
 
 impl Pipelines {
-    /// An empty cache for pipelines of `layout`.
-    pub fn new(layout: wgpu::PipelineLayout) -> Self {
+    /// An empty cache for pipelines of `layout` (`args_layout` for the
+    /// kernels that write the CG dispatch arguments).
+    pub fn new(layout: wgpu::PipelineLayout, args_layout: wgpu::PipelineLayout) -> Self {
         Pipelines {
             layout,
+            args_layout,
             modules: HashMap::new(),
             cache: HashMap::new(),
         }
@@ -217,7 +224,11 @@ impl Pipelines {
             constants.extend_from_slice(variant.constants);
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(&format!("wgcloth.{name}")),
-                layout: Some(&self.layout),
+                layout: Some(if ARGS_WRITERS.contains(&variant.entry) {
+                    &self.args_layout
+                } else {
+                    &self.layout
+                }),
                 module: &self.modules[variant.entry],
                 entry_point: Some(variant.entry),
                 compilation_options: wgpu::PipelineCompilationOptions {

@@ -17,6 +17,12 @@ use crate::real::Vec3;
 /// to a 33 × 33 cloth (17 workgroups).
 pub const WORKGROUP: u32 = crate::cpu::REDUCTION_BLOCK as u32;
 
+/// Per-particle CG kernels, dispatched indirectly (see `cg_args`): on
+/// lavapipe a dispatch whose invocations all return at once still costs
+/// about a third of a working one — the masked-off code runs — while an
+/// indirect dispatch of zero workgroups costs ~15 µs.
+const INDIRECT_CG: [&str; 2] = ["cg_apply", "cg_update"];
+
 /// Storage buffers one kernel binds (see `shaders/common/bindings.wgsl`).
 pub(super) const STORAGE_BUFFERS: u32 = 10;
 
@@ -86,6 +92,11 @@ pub struct GpuSolver {
     pub(super) indices: wgpu::Buffer,
     pub(super) status: wgpu::Buffer,
     pub(super) bind_group: wgpu::BindGroup,
+    /// Indirect arguments of the per-particle CG kernels (workgroups, or 0
+    /// once CG has stopped), and the group that binds it to the kernels
+    /// that write it.
+    pub(super) cg_args: wgpu::Buffer,
+    pub(super) args_bind_group: wgpu::BindGroup,
     pub(super) pipelines: Pipelines,
     pub(super) features: Features,
     pub(super) steps_recorded: u64,
@@ -177,6 +188,7 @@ impl GpuSolver {
         let n = model.particle_count() as u64;
         let s = grid.as_ref().map_or(model.springs.len(), GridLayout::slots) as u64;
         let limits = device.limits();
+        limit("max_bind_groups", limits.max_bind_groups.into(), 2)?;
         limit(
             "max_storage_buffers_per_shader_stage",
             limits.max_storage_buffers_per_shader_stage.into(),
@@ -232,6 +244,10 @@ impl GpuSolver {
             let (d, s) = self.recorded.get();
             self.recorded.set((d + 1, s));
             pass.set_pipeline(p);
+            if INDIRECT_CG.contains(&name) {
+                pass.dispatch_workgroups_indirect(&self.cg_args, 0);
+                return;
+            }
             let groups = if items == 1 {
                 1
             } else {
@@ -249,6 +265,7 @@ impl GpuSolver {
             timestamp_writes: None,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_bind_group(1, &self.args_bind_group, &[]);
         self.recorded.set((0, n));
         let plan = self.step_plan();
         for _ in 0..n {
