@@ -5,7 +5,7 @@ use crate::model::Model;
 use crate::params::Params;
 use crate::real::{Real, Vec3};
 
-/// Energy of a state [J], split by kind.
+/// Energy of a state \[J\], split by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Energy {
     /// `Σ ½ m |v|²` over free particles.
@@ -17,7 +17,7 @@ pub struct Energy {
 }
 
 impl Energy {
-    /// Total mechanical energy [J].
+    /// Total mechanical energy \[J\].
     pub fn total(&self) -> f64 {
         self.kinetic + self.gravitational + self.elastic
     }

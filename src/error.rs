@@ -45,7 +45,7 @@ pub enum Error {
     NonFinite {
         /// The step (1-based) after which the state was first non-finite.
         step: u64,
-        /// Simulated time at that step [s].
+        /// Simulated time at that step \[s\].
         time: f64,
         /// The first non-finite particle.
         particle: usize,

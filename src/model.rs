@@ -99,13 +99,13 @@ pub struct ClothSpec {
     pub nx: usize,
     /// Particles along the height (rows), `≥ 2`.
     pub ny: usize,
-    /// Width and height [m], both `> 0`.
+    /// Width and height \[m\], both `> 0`.
     pub size: [f64; 2],
-    /// Position of the top-left particle [m].
+    /// Position of the top-left particle \[m\].
     pub origin: [f64; 3],
     /// Rest orientation.
     pub orientation: Orientation,
-    /// Total mass [kg], `> 0`, shared equally by all particles (pinned ones
+    /// Total mass \[kg\], `> 0`, shared equally by all particles (pinned ones
     /// included).
     pub mass: f64,
     /// Pinned particles.
@@ -218,7 +218,7 @@ pub struct Spring {
     pub i: u32,
     /// Second particle.
     pub j: u32,
-    /// Rest length [m].
+    /// Rest length \[m\].
     pub rest: f64,
     /// Which kind (selects stiffness, damping and max stretch).
     pub kind: SpringKind,
@@ -281,9 +281,9 @@ pub struct Model {
     /// The grid spec it was built from (`None` for a model built with
     /// [`Model::from_parts`]).
     pub grid: Option<ClothSpec>,
-    /// Rest (and initial) positions [m], particle order.
+    /// Rest (and initial) positions \[m\], particle order.
     pub rest_positions: Vec<[f64; 3]>,
-    /// Mass of each particle [kg] (equal for all).
+    /// Mass of each particle \[kg\] (equal for all).
     pub mass: Vec<f64>,
     /// Whether each particle is pinned.
     pub pinned: Vec<bool>,

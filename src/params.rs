@@ -182,7 +182,7 @@ pub struct SemiImplicitParams {
 /// A horizontal ground plane `y = height`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ground {
-    /// Height of the plane [m].
+    /// Height of the plane \[m\].
     pub height: f64,
     /// Coulomb friction coefficient (dimensionless, `≥ 0`).
     pub friction: f64,
@@ -191,9 +191,9 @@ pub struct Ground {
 /// A static sphere collider.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
-    /// Centre [m].
+    /// Centre \[m\].
     pub center: [f64; 3],
-    /// Radius [m], `> 0`.
+    /// Radius \[m\], `> 0`.
     pub radius: f64,
     /// Coulomb friction coefficient (dimensionless, `≥ 0`).
     pub friction: f64,
@@ -216,7 +216,7 @@ pub struct Wind {
 pub struct Params {
     /// Time integrator.
     pub integrator: Integrator,
-    /// Time step [s], `> 0`.
+    /// Time step \[s\], `> 0`.
     pub dt: f64,
     /// Gravitational acceleration [m/s²].
     pub gravity: [f64; 3],

@@ -22,7 +22,7 @@ pub const MAX_BATCH: u64 = 256;
 /// Positions and velocities, borrowed from a CPU solver or read back from a
 /// device.
 pub struct State<'a, R: Clone> {
-    /// Positions [m].
+    /// Positions \[m\].
     pub x: Cow<'a, [Vec3<R>]>,
     /// Velocities [m/s].
     pub v: Cow<'a, [Vec3<R>]>,
@@ -41,7 +41,7 @@ pub trait Solver {
     fn advance(&mut self, n: u64) -> wgcloth::Result<()>;
     /// Steps taken so far.
     fn steps(&self) -> u64;
-    /// Simulated time so far [s].
+    /// Simulated time so far \[s\].
     fn time(&self) -> f64;
     /// The current state (a read-back on the GPU).
     fn state(&mut self) -> wgcloth::Result<State<'_, Self::Real>>;

@@ -213,11 +213,11 @@ struct RunArgs {
     )]
     seconds: Option<f64>,
 
-    /// Time step [s], overriding the scene's `[simulation] dt` (0 < DT ≤ 1).
+    /// Time step in seconds, overriding the scene's `[simulation] dt` (0 < DT ≤ 1).
     #[arg(long, value_name = "DT", allow_negative_numbers = true)]
     dt: Option<f64>,
 
-    /// Write the final positions [m] to FILE: one line `x y z` per particle,
+    /// Write the final positions (metres) to FILE: one line `x y z` per particle,
     /// in particle order, every number exact as an f64.
     #[arg(long, value_name = "FILE")]
     positions_out: Option<PathBuf>,

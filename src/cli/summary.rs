@@ -22,7 +22,7 @@ pub struct Summary<'a> {
     pub integrator: Integrator,
     /// The cloth (particle and spring counts).
     pub model: &'a Model,
-    /// Time step [s].
+    /// Time step \[s\].
     pub dt: f64,
     /// Wall-clock time of the whole command, set-up and output included.
     pub wall: Duration,
@@ -42,7 +42,7 @@ pub struct Outcome {
     pub device: Option<String>,
     /// Steps taken.
     pub steps: u64,
-    /// Simulated time [s].
+    /// Simulated time \[s\].
     pub time: f64,
     /// Wall-clock time spent stepping only: on the GPU, submitting the steps
     /// and waiting for the status read-back after each batch.
@@ -50,7 +50,7 @@ pub struct Outcome {
     /// Largest stretch-spring strain `(l − L) / L` at the end; `−∞` when
     /// there are no stretch springs.
     pub max_strain: f64,
-    /// Energy at the end [J].
+    /// Energy at the end \[J\].
     pub energy: Energy,
     /// What the solver counted.
     pub stats: SolverStats,

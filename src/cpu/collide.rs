@@ -13,18 +13,18 @@ use super::System;
 use crate::real::{Real, Vec3};
 
 /// A particle's distance to the surface within which it counts as touching
-/// at the start of a step [m]. Collision projection puts particles exactly
+/// at the start of a step \[m\]. Collision projection puts particles exactly
 /// on the surface up to rounding (≈1e-7 m in `f32` near 1 m), so a slop a
 /// hundred times larger catches every resting particle and no free one.
 pub const CONTACT_SLOP: f64 = 1e-5;
 
 /// A collider surface point: outward unit normal and signed distance of the
-/// particle from the surface (negative inside) [m].
+/// particle from the surface (negative inside) \[m\].
 #[derive(Clone, Copy, Debug)]
 pub struct Contact<R> {
     /// Outward unit normal.
     pub normal: Vec3<R>,
-    /// Signed distance (negative = penetrating) [m].
+    /// Signed distance (negative = penetrating) \[m\].
     pub distance: R,
     /// Coulomb friction coefficient of this collider.
     pub friction: R,

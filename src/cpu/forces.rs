@@ -37,7 +37,7 @@ pub fn spring_force<R: Real>(sys: &System<R>, s: usize, x: &[Vec3<R>], v: &[Vec3
     n * (-(sp.k * stretch + sp.kd * rate))
 }
 
-/// Sums `±per_spring[s]` over the incident springs of particle `p` in the
+/// Sums `±per_spring\[s\]` over the incident springs of particle `p` in the
 /// adjacency's order (`+` where `p` is end `i`, `−` where it is end `j`).
 #[inline]
 pub fn gather_signed<R: Real>(adj: &Adjacency, per_spring: &[Vec3<R>], p: usize) -> Vec3<R> {
@@ -90,7 +90,7 @@ pub fn wind_triangle_force<R: Real>(
     f * third
 }
 
-/// Every particle's total force [N]: `m g`, then springs, then wind, summed
+/// Every particle's total force \[N\]: `m g`, then springs, then wind, summed
 /// in the fixed order described in the module docs. `per_spring` and
 /// `per_triangle` are scratch buffers (one entry per spring / triangle).
 pub fn total_forces<R: Real>(
@@ -121,7 +121,7 @@ pub fn total_forces<R: Real>(
     }
 }
 
-/// External (non-spring) force on each particle [N]: gravity and wind.
+/// External (non-spring) force on each particle \[N\]: gravity and wind.
 /// Used by the semi-implicit torque compensation, which must not remove the
 /// torque that external forces legitimately apply.
 pub fn external_forces<R: Real>(

@@ -61,7 +61,7 @@ impl<R: Real> Filter<R> {
 pub struct SpringBlock<R> {
     /// `√b n` [√kg].
     pub m: Vec3<R>,
-    /// Isotropic coefficient `a` [kg].
+    /// Isotropic coefficient `a` \[kg\].
     pub a: R,
     /// The spring's ends, copied here so CG's inner loop streams one array.
     pub ends: [u32; 2],

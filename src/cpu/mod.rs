@@ -46,7 +46,7 @@ pub const REDUCTION_BLOCK: usize = 64;
 /// Positions and velocities: what a step changes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct State<R> {
-    /// Positions [m], particle order.
+    /// Positions \[m\], particle order.
     pub x: Vec<Vec3<R>>,
     /// Velocities [m/s], particle order.
     pub v: Vec<Vec3<R>>,
@@ -70,7 +70,7 @@ pub struct SpringR<R> {
     pub i: u32,
     /// Second particle.
     pub j: u32,
-    /// Rest length [m].
+    /// Rest length \[m\].
     pub rest: R,
     /// Stiffness [N/m].
     pub k: R,
@@ -81,7 +81,7 @@ pub struct SpringR<R> {
 /// The ground plane in the solver's precision.
 #[derive(Clone, Copy, Debug)]
 pub struct GroundR<R> {
-    /// Height [m].
+    /// Height \[m\].
     pub height: R,
     /// Friction coefficient.
     pub friction: R,
@@ -90,9 +90,9 @@ pub struct GroundR<R> {
 /// A sphere in the solver's precision.
 #[derive(Clone, Copy, Debug)]
 pub struct SphereR<R> {
-    /// Centre [m].
+    /// Centre \[m\].
     pub center: Vec3<R>,
-    /// Radius [m].
+    /// Radius \[m\].
     pub radius: R,
     /// Friction coefficient.
     pub friction: R,
@@ -115,7 +115,7 @@ pub struct WindR<R> {
 pub struct System<R> {
     /// Springs.
     pub springs: Vec<SpringR<R>>,
-    /// Maximum length per spring [m]; zero = not constrained.
+    /// Maximum length per spring \[m\]; zero = not constrained.
     pub max_len: Vec<R>,
     /// Spring index ranges of the constrained kinds.
     pub constrained_ranges: Vec<Range<usize>>,
@@ -125,7 +125,7 @@ pub struct System<R> {
     pub triangles: Vec<[u32; 3]>,
     /// Incident triangles per particle.
     pub triangle_adj: Adjacency,
-    /// Mass per particle [kg].
+    /// Mass per particle \[kg\].
     pub mass: Vec<R>,
     /// Inverse mass per particle [1/kg]; zero = pinned.
     pub inv_mass: Vec<R>,
@@ -133,7 +133,7 @@ pub struct System<R> {
     pub pinned_count: usize,
     /// Grid shape `(nx, ny)` if the model is a grid.
     pub grid: Option<(usize, usize)>,
-    /// Time step [s].
+    /// Time step \[s\].
     pub dt: R,
     /// Gravity [m/s²].
     pub gravity: Vec3<R>,
@@ -500,7 +500,7 @@ impl<R: Real> CpuSolver<R> {
         Ok(())
     }
 
-    /// Positions [m].
+    /// Positions \[m\].
     pub fn positions(&self) -> &[Vec3<R>] {
         &self.state.x
     }
@@ -515,7 +515,7 @@ impl<R: Real> CpuSolver<R> {
         self.steps
     }
 
-    /// Simulated time [s] (accumulated in `f64`).
+    /// Simulated time \[s\] (accumulated in `f64`).
     pub fn time(&self) -> f64 {
         self.time
     }
@@ -540,7 +540,7 @@ impl<R: Real> CpuSolver<R> {
         &self.sys
     }
 
-    /// Changes the time step [s]; a semi-implicit solver rebuilds its filter.
+    /// Changes the time step \[s\]; a semi-implicit solver rebuilds its filter.
     pub fn set_dt(&mut self, dt: f64) -> Result<()> {
         if !(dt.is_finite() && dt > 0.0 && dt <= 1.0) {
             return Err(Error::InvalidParameter {

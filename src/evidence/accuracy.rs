@@ -50,7 +50,7 @@ impl Backend {
 
 /// Strain past which a run counts as unstable rather than inaccurate: a
 /// spring stretched to twice its rest length is no cloth any more (the
-/// same rule as [`super::stability`]).
+/// same rule as [`mod@super::stability`]).
 pub const UNSTABLE_STRAIN: f64 = 1.0;
 
 /// What [`accuracy`] measures.
@@ -120,7 +120,7 @@ pub struct AccuracyRow {
     pub integrator: Integrator,
     /// The backend.
     pub backend: Backend,
-    /// Time step [s].
+    /// Time step \[s\].
     pub dt: f64,
     /// Fix-up iterations (explicit, semi-implicit; 0 for implicit).
     pub fixup_iterations: u32,
@@ -132,9 +132,9 @@ pub struct AccuracyRow {
     /// Wall time per simulated second [s/s] (solver set-up excluded).
     pub wall_per_sim_second: f64,
     /// RMS over all particles and samples of the distance to the
-    /// reference [m].
+    /// reference \[m\].
     pub rms_error: f64,
-    /// Largest such distance [m].
+    /// Largest such distance \[m\].
     pub max_error: f64,
 }
 
@@ -145,11 +145,11 @@ pub struct AccuracyReport {
     pub scene: String,
     /// Particles in the measured cloth.
     pub particles: usize,
-    /// The reference step [s].
+    /// The reference step \[s\].
     pub reference_dt: f64,
-    /// Sample times [s].
+    /// Sample times \[s\].
     pub sample_times: Vec<f64>,
-    /// Per fix-up setting: largest distance [m] between the reference and a
+    /// Per fix-up setting: largest distance \[m\] between the reference and a
     /// run at half its step — how far from converged the reference is.
     pub reference_change: Vec<(u32, f64)>,
     /// The measurements.
@@ -157,7 +157,7 @@ pub struct AccuracyReport {
 }
 
 impl AccuracyReport {
-    /// The largest [`AccuracyReport::reference_change`] [m].
+    /// The largest [`AccuracyReport::reference_change`] \[m\].
     pub fn worst_reference_change(&self) -> f64 {
         self.reference_change
             .iter()
@@ -165,12 +165,12 @@ impl AccuracyReport {
             .fold(0.0, f64::max)
     }
 
-    /// The smallest RMS error of a stable row [m] (NaN when none).
+    /// The smallest RMS error of a stable row \[m\] (NaN when none).
     pub fn smallest_error(&self) -> f64 {
         self.smallest_error_where(|_| true)
     }
 
-    /// The smallest RMS error [m] of the stable rows compared with the
+    /// The smallest RMS error \[m\] of the stable rows compared with the
     /// reference of `fixup_iterations` fix-up passes (NaN when none).
     pub fn smallest_error_with_fixup(&self, fixup_iterations: u32) -> f64 {
         self.smallest_error_where(|r| r.fixup_iterations == fixup_iterations)
@@ -227,7 +227,7 @@ fn model_of(scene: &Scene, resolution: Option<usize>) -> Result<Model> {
 }
 
 /// Positions sampled at the sample times, and whether the run stayed
-/// stable; plus the wall time of the stepping [s].
+/// stable; plus the wall time of the stepping \[s\].
 struct Trajectory {
     samples: Vec<Points>,
     stable: bool,
@@ -280,7 +280,7 @@ fn trajectory(
     }))
 }
 
-/// (RMS, max) distance [m] between two sampled trajectories.
+/// (RMS, max) distance \[m\] between two sampled trajectories.
 fn errors(a: &[Points], b: &[Points]) -> (f64, f64) {
     let (mut sum, mut n, mut max) = (0.0, 0usize, 0.0f64);
     for (sa, sb) in a.iter().zip(b) {

@@ -1,6 +1,6 @@
 //! Measured evidence for the README's claims: accuracy against a converged
-//! reference trajectory ([`accuracy`]) and stability regions over stiffness
-//! and time step ([`stability`]).
+//! reference trajectory ([`mod@accuracy`]) and stability regions over stiffness
+//! and time step ([`mod@stability`]).
 //!
 //! Pure functions over a [`Scene`](crate::Scene): no files, no printing, no
 //! device creation (the GPU is borrowed, like everywhere in the library), so
@@ -19,7 +19,7 @@ use crate::params::Params;
 use crate::real::{Real, Vec3};
 use crate::Result;
 
-/// One vector per particle, in `f64` ([m] or [m/s]): the form the
+/// One vector per particle, in `f64` (\[m\] or [m/s]): the form the
 /// diagnostics take, so a state is widened once.
 type Points = Vec<Vec3<f64>>;
 
@@ -74,7 +74,7 @@ impl Runner {
         }
     }
 
-    /// Positions [m] and velocities [m/s] in `f64` (a read-back on the GPU).
+    /// Positions \[m\] and velocities [m/s] in `f64` (a read-back on the GPU).
     fn state(&self) -> Result<(Points, Points)> {
         fn conv<R: Real>(s: &CpuSolver<R>) -> (Points, Points) {
             (

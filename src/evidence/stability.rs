@@ -50,13 +50,13 @@ pub const BEND_RATIO: f64 = 0.02;
 pub struct StabilityOptions {
     /// Particles per side.
     pub resolution: usize,
-    /// Areal mass [kg/m²] (the cloth is 1 m², so also its mass [kg]).
+    /// Areal mass [kg/m²] (the cloth is 1 m², so also its mass \[kg\]).
     pub areal_mass: f64,
     /// Stretch stiffnesses [N/m].
     pub stiffnesses: Vec<f64>,
-    /// Time steps [s].
+    /// Time steps \[s\].
     pub dts: Vec<f64>,
-    /// Simulated time of each run [s].
+    /// Simulated time of each run \[s\].
     pub duration: f64,
     /// Cap on the steps of one run: the smallest time steps cover only
     /// `max_steps · dt` (< `duration`) so the sweep ends in minutes.
@@ -98,11 +98,11 @@ impl StabilityOptions {
 pub enum Verdict {
     /// Bounded to the end.
     Stable,
-    /// A position or velocity became non-finite at this time [s].
+    /// A position or velocity became non-finite at this time \[s\].
     NonFinite(f64),
-    /// Total energy exceeded the bound at this time [s].
+    /// Total energy exceeded the bound at this time \[s\].
     EnergyGrew(f64),
-    /// A stretch spring passed [`MAX_STRAIN`] at this time [s].
+    /// A stretch spring passed [`MAX_STRAIN`] at this time \[s\].
     Overstretched(f64),
     /// The solver refused the parameters (e.g. a semi-implicit filter that
     /// is not positive definite).
@@ -134,9 +134,9 @@ pub struct StabilityCell {
     pub integrator: Integrator,
     /// Stretch stiffness [N/m].
     pub stiffness: f64,
-    /// Time step [s].
+    /// Time step \[s\].
     pub dt: f64,
-    /// Simulated time covered [s] (`min(duration, max_steps · dt)`).
+    /// Simulated time covered \[s\] (`min(duration, max_steps · dt)`).
     pub simulated: f64,
     /// The outcome.
     pub verdict: Verdict,
@@ -159,7 +159,7 @@ impl StabilityReport {
             .find(|c| c.integrator == integrator && c.stiffness == stiffness && c.dt == dt)
     }
 
-    /// Largest swept dt [s] at `stiffness` such that it and every smaller
+    /// Largest swept dt \[s\] at `stiffness` such that it and every smaller
     /// swept dt are stable; `None` when even the smallest is not.
     pub fn largest_stable_dt(&self, integrator: Integrator, stiffness: f64) -> Option<f64> {
         let mut dts = self.options.dts.clone();

@@ -67,7 +67,7 @@ impl GpuSolver {
         self.update_features()
     }
 
-    /// Moves particle `p` to `position` [m] (for a pinned particle: a game
+    /// Moves particle `p` to `position` \[m\] (for a pinned particle: a game
     /// dragging a corner). Its velocity is left as it is.
     pub fn set_position(&mut self, p: usize, position: [f32; 3]) -> Result<()> {
         self.check_particle(p)?;

@@ -59,7 +59,7 @@ pub struct GridLayout {
     pub ny: u32,
     /// Slot of each of the model's springs.
     pub slot: Vec<u32>,
-    /// Rest length of each direction [m], as the device holds it (0 where
+    /// Rest length of each direction \[m\], as the device holds it (0 where
     /// the direction has no springs).
     pub rest: [f32; 6],
     /// Bit `k` set: springs of kind `k` exist.

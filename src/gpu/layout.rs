@@ -12,9 +12,9 @@ pub const MAX_SPHERES: usize = 16;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuSphere {
-    /// Centre [m].
+    /// Centre \[m\].
     pub center: [f32; 3],
-    /// Radius [m].
+    /// Radius \[m\].
     pub radius: f32,
     /// Friction coefficient.
     pub friction: f32,
@@ -29,7 +29,7 @@ const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
 pub struct GpuParams {
     /// Gravity [m/s²].
     pub gravity: [f32; 3],
-    /// Time step [s].
+    /// Time step \[s\].
     pub dt: f32,
     /// Wind velocity [m/s].
     pub wind_velocity: [f32; 3],
@@ -37,7 +37,7 @@ pub struct GpuParams {
     pub wind_drag: f32,
     /// Wind lift [kg/m³].
     pub wind_lift: f32,
-    /// Ground height [m].
+    /// Ground height \[m\].
     pub ground_height: f32,
     /// Ground friction.
     pub ground_friction: f32,
@@ -70,16 +70,16 @@ pub struct GpuParams {
     /// Grid layout (see [`super::grid`]): columns, rows, a bit per spring
     /// kind present, unused; zero for the general kernels.
     pub grid: [u32; 4],
-    /// Rest length of grid directions 0–3 [m].
+    /// Rest length of grid directions 0–3 \[m\].
     pub grid_rest_a: [f32; 4],
-    /// Rest length of grid directions 4–5 [m] (two unused).
+    /// Rest length of grid directions 4–5 \[m\] (two unused).
     pub grid_rest_b: [f32; 4],
     /// Stiffness of each spring kind [N/m] (one unused).
     pub kind_k: [f32; 4],
     /// Damping of each spring kind [N·s/m] (one unused).
     pub kind_kd: [f32; 4],
     /// Semi-implicit CG: the constant block `a = dt² k` of each spring
-    /// kind [kg] (zero otherwise; one unused).
+    /// kind \[kg\] (zero otherwise; one unused).
     pub kind_a: [f32; 4],
     /// Sphere colliders; the first `sphere_count` are used.
     pub spheres: [GpuSphere; MAX_SPHERES],
@@ -94,13 +94,13 @@ pub struct GpuSpring {
     pub i: u32,
     /// Second particle.
     pub j: u32,
-    /// Rest length [m].
+    /// Rest length \[m\].
     pub rest: f32,
     /// Stiffness [N/m].
     pub k: f32,
     /// Damping [N·s/m].
     pub kd: f32,
-    /// Largest allowed length [m]; 0 = not constrained.
+    /// Largest allowed length \[m\]; 0 = not constrained.
     pub max_len: f32,
     /// Padding to 32 bytes.
     pub _pad: [u32; 2],

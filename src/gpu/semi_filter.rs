@@ -24,7 +24,7 @@ pub const FILTER_CG_TOLERANCE: f64 = 1e-5;
 
 /// Iteration cap of the semi-implicit filter's CG solve. The matrix is
 /// constant and the solve warm-started, so after the first steps it needs
-/// far fewer; the recorded budget adapts (see [`GpuSolver::check`]).
+/// far fewer; the recorded budget adapts (see [`GpuSolver::check`](super::GpuSolver::check)).
 pub const FILTER_CG_MAX_ITERATIONS: u32 = 1000;
 
 impl SemiFilter {

@@ -29,7 +29,7 @@ pub(super) const STORAGE_BUFFERS: u32 = 10;
 /// Positions and velocities read back from the device.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GpuState {
-    /// Positions [m].
+    /// Positions \[m\].
     pub x: Vec<Vec3<f32>>,
     /// Velocities [m/s].
     pub v: Vec<Vec3<f32>>,
@@ -237,8 +237,8 @@ impl GpuSolver {
     }
 
     /// Dispatches `name` over `items` invocations, in workgroups of
-    /// [`WORKGROUP`] (a one-invocation kernel, `@workgroup_size(1)`, is
-    /// dispatched as one workgroup).
+    /// [`WORKGROUP`] (the per-particle CG kernels: indirectly, see
+    /// [`INDIRECT_CG`]).
     fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, name: &str, items: u32) {
         if let Some(p) = self.pipelines.get(name, self.features) {
             let (d, s) = self.recorded.get();
@@ -248,12 +248,7 @@ impl GpuSolver {
                 pass.dispatch_workgroups_indirect(&self.cg_args, 0);
                 return;
             }
-            let groups = if items == 1 {
-                1
-            } else {
-                items.div_ceil(WORKGROUP)
-            };
-            pass.dispatch_workgroups(groups, 1, 1);
+            pass.dispatch_workgroups(items.div_ceil(WORKGROUP), 1, 1);
         }
     }
 

@@ -18,7 +18,7 @@ const AZIMUTH: f32 = 35.0 * std::f32::consts::PI / 180.0;
 /// Margin around the bounding sphere (5 %).
 const MARGIN: f32 = 1.05;
 
-/// Where the eye is and what it sees, as angles [rad] and a distance [m].
+/// Where the eye is and what it sees, as angles [rad] and a distance \[m\].
 #[derive(Clone, Copy, Debug)]
 struct View {
     elevation: f32,
@@ -30,11 +30,11 @@ struct View {
 /// A perspective camera: where it is and its view-projection matrix.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
-    /// Eye position [m].
+    /// Eye position \[m\].
     pub eye: [f32; 3],
-    /// The point looked at [m].
+    /// The point looked at \[m\].
     pub target: [f32; 3],
-    /// Radius of the sphere the view is fitted to [m].
+    /// Radius of the sphere the view is fitted to \[m\].
     pub radius: f32,
     /// Column-major view-projection matrix (clip space: wgpu's, depth in
     /// 0..1), as WGSL's `mat4x4<f32>` stores it.
@@ -89,7 +89,7 @@ impl Camera {
     }
 
     /// Looks at `target` from the fixed elevation and azimuth, far enough
-    /// back that a sphere of `radius` [m] around it fits the view whose
+    /// back that a sphere of `radius` \[m\] around it fits the view whose
     /// width / height is `aspect`.
     pub fn orbit(target: [f32; 3], radius: f32, aspect: f32) -> Camera {
         let view = View {
@@ -102,7 +102,7 @@ impl Camera {
     }
 
     /// Looks at `target` as `view` says; without a distance, far enough back
-    /// that a sphere of `radius` [m] fits.
+    /// that a sphere of `radius` \[m\] fits.
     fn look(target: [f32; 3], radius: f32, view: View, aspect: f32) -> Camera {
         let half_y = 0.5 * view.fov_y;
         let half_x = (half_y.tan() * aspect).atan();
@@ -129,7 +129,7 @@ impl Camera {
         }
     }
 
-    /// Projects a point [m] to pixel coordinates (x right, y down, origin
+    /// Projects a point \[m\] to pixel coordinates (x right, y down, origin
     /// at the top-left corner) of a `width` × `height` image; `None` if it
     /// lies behind the eye or outside the depth range.
     pub fn project(&self, p: [f32; 3], width: u32, height: u32) -> Option<[f32; 2]> {

@@ -29,9 +29,9 @@ pub const MAX_STEPS_PER_FRAME: u32 = 100_000;
 /// What [`render_frames`] renders.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrameOptions {
-    /// Image width [pixels].
+    /// Image width \[pixels\].
     pub width: u32,
-    /// Image height [pixels].
+    /// Image height \[pixels\].
     pub height: u32,
     /// Frames to write; frame `k` shows the cloth after `k` frame intervals.
     pub frames: u32,

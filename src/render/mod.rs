@@ -68,7 +68,7 @@ struct Globals {
 }
 const _: () = assert!(std::mem::size_of::<Globals>() == 128);
 
-/// Size of the render shader's `Globals` uniform on the host [bytes] (the
+/// Size of the render shader's `Globals` uniform on the host \[bytes\] (the
 /// shader tests check the WGSL struct has the same).
 pub const GLOBALS_BYTES: u32 = std::mem::size_of::<Globals>() as u32;
 

@@ -20,9 +20,9 @@ const QUEUE: usize = 4;
 pub struct Frame {
     /// Where the PNG goes.
     pub path: PathBuf,
-    /// Width [pixels].
+    /// Width \[pixels\].
     pub width: u32,
-    /// Height [pixels].
+    /// Height \[pixels\].
     pub height: u32,
     /// `width × height × 4` bytes.
     pub rgba: Vec<u8>,

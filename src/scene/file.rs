@@ -20,7 +20,7 @@ use crate::params::{
     FilterMethod, FixupMethod, Ground, Integrator, Params, Sphere, SpringKind, Wind,
 };
 
-/// `[simulation] duration` when absent [s].
+/// `[simulation] duration` when absent \[s\].
 pub(super) const DEFAULT_DURATION: f64 = 2.0;
 /// Friction of a `[ground]` or `[[sphere]]` that does not give one: a plain
 /// cloth-on-floor value, so a dropped cloth settles instead of sliding away.
@@ -155,7 +155,7 @@ fn set<T>(slot: &mut T, value: Option<T>) {
 }
 
 impl SceneFile {
-    /// The cloth, the parameters, the duration [s] and the camera this file
+    /// The cloth, the parameters, the duration \[s\] and the camera this file
     /// describes, not yet validated.
     pub(super) fn into_parts(self) -> (ClothSpec, Params, f64, CameraSpec) {
         let mut p = Params::default();

@@ -27,7 +27,7 @@ pub struct Scene {
     pub cloth: ClothSpec,
     /// Everything else.
     pub params: Params,
-    /// How long the scene runs by default [s] (`[simulation] duration`).
+    /// How long the scene runs by default \[s\] (`[simulation] duration`).
     pub duration: f64,
     /// How `wgcloth render` looks at it (`[camera]`; absent keys: framed
     /// automatically).
@@ -39,16 +39,16 @@ pub struct Scene {
 /// and 35° around, at a 45° field of view, far enough back to fit it all).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CameraSpec {
-    /// The point looked at [m].
+    /// The point looked at \[m\].
     pub target: Option<[f64; 3]>,
-    /// Distance from the eye to the target [m], `> 0`.
+    /// Distance from the eye to the target \[m\], `> 0`.
     pub distance: Option<f64>,
-    /// Height of the eye as an angle above the target [deg], `−89..=89`.
+    /// Height of the eye as an angle above the target \[deg\], `−89..=89`.
     pub elevation: Option<f64>,
     /// Direction of the eye around the vertical axis, from +z towards +x
-    /// [deg].
+    /// \[deg\].
     pub azimuth: Option<f64>,
-    /// Vertical field of view [deg], `5..=150`.
+    /// Vertical field of view \[deg\], `5..=150`.
     pub fov: Option<f64>,
 }
 
