@@ -4,8 +4,16 @@
 #include "common/physics.wgsl"
 
 // Without fix-up and wind, end the step here (twin: finish_step): collide
-// and store in place — this kernel then reads no other particle's state.
+// and store in place. Either this kernel then reads no other particle's
+// state (the general kernels: the spring pass has gathered it), or it
+// reads it from a snapshot (below).
 override FUSED: bool = false;
+// Single-pass grid steps (see GpuSolver::step_plan): read every particle's
+// state from the `work` sections SNAP_IN (x) and SNAP_IN + 1 (v) that the
+// previous step (or explicit_seed) wrote, and write the new state to x, v
+// and to SNAP_OUT, SNAP_OUT + 1 — no invocation reads what another writes.
+override SNAP_IN: u32 = 0xffffffffu;
+override SNAP_OUT: u32 = 0xffffffffu;
 
 @compute @workgroup_size(WORKGROUP)
 fn explicit_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -21,10 +29,19 @@ fn explicit_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (p >= params.particle_count) {
         return;
     }
-    let w = x[p].w;
-    let f = total_force(p);
-    var vn = v[p].xyz + f * (params.dt * w);
-    var xn = x[p].xyz;
+    var x0: vec4<f32>;
+    var v0: vec4<f32>;
+    if (SNAP_IN == STATE_BUFFERS) {
+        x0 = x[p];
+        v0 = v[p];
+    } else {
+        x0 = work[wi(SNAP_IN, p)];
+        v0 = work[wi(SNAP_IN + 1u, p)];
+    }
+    let w = x0.w;
+    let f = total_force(p, x0, v0, SNAP_IN);
+    var vn = v0.xyz + f * (params.dt * w);
+    var xn = x0.xyz;
     if (w > 0.0) {
         xn += vn * params.dt;
     } else {
@@ -36,7 +53,13 @@ fn explicit_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
             xn = r[0];
             vn = r[1];
         }
-        store_state(p, xn, vn);
+        store_state(p, xn, vn, w, v0.w);
+        if (SNAP_OUT != STATE_BUFFERS) {
+            // The snapshot keeps what store_state kept.
+            let ok = finite3(xn) && finite3(vn);
+            work[wi(SNAP_OUT, p)] = select(x0, vec4<f32>(xn, w), ok);
+            work[wi(SNAP_OUT + 1u, p)] = select(v0, vec4<f32>(vn, v0.w), ok);
+        }
         return;
     }
     work[wi(W_X_PRED, p)] = vec4<f32>(xn, 0.0);

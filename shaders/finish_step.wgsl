@@ -10,17 +10,18 @@ fn finish_step(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (p >= params.particle_count) {
         return;
     }
-    let w = x[p].w;
+    let x0 = x[p];
+    let w = x0.w;
     // The fix-up's result section (X_PRED when there was none).
     var xp = work[wi(atomicLoad(&status[STATUS_FIXUP_RESULT]), p)].xyz;
     var vp = work[wi(W_V_NEW, p)].xyz;
     if (w > 0.0) {
         if (atomicLoad(&status[STATUS_FIXUP_MOVED]) != 0u) {
-            vp = (xp - x[p].xyz) * (1.0 / params.dt);
+            vp = (xp - x0.xyz) * (1.0 / params.dt);
         }
         let r = collide_particle(xp, vp);
         xp = r[0];
         vp = r[1];
     }
-    store_state(p, xp, vp);
+    store_state(p, xp, vp, w, v[p].w);
 }

@@ -14,7 +14,9 @@ fn implicit_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (p >= params.particle_count) {
         return;
     }
-    var vp = v[p].xyz + work[wi(W_DV, p)].xyz;
+    let x0 = x[p];
+    let v0 = v[p];
+    var vp = v0.xyz + work[wi(W_DV, p)].xyz;
     if (work[wi(W_Z, p)].w == FILTER_PLANE) {
         let filt = work[wi(W_FILTER, p)];
         let normal = filt.xyz;
@@ -22,7 +24,7 @@ fn implicit_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (impulse > 0.0) {
             let tangential = vp - normal * dot3(vp, normal);
             let speed = len3(tangential);
-            let loss = filt.w * impulse / v[p].w;
+            let loss = filt.w * impulse / v0.w;
             var kept = 0.0;
             if (speed > loss && speed > TINY) {
                 kept = (speed - loss) / speed;
@@ -30,11 +32,11 @@ fn implicit_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
             vp = normal * dot3(vp, normal) + tangential * kept;
         }
     }
-    var xp = x[p].xyz + vp * params.dt;
-    if (x[p].w > 0.0) {
+    var xp = x0.xyz + vp * params.dt;
+    if (x0.w > 0.0) {
         let r = collide_particle(xp, vp);
         xp = r[0];
         vp = r[1];
     }
-    store_state(p, xp, vp);
+    store_state(p, xp, vp, x0.w, v0.w);
 }

@@ -17,18 +17,20 @@ fn implicit_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
         atomicStore(&status[STATUS_CG_STOPPED], 0u);
     }
     if (p < params.particle_count) {
-        let f = total_force(p);
-        let m = v[p].w;
-        let vp = v[p].xyz;
+        let x0 = x[p];
+        let v0 = v[p];
+        let f = total_force(p, x0, v0, STATE_BUFFERS);
+        let m = v0.w;
+        let vp = v0.xyz;
         var kind = FILTER_FREE;
         var normal = vec3<f32>(0.0);
         var friction = 0.0;
         var z = vec3<f32>(0.0);
-        if (x[p].w <= 0.0) {
+        if (x0.w <= 0.0) {
             kind = FILTER_FIXED;
             z = -vp;
         } else {
-            let c = find_contact(x[p].xyz, CONTACT_SLOP);
+            let c = find_contact(x0.xyz, CONTACT_SLOP);
             if (c.found && (dot3(f, c.normal) < 0.0 || dot3(vp, c.normal) < 0.0)) {
                 kind = FILTER_PLANE;
                 normal = c.normal;

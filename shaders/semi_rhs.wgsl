@@ -17,7 +17,7 @@ fn semi_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (p >= params.particle_count) {
         return;
     }
-    let f = total_force(p);
+    let f = total_force(p, x[p], v[p], STATE_BUFFERS);
     // Σ ±k (v_i − v_j), gathered like gather_signed, then negated.
     var acc = vec3<f32>(0.0);
     let begin = topo[p];

@@ -663,7 +663,7 @@ fn verbose_shows_the_passes_and_what_a_scene_skips() {
     std::fs::write(&scene, "[fixup]\niterations = 0\n").expect("scene file");
     let with_fixup = dispatches("hanging");
     let minimal = dispatches(path_str(&scene));
-    assert_eq!(minimal, 2, "spring forces + the fused integrate-and-finish");
+    assert_eq!(minimal, 1, "one pass: the grid's single-pass explicit step");
     assert!(minimal < with_fixup, "{minimal} vs {with_fixup}");
     let _ = std::fs::remove_dir_all(&dir);
 }

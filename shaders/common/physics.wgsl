@@ -128,8 +128,27 @@ fn grid_incident(p: u32, rc: vec2<i32>, t: vec4<i32>) -> Incident {
     return Incident(ok, other, dir * params.particle_count + owner, kind, at_j, rest);
 }
 
+// Where a kernel reads the particles' state: the x and v buffers, or a
+// pair of `work` sections holding a snapshot of them (explicit_step).
+const STATE_BUFFERS: u32 = 0xffffffffu;
+
+fn state_x(i: u32, sec: u32) -> vec3<f32> {
+    if (sec == STATE_BUFFERS) {
+        return x[i].xyz;
+    }
+    return work[wi(sec, i)].xyz;
+}
+
+fn state_v(i: u32, sec: u32) -> vec3<f32> {
+    if (sec == STATE_BUFFERS) {
+        return v[i].xyz;
+    }
+    return work[wi(sec + 1u, i)].xyz;
+}
+
 // `sum` plus the force of grid spring `t` on particle p, evaluated from
-// i − j as every kernel does, so both ends agree bit for bit.
+// i − j as every kernel does, so both ends agree bit for bit. The
+// neighbour's state comes from `sec` (see state_x).
 fn grid_force_term(
     sum: vec3<f32>,
     p: u32,
@@ -137,12 +156,13 @@ fn grid_force_term(
     xp: vec3<f32>,
     vp: vec3<f32>,
     t: vec4<i32>,
+    sec: u32,
 ) -> vec3<f32> {
     let inc = grid_incident(p, rc, t);
-    let xo = x[inc.other].xyz;
+    let xo = state_x(inc.other, sec);
     var vo = vec3<f32>(0.0);
     if (HAS_DAMPING) {
-        vo = v[inc.other].xyz;
+        vo = state_v(inc.other, sec);
     }
     let k = params.kind_k[inc.kind];
     let kd = params.kind_kd[inc.kind];
@@ -168,28 +188,24 @@ fn grid_term(y: vec3<f32>, inc: Incident) -> vec3<f32> {
 // The spring forces on particle p, summed with their signs in adjacency
 // order (twin: the spring loop of cpu::forces::total_forces): from the
 // spring pass's S_FORCE, or on a grid computed here from the neighbours'
-// state.
-fn spring_sum(p: u32) -> vec3<f32> {
+// state (from `sec`, see state_x). `xp` and `vp` are the particle's own
+// position and velocity.
+fn spring_sum(p: u32, xp: vec3<f32>, vp: vec3<f32>, sec: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     if (GRID) {
         let rc = grid_row_col(p);
-        let xp = x[p].xyz;
-        var vp = vec3<f32>(0.0);
-        if (HAS_DAMPING) {
-            vp = v[p].xyz;
-        }
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-1, 0, 1, 1));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, -1, 0, 1));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, 1, 0, 0));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(1, 0, 1, 0));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-1, -1, 2, 1));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-1, 1, 3, 1));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(1, -1, 3, 0));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(1, 1, 2, 0));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-2, 0, 5, 1));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, -2, 4, 1));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, 2, 4, 0));
-        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(2, 0, 5, 0));
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-1, 0, 1, 1), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, -1, 0, 1), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, 1, 0, 0), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(1, 0, 1, 0), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-1, -1, 2, 1), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-1, 1, 3, 1), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(1, -1, 3, 0), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(1, 1, 2, 0), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(-2, 0, 5, 1), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, -2, 4, 1), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(0, 2, 4, 0), sec);
+        sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(2, 0, 5, 0), sec);
         return sum;
     }
     let begin = topo[p];
@@ -205,10 +221,12 @@ fn spring_sum(p: u32) -> vec3<f32> {
 
 // Total force on particle p (twin: cpu::forces::total_forces): gravity,
 // then the spring forces (spring_sum), then wind triangles in adjacency
-// order.
-fn total_force(p: u32) -> vec3<f32> {
-    let springs_sum = spring_sum(p);
-    var f = params.gravity * v[p].w;
+// order. `xp` and `vp` are the particle's state, which the caller has
+// loaded (on lavapipe every load counts, the same one twice included);
+// the neighbours' comes from `sec` (see state_x).
+fn total_force(p: u32, xp: vec4<f32>, vp: vec4<f32>, sec: u32) -> vec3<f32> {
+    let springs_sum = spring_sum(p, xp.xyz, vp.xyz, sec);
+    var f = params.gravity * vp.w;
     f += springs_sum;
     return add_wind(p, f);
 }
@@ -296,11 +314,12 @@ fn collide_particle(x_in: vec3<f32>, v_in: vec3<f32>) -> array<vec3<f32>, 2> {
 
 // Writes the end-of-step state of particle p, unless it is not finite: then
 // the last finite state stays (a renderer never receives NaN vertices) and
-// the step is recorded for the host.
-fn store_state(p: u32, xp: vec3<f32>, vp: vec3<f32>) {
+// the step is recorded for the host. `inv_mass` and `mass` are the w of
+// x[p] and v[p], which stay.
+fn store_state(p: u32, xp: vec3<f32>, vp: vec3<f32>, inv_mass: f32, mass: f32) {
     if (finite3(xp) && finite3(vp)) {
-        x[p] = vec4<f32>(xp, x[p].w);
-        v[p] = vec4<f32>(vp, v[p].w);
+        x[p] = vec4<f32>(xp, inv_mass);
+        v[p] = vec4<f32>(vp, mass);
     } else {
         let step = atomicLoad(&status[STATUS_STEP]);
         let first = atomicMin(&status[STATUS_BAD_STEP], step);

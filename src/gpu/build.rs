@@ -354,6 +354,7 @@ impl GpuSolver {
             springs: model.springs.len() as u32,
             spring_slots: slots as u32,
             grid: grid.is_some(),
+            snapshot: None,
             triangles: model.triangles.len() as u32,
             fixup_iterations: if params.springs.iter().any(|s| s.max_stretch.is_some()) {
                 params.fixup.iterations

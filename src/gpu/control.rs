@@ -73,6 +73,8 @@ impl GpuSolver {
         self.check_particle(p)?;
         self.queue
             .write_buffer(&self.x, (p * 16) as u64, bytemuck::cast_slice(&position));
+        // A single-pass explicit step would read the old position.
+        self.snapshot = None;
         Ok(())
     }
 
@@ -93,6 +95,7 @@ impl GpuSolver {
         let base = (p * 16) as u64;
         self.queue
             .write_buffer(&self.x, base + 12, bytemuck::bytes_of(&inverse_mass));
+        self.snapshot = None;
         if pinned {
             self.queue
                 .write_buffer(&self.v, base, bytemuck::cast_slice(&[0f32; 3]));

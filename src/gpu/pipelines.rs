@@ -54,6 +54,8 @@ const fn v(
 }
 
 const PRED: f64 = section::X_PRED as f64;
+const SNAP_A: f64 = section::SNAPSHOTS[0] as f64;
+const SNAP_B: f64 = section::SNAPSHOTS[1] as f64;
 const ALT: f64 = section::X_ALT as f64;
 
 /// Fix-up and step end, shared by explicit and semi-implicit. Pass k of a
@@ -132,6 +134,17 @@ const EXPLICIT: &[Variant] = &[
     v("spring_forces", "", &[]),
     v("explicit_integrate", "", &[]),
     v("explicit_integrate", ".fused", &[("FUSED", 1.0)]),
+    v(
+        "explicit_integrate",
+        ".snap0",
+        &[("FUSED", 1.0), ("SNAP_IN", SNAP_A), ("SNAP_OUT", SNAP_B)],
+    ),
+    v(
+        "explicit_integrate",
+        ".snap1",
+        &[("FUSED", 1.0), ("SNAP_IN", SNAP_B), ("SNAP_OUT", SNAP_A)],
+    ),
+    v("explicit_seed", "", &[("SNAP", SNAP_A)]),
 ];
 
 const IMPLICIT: &[Variant] = &[

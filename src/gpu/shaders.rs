@@ -30,6 +30,7 @@ const COMMON: &[(&str, &str)] = &[
 pub const KERNELS: &[(&str, &str)] = &[
     wgsl!("spring_forces"),
     wgsl!("explicit_integrate"),
+    wgsl!("explicit_seed"),
     wgsl!("fixup_jacobi"),
     wgsl!("finish_step"),
     wgsl!("normals"),

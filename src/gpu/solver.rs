@@ -17,6 +17,12 @@ use crate::real::Vec3;
 /// to a 33 × 33 cloth (17 workgroups).
 pub const WORKGROUP: u32 = crate::cpu::REDUCTION_BLOCK as u32;
 
+/// The step-plan entry of a single-pass explicit step; `encode_steps`
+/// records it as `explicit_integrate.snap0` or `.snap1` (the snapshot it
+/// reads alternates), preceded by `explicit_seed` when no snapshot holds
+/// the current state.
+pub const SINGLE_PASS: &str = "explicit_integrate.snapshot";
+
 /// Per-particle CG kernels, dispatched indirectly (see `cg_args`): on
 /// lavapipe a dispatch whose invocations all return at once still costs
 /// about a third of a working one — the masked-off code runs — while an
@@ -77,6 +83,9 @@ pub struct GpuSolver {
     pub(super) spring_slots: u32,
     /// The springs are in grid layout (see [`super::grid`]).
     pub(super) grid: bool,
+    /// Single-pass explicit steps: which snapshot holds the current state
+    /// (`None`: none does, so the next such step seeds one first).
+    pub(super) snapshot: Option<usize>,
     pub(super) triangles: u32,
     pub(super) fixup_iterations: u32,
     pub(super) cg_max_iterations: u32,
@@ -263,9 +272,30 @@ impl GpuSolver {
         pass.set_bind_group(1, &self.args_bind_group, &[]);
         self.recorded.set((0, n));
         let plan = self.step_plan();
+        if !plan.iter().any(|&(name, _)| name == SINGLE_PASS) {
+            // Other steps do not keep the snapshot up to date.
+            self.snapshot = None;
+        }
         for _ in 0..n {
             for &(name, items) in &plan {
-                self.dispatch(&mut pass, name, items);
+                if name != SINGLE_PASS {
+                    self.dispatch(&mut pass, name, items);
+                    continue;
+                }
+                let current = match self.snapshot {
+                    Some(s) => s,
+                    None => {
+                        self.dispatch(&mut pass, "explicit_seed", items);
+                        0
+                    }
+                };
+                let variant = if current == 0 {
+                    "explicit_integrate.snap0"
+                } else {
+                    "explicit_integrate.snap1"
+                };
+                self.dispatch(&mut pass, variant, items);
+                self.snapshot = Some(1 - current);
             }
         }
         self.steps_recorded += u64::from(n);
@@ -309,7 +339,14 @@ impl GpuSolver {
                 plan.push(("implicit_finish", n));
                 return plan;
             }
-            // The grid kernels compute spring forces where they gather them.
+            // The grid kernels compute spring forces where they gather them;
+            // without fix-up and wind the whole step is one pass, which reads
+            // the state from the snapshot the previous step wrote (see
+            // `encode_steps`).
+            Integrator::Explicit if self.single_pass_explicit() => {
+                plan.push((SINGLE_PASS, n));
+                return plan;
+            }
             Integrator::Explicit if self.features.grid => {
                 plan.push(("explicit_integrate", n));
             }
@@ -368,6 +405,13 @@ impl GpuSolver {
     /// Explicit steps without fix-up or wind integrate and finish in one
     /// kernel (it then reads no other particle's state, so it may write
     /// its own in place).
+    fn single_pass_explicit(&self) -> bool {
+        self.integrator == Integrator::Explicit
+            && self.fixup_iterations == 0
+            && !self.features.wind
+            && self.features.grid
+    }
+
     fn fused_explicit(&self) -> bool {
         self.integrator == Integrator::Explicit
             && self.fixup_iterations == 0
