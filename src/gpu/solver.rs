@@ -549,7 +549,10 @@ impl GpuSolver {
 
     /// The position buffer: `particles` entries of `vec4<f32>` (xyz in m,
     /// w = inverse mass), usable as a vertex buffer with stride 16 and a
-    /// `Float32x3` attribute at offset 0.
+    /// `Float32x3` attribute at offset 0. Read it freely; change the state
+    /// through [`GpuSolver::set_position`] and [`GpuSolver::set_pinned`]
+    /// only (single-pass explicit steps read a snapshot of it that those
+    /// mark stale).
     pub fn positions_buffer(&self) -> &wgpu::Buffer {
         &self.x
     }
