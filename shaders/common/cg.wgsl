@@ -19,7 +19,12 @@ fn filter_of(p: u32, a: vec3<f32>) -> vec3<f32> {
     if (!HAS_FILTER) {
         return a;
     }
-    return filter_apply(work[wi(W_Z, p)].w, work[wi(W_FILTER, p)].xyz, a);
+    let kind = work[wi(W_Z, p)].w;
+    if (!(HAS_GROUND || HAS_SPHERES)) {
+        // Pins only: no plane filter, so no normal to load.
+        return filter_apply(kind, vec3<f32>(0.0), a);
+    }
+    return filter_apply(kind, work[wi(W_FILTER, p)].xyz, a);
 }
 
 // A symmetric 3×3 matrix: diagonal (xx, yy, zz), off-diagonal (xy, xz, yz).
