@@ -4,10 +4,11 @@
 //! cloths and each integrator, the median wall time per step of the GPU
 //! solver (a batch of steps recorded into one encoder, one submit, then a
 //! wait) and of the CPU reference in f32, their ratio, and the dispatches
-//! and submits per step; the grid kernels against the general ones at
-//! 129²; what skipping saves at 65²; then criterion times the GPU step
-//! (`iter_custom`: submit plus wait) at the same sizes. The adapter is the
-//! default one (`WGPU_ADAPTER_NAME` picks another). `WGCLOTH_BENCH_QUICK=1` shortens
+//! and submits per step; the 128² yardstick (minimum and median);
+//! the grid kernels against the general ones at 129²; what skipping saves
+//! at 65²; then criterion times the GPU step (`iter_custom`: submit plus
+//! wait) at the same sizes. The adapter is the default one
+//! (`WGPU_ADAPTER_NAME` picks another). `WGCLOTH_BENCH_QUICK=1` shortens
 //! the run; `WGCLOTH_BENCH_SIZES=33,65` picks sizes (on lavapipe the 257²
 //! semi-implicit step takes over a second: leave it out for a short run).
 //!
@@ -229,6 +230,43 @@ fn skipping_table(ctx: &GpuContext) {
     );
 }
 
+/// The yardstick: a 128 × 128 cloth with stretch, shear and bend
+/// springs and two pinned corners; explicit without fix-up (target ≤ 0.75
+/// ms per step on lavapipe on the 2-core machine) and implicit at CG
+/// tolerance 1e-3 (target ≤ 18 ms). Shared machines are noisy: the
+/// minimum of many batches is printed beside the median.
+fn yardstick(ctx: &GpuContext) {
+    let n = 128;
+    println!(
+        "\nYardstick: {n}², ms per step over 15 batches (GPU: {})",
+        ctx.describe()
+    );
+    println!(
+        "{:>14} {:>8} {:>8} {:>8} {:>11} {:>8}",
+        "integrator", "min", "median", "target", "dispatches", "springs"
+    );
+    for (integrator, target) in [(Integrator::Explicit, 0.75), (Integrator::Implicit, 18.0)] {
+        let (model, params) = scene(integrator, n);
+        let mut g = gpu_solver(ctx, &model, &params);
+        let batch = if integrator == Integrator::Explicit {
+            20
+        } else {
+            2
+        };
+        let mut times: Vec<f64> = (0..15).map(|_| gpu_median(&mut g, batch, 1)).collect();
+        times.sort_by(f64::total_cmp);
+        println!(
+            "{:>14} {:>8.3} {:>8.3} {:>8.2} {:>11.0} {:>8}",
+            integrator.as_str(),
+            times[0] * 1e3,
+            times[times.len() / 2] * 1e3,
+            target,
+            g.dispatches_per_step(),
+            model.springs.len()
+        );
+    }
+}
+
 /// The grid kernels (springs found by row and column) against the general
 /// adjacency kernels, on the yardstick scene at 129², each on its
 /// own solver with the same history.
@@ -299,6 +337,7 @@ fn main() {
     match GpuContext::new(None) {
         Ok(ctx) => {
             table(&ctx);
+            yardstick(&ctx);
             grid_table(&ctx);
             skipping_table(&ctx);
         }
