@@ -22,4 +22,4 @@ mod solver;
 
 pub use context::GpuContext;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
-pub use solver::{GpuSolver, GpuState, GpuStatus, WORKGROUP};
+pub use solver::{GpuSolver, GpuState, GpuStatus, SINGLE_PASS, WORKGROUP};

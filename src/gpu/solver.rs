@@ -305,12 +305,15 @@ impl GpuSolver {
     ///
     /// Only what the scene uses is recorded: no fix-up passes without a
     /// constrained spring kind or with zero iterations; no torque passes for
-    /// a pinned cloth; without fix-up and wind the explicit integration and
-    /// the step end are one fused kernel; wind, ground, spheres, pins and
+    /// a pinned cloth; no per-spring force pass on a grid (see
+    /// [`super::grid`]); without fix-up and wind an explicit step is one
+    /// pass ([`SINGLE_PASS`] on a grid, a fused integration and step end
+    /// after the spring pass otherwise); wind, ground, spheres, pins and
     /// damping are compiled out of the kernels when absent (see
     /// [`super::pipelines`]); CG records the adaptive budget of iterations
-    /// (see [`GpuSolver::check`]) and stops on the device. The fix-up, too,
-    /// stops on the device once a pass moves nothing.
+    /// (see [`GpuSolver::check`]) and stops on the device, after which its
+    /// per-particle passes are dispatched with zero workgroups. The fix-up,
+    /// too, stops on the device once a pass moves nothing.
     pub fn step_plan(&self) -> Vec<(&'static str, u32)> {
         let (n, s) = (self.particles, self.spring_slots);
         let mut plan = Vec::new();
