@@ -122,7 +122,8 @@ const W_Z: u32 = 9u;
 const W_FILTER: u32 = 10u;
 const W_PRE_DIAG: u32 = 11u;
 const W_PRE_OFF: u32 = 12u;
-const W_FORCE: u32 = 13u;
+// Δv of the step before the last (CG warm start: 2 Δv − Δv_prev).
+const W_DV_PREV: u32 = 13u;
 
 // `spring_work` sections: the implicit block (m, a) with B = a I + m mᵀ;
 // K_s u; the spring force on end i.

@@ -267,6 +267,9 @@ pub struct Workspace<R> {
     pub rhs: Vec<Vec3<R>>,
     /// Velocity change (kept between steps: CG warm start).
     pub dv: Vec<Vec3<R>>,
+    /// The velocity change of the step before the last (the warm start
+    /// extrapolates linearly from the last two).
+    pub dv_prev: Vec<Vec3<R>>,
     /// Positions before the step.
     pub x_old: Vec<Vec3<R>>,
     /// CG residual.
@@ -316,6 +319,7 @@ impl<R: Real> Workspace<R> {
             force: pv(),
             rhs: pv(),
             dv: pv(),
+            dv_prev: pv(),
             x_old: pv(),
             r: pv(),
             c: pv(),
