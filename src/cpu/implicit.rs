@@ -21,8 +21,9 @@
 //!
 //! Convergence: stop when `rᵀP⁻¹r ≤ tol² · (Sb)ᵀP⁻¹(Sb)`, i.e. the
 //! preconditioned residual norm relative to the filtered right-hand side.
-//! CG starts from the previous step's `Δv` (filtered) — a warm start that
-//! cuts iterations for smooth motion without changing the answer.
+//! CG starts from the last two steps' `Δv` extrapolated, `2 Δv₁ − Δv₂`
+//! (filtered) — a warm start that cuts iterations for smooth motion
+//! without changing the answer beyond the tolerance.
 
 use super::collide::{collide, contact, CONTACT_SLOP};
 use super::forces::{gather_signed, spring_frame};
