@@ -17,6 +17,14 @@ use crate::real::Vec3;
 /// to a 33 × 33 cloth (17 workgroups).
 pub const WORKGROUP: u32 = crate::cpu::REDUCTION_BLOCK as u32;
 
+/// A step number the device counts in 32 bits (it wraps after 4.3·10⁹
+/// steps), widened with the host's count of recorded steps, which is never
+/// smaller and never 2³² steps ahead: the largest value not above
+/// `recorded` that is `low` modulo 2³².
+pub(super) fn widen_step(low: u32, recorded: u64) -> u64 {
+    recorded - u64::from((recorded as u32).wrapping_sub(low))
+}
+
 /// The step-plan entry of a single-pass explicit step; `encode_steps`
 /// records it as `explicit_integrate.snap0` or `.snap1` (the snapshot it
 /// reads alternates), preceded by `explicit_seed` when no snapshot holds
@@ -509,14 +517,15 @@ impl GpuSolver {
         let words: &[u32] = bytemuck::cast_slice(bytes);
         let bad = words[layout::status::BAD_STEP];
         if bad != u32::MAX {
+            let step = widen_step(bad, self.steps_recorded);
             return Err(Error::NonFinite {
-                step: u64::from(bad),
-                time: f64::from(bad) * self.dt,
+                step,
+                time: step as f64 * self.dt,
                 particle: words[layout::status::BAD_PARTICLE] as usize,
             });
         }
         Ok(GpuStatus {
-            steps: u64::from(words[layout::status::STEP]),
+            steps: widen_step(words[layout::status::STEP], self.steps_recorded),
             cg_iterations: words[layout::status::CG_ITERATIONS],
             cg_max_iterations: words[layout::status::CG_MAX_ITERATIONS],
             cg_budget_hits: self.budget_hits,
@@ -600,5 +609,20 @@ impl GpuSolver {
     /// Springs.
     pub fn spring_count(&self) -> u32 {
         self.springs
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::widen_step;
+
+    #[test]
+    fn device_step_counts_widen_past_the_32_bit_wrap() {
+        assert_eq!(widen_step(7, 7), 7);
+        assert_eq!(widen_step(5, 7), 5);
+        let past = (1u64 << 32) + 3;
+        assert_eq!(widen_step(3, past), past);
+        assert_eq!(widen_step(u32::MAX, past), (1 << 32) - 1);
+        assert_eq!(widen_step(2, 5 * (1 << 32) + 10), 5 * (1 << 32) + 2);
     }
 }
