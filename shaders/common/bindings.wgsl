@@ -98,7 +98,8 @@ struct Spring {
 @group(0) @binding(5) var<storage, read_write> work: array<vec4<f32>>;
 // Per-spring scratch, `SECTION * spring_count + s`.
 @group(0) @binding(6) var<storage, read_write> spring_work: array<vec4<f32>>;
-// Reduction partials, `SLOT * partial_count + workgroup`.
+// Reduction partials, `SLOT * partial_count + block` (a block is 64
+// particles: one workgroup of a per-particle dispatch).
 @group(0) @binding(7) var<storage, read_write> partials: array<f32>;
 // Status words (see STATUS_*).
 @group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
@@ -131,7 +132,7 @@ const S_BLOCK: u32 = 0u;
 const S_KV: u32 = 1u;
 const S_FORCE: u32 = 2u;
 
-// `partials` slots (one value per workgroup each), then the CG scalars.
+// `partials` slots (one value per block each), then the CG scalars.
 const P_CQ: u32 = 0u;
 const P_RS: u32 = 1u;
 const P_D0: u32 = 2u;

@@ -80,8 +80,8 @@ fn precond_mul(p: u32, a: vec3<f32>) -> vec3<f32> {
     return sym3_mul(Sym3(work[wi(W_PRE_DIAG, p)].xyz, work[wi(W_PRE_OFF, p)].xyz), a);
 }
 
-// `acc` plus ±B_s (a_i − a_j) of grid spring `t` (see GRID_INCIDENT in
-// physics.wgsl) at particle p.
+// `acc` plus ±B_s (a_i − a_j) of grid spring `t` (a row of the grid
+// incidence table in physics.wgsl) at particle p.
 fn grid_apply_term(
     acc: vec3<f32>,
     sec: u32,

@@ -129,7 +129,8 @@ fn grid_incident(p: u32, rc: vec2<i32>, t: vec4<i32>) -> Incident {
 }
 
 // Where a kernel reads the particles' state: the x and v buffers, or a
-// pair of `work` sections holding a snapshot of them (explicit_step).
+// pair of `work` sections holding a snapshot of them (single-pass
+// explicit steps: explicit_integrate with SNAP_IN).
 const STATE_BUFFERS: u32 = 0xffffffffu;
 
 fn state_x(i: u32, sec: u32) -> vec3<f32> {

@@ -23,8 +23,8 @@ use crate::model::Model;
 use crate::params::SpringKind;
 
 /// Directions of the springs a particle owns: `(row offset, column offset,
-/// kind)` of its second end. Twin: the `dir` column of `GRID_INCIDENT` in
-/// `shaders/common/physics.wgsl`.
+/// kind)` of its second end. Twin: the direction column of the grid
+/// incidence table in `shaders/common/physics.wgsl`.
 pub const DIRECTIONS: [(i32, i32, SpringKind); 6] = [
     (0, 1, SpringKind::Stretch),
     (1, 0, SpringKind::Stretch),
@@ -36,7 +36,8 @@ pub const DIRECTIONS: [(i32, i32, SpringKind); 6] = [
 
 /// A particle's incident springs in adjacency order: `(row offset, column
 /// offset of the other end, direction, the particle is the spring's second
-/// end)`. Twin: `GRID_INCIDENT` in `shaders/common/physics.wgsl`.
+/// end)`. Twin: the grid incidence table in `shaders/common/physics.wgsl`,
+/// whose rows the grid kernels pass as literals.
 pub const INCIDENT: [(i32, i32, u32, bool); 12] = [
     (-1, 0, 1, true),
     (0, -1, 0, true),
