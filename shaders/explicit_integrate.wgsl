@@ -3,10 +3,10 @@
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 
-// Without fix-up and wind, end the step here (twin: finish_step): collide
-// and store in place. Either this kernel then reads no other particle's
-// state (the general kernels: the spring pass has gathered it), or it
-// reads it from a snapshot (below).
+// Without fix-up, end the step here (twin: finish_step): collide and store
+// in place. Either this kernel then reads no other particle's state (the
+// general kernels without wind: the spring pass has gathered it), or it
+// reads it, wind triangles included, from a snapshot (below).
 override FUSED: bool = false;
 // Single-pass grid steps (see GpuSolver::step_plan): read every particle's
 // state from the `work` sections SNAP_IN (x) and SNAP_IN + 1 (v) that the

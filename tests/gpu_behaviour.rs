@@ -207,14 +207,22 @@ fn normals_of_a_flat_cloth_point_up() {
     }
 }
 
-/// Single-pass explicit steps (a grid, no fix-up, no wind) read the state
-/// from a snapshot that the previous step wrote; a particle moved or a pin
-/// changed between steps must reach them as it reaches the general
-/// kernels, which read the state buffers.
+/// Single-pass explicit steps (a grid, no fix-up) read the state, wind
+/// triangles included, from a snapshot that the previous step wrote; a
+/// particle moved or a pin changed between steps must reach them as it
+/// reaches the general kernels, which read the state buffers.
 #[test]
 fn single_pass_explicit_steps_see_changes_between_steps() {
+    for wind in [false, true] {
+        single_pass_against_general(wind);
+    }
+}
+
+fn single_pass_against_general(wind: bool) {
     let mut p = busy_params(Integrator::Explicit);
-    p.wind = None;
+    if !wind {
+        p.wind = None;
+    }
     p.fixup.iterations = 0;
     let m = model(corners(), &p);
     let ctx = gpu();
@@ -233,6 +241,10 @@ fn single_pass_explicit_steps_see_changes_between_steps() {
     };
     let single = run(true);
     let general = run(false);
-    assert_identical(&single, &general, "single-pass against general kernels");
+    assert_identical(
+        &single,
+        &general,
+        &format!("single-pass against general kernels, wind {wind}"),
+    );
     assert_eq!(single.x[40], Vec3::new(0.1, 1.3, 0.05));
 }

@@ -57,13 +57,15 @@ fn spring_force_of(
 }
 
 // Twin: cpu::forces::wind_triangle_force. Wind force on triangle t, already
-// divided by three (each vertex's share).
-fn wind_triangle_force(t: u32) -> vec3<f32> {
+// divided by three (each vertex's share); the vertices' state comes from
+// `sec` (see state_x).
+fn wind_triangle_force(t: u32, sec: u32) -> vec3<f32> {
     let base = params.triangles + 3u * t;
     let a = topo[base];
     let b = topo[base + 1u];
     let c = topo[base + 2u];
-    let cr = cross3(x[b].xyz - x[a].xyz, x[c].xyz - x[a].xyz);
+    let xa = state_x(a, sec);
+    let cr = cross3(state_x(b, sec) - xa, state_x(c, sec) - xa);
     let twice_area = len3(cr);
     if (!(finite1(twice_area) && twice_area > TINY)) {
         return vec3<f32>(0.0);
@@ -71,7 +73,7 @@ fn wind_triangle_force(t: u32) -> vec3<f32> {
     let third = 1.0 / 3.0;
     let normal = cr / twice_area;
     let area = twice_area * 0.5;
-    let u = (v[a].xyz + v[b].xyz + v[c].xyz) * third - params.wind_velocity;
+    let u = (state_v(a, sec) + state_v(b, sec) + state_v(c, sec)) * third - params.wind_velocity;
     let un = dot3(u, normal);
     var f = normal * (-params.wind_drag * area * un * abs(un));
     let speed = len3(u);
@@ -229,23 +231,23 @@ fn total_force(p: u32, xp: vec4<f32>, vp: vec4<f32>, sec: u32) -> vec3<f32> {
     let springs_sum = spring_sum(p, xp.xyz, vp.xyz, sec);
     var f = params.gravity * vp.w;
     f += springs_sum;
-    return add_wind(p, f);
+    return add_wind(p, f, sec);
 }
 
 // External force on particle p (twin: cpu::forces::external_forces):
 // gravity, then wind triangles in adjacency order.
 fn external_force(p: u32) -> vec3<f32> {
-    return add_wind(p, params.gravity * v[p].w);
+    return add_wind(p, params.gravity * v[p].w, STATE_BUFFERS);
 }
 
 // `f` plus the wind forces of particle p's triangles, in adjacency order.
-fn add_wind(p: u32, f_in: vec3<f32>) -> vec3<f32> {
+fn add_wind(p: u32, f_in: vec3<f32>, sec: u32) -> vec3<f32> {
     var f = f_in;
     if (HAS_WIND) {
         let tb = topo[params.tri_adj_offsets + p];
         let te = topo[params.tri_adj_offsets + p + 1u];
         for (var k = tb; k < te; k++) {
-            f += wind_triangle_force(topo[params.tri_adj_entries + k]);
+            f += wind_triangle_force(topo[params.tri_adj_entries + k], sec);
         }
     }
     return f;

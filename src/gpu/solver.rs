@@ -314,9 +314,9 @@ impl GpuSolver {
     /// Only what the scene uses is recorded: no fix-up passes without a
     /// constrained spring kind or with zero iterations; no torque passes for
     /// a pinned cloth; no per-spring force pass on a grid (see
-    /// [`super::grid`]); without fix-up and wind an explicit step is one
-    /// pass ([`SINGLE_PASS`] on a grid, a fused integration and step end
-    /// after the spring pass otherwise); wind, ground, spheres, pins and
+    /// [`super::grid`]); without fix-up an explicit step on a grid is one
+    /// pass ([`SINGLE_PASS`]; the general kernels fuse integration and step
+    /// end after their spring pass when there is no wind either); wind, ground, spheres, pins and
     /// damping are compiled out of the kernels when absent (see
     /// [`super::pipelines`]); CG records the adaptive budget of iterations
     /// (see [`GpuSolver::check`]) and stops on the device, after which its
@@ -351,7 +351,7 @@ impl GpuSolver {
                 return plan;
             }
             // The grid kernels compute spring forces where they gather them;
-            // without fix-up and wind the whole step is one pass, which reads
+            // without fix-up the whole step is one pass, which reads
             // the state from the snapshot the previous step wrote (see
             // `encode_steps`).
             Integrator::Explicit if self.single_pass_explicit() => {
@@ -417,10 +417,7 @@ impl GpuSolver {
     /// kernel (it then reads no other particle's state, so it may write
     /// its own in place).
     fn single_pass_explicit(&self) -> bool {
-        self.integrator == Integrator::Explicit
-            && self.fixup_iterations == 0
-            && !self.features.wind
-            && self.features.grid
+        self.integrator == Integrator::Explicit && self.fixup_iterations == 0 && self.features.grid
     }
 
     fn fused_explicit(&self) -> bool {
