@@ -30,6 +30,31 @@ fn correction(s: u32) -> vec4<f32> {
     return vec4<f32>(0.0);
 }
 
+// `acc` (xyz: Σ ±c, w: count) plus grid spring `t`'s correction at
+// particle p, if it is over its limit: the correction as both ends compute
+// it (twin: cpu::fixup::correction), from the SRC positions and inverse
+// masses `xp`, `wp` of p and those of its neighbour. Branch-free: a
+// spring under its limit adds −0.
+fn grid_fixup_term(
+    acc: vec4<f32>,
+    p: u32,
+    rc: vec2<i32>,
+    xp: vec3<f32>,
+    wp: f32,
+    t: vec4<i32>,
+) -> vec4<f32> {
+    let inc = grid_incident(p, rc, t);
+    let xo = work[wi(SRC, inc.other)].xyz;
+    // x_i + x_j in either order is the same sum.
+    let w = wp + x[inc.other].w;
+    let d = select(xp, xo, inc.at_j) - select(xo, xp, inc.at_j);
+    let l = len3(d);
+    let over = inc.ok && inc.max_len > 0.0 && l > inc.max_len * SLACK && w > 0.0;
+    let c = d * ((l - inc.max_len) / (l * w));
+    // End i moves by −w c, end j by +w c.
+    return acc + select(vec4<f32>(-0.0), vec4<f32>(select(-c, c, inc.at_j), 1.0), over);
+}
+
 @compute @workgroup_size(WORKGROUP)
 fn fixup_jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
@@ -57,8 +82,30 @@ fn fixup_jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     let w = x[p].w;
     var sum = vec3<f32>(0.0);
     var count = 0u;
-    let begin = topo[p];
-    let end = topo[p + 1u];
+    var begin = 0u;
+    var end = 0u;
+    if (!GRID) {
+        begin = topo[p];
+        end = topo[p + 1u];
+    } else {
+        // The same springs in the same order, two loads each.
+        let rc = grid_row_col(p);
+        var acc = vec4<f32>(0.0);
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(-1, 0, 1, 1));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(0, -1, 0, 1));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(0, 1, 0, 0));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(1, 0, 1, 0));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(-1, -1, 2, 1));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(-1, 1, 3, 1));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(1, -1, 3, 0));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(1, 1, 2, 0));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(-2, 0, 5, 1));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(0, -2, 4, 1));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(0, 2, 4, 0));
+        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(2, 0, 5, 0));
+        sum = acc.xyz;
+        count = u32(acc.w);
+    }
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
         let c = correction(e >> 1u);

@@ -103,6 +103,8 @@ fn pod_twins_match_their_wgsl_structs() {
             grid,
             grid_rest_a,
             grid_rest_b,
+            grid_max_a,
+            grid_max_b,
             kind_k,
             kind_kd,
             kind_a,

@@ -64,6 +64,9 @@ struct Params {
     grid: vec4<u32>,
     grid_rest_a: vec4<f32>,
     grid_rest_b: vec4<f32>,
+    // Fix-up length limit per grid direction (0: none).
+    grid_max_a: vec4<f32>,
+    grid_max_b: vec4<f32>,
     kind_k: vec4<f32>,
     kind_kd: vec4<f32>,
     // Semi-implicit CG: the constant block a = dt² k of each spring kind.

@@ -107,6 +107,8 @@ struct Incident {
     // The particle is the spring's second end (it receives −f_i).
     at_j: bool,
     rest: f32,
+    // Fix-up length limit (0: none).
+    max_len: f32,
 }
 
 fn grid_row_col(p: u32) -> vec2<i32> {
@@ -124,10 +126,12 @@ fn grid_incident(p: u32, rc: vec2<i32>, t: vec4<i32>) -> Incident {
     let other = select(p, u32(r) * params.grid.x + u32(c), ok);
     let owner = select(p, other, at_j);
     var rest = params.grid_rest_b[(dir - 4u) & 3u];
+    var max_len = params.grid_max_b[(dir - 4u) & 3u];
     if (dir < 4u) {
         rest = params.grid_rest_a[dir];
+        max_len = params.grid_max_a[dir];
     }
-    return Incident(ok, other, dir * params.particle_count + owner, kind, at_j, rest);
+    return Incident(ok, other, dir * params.particle_count + owner, kind, at_j, rest, max_len);
 }
 
 // Where a kernel reads the particles' state: the x and v buffers, or a

@@ -3,7 +3,7 @@
 
 use wgpu::util::DeviceExt;
 
-use super::grid::GridLayout;
+use super::grid::{fixup_limit, GridLayout};
 use super::layout::{self, section, GpuParams, GpuSpring};
 use super::pipelines::Pipelines;
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
@@ -76,10 +76,7 @@ impl GpuSolver {
             .collect();
         let placed = model.springs.iter().map(|sp| {
             let m = params.spring(sp.kind);
-            let max_len = match m.max_stretch {
-                Some(f) if params.fixup.iterations > 0 => (f * sp.rest) as f32,
-                _ => 0.0,
-            };
+            let max_len = fixup_limit(sp, params);
             GpuSpring {
                 i: sp.i,
                 j: sp.j,
@@ -97,9 +94,9 @@ impl GpuSolver {
             let k = params.springs.map(|m| f(&m) as f32);
             [k[0], k[1], k[2], 0.0]
         };
-        let (grid_words, rest) = match &grid {
-            Some(g) => ([g.nx, g.ny, g.kinds, 0], g.rest),
-            None => ([0; 4], [0.0; 6]),
+        let (grid_words, rest, max_len) = match &grid {
+            Some(g) => ([g.nx, g.ny, g.kinds, 0], g.rest, g.max_len),
+            None => ([0; 4], [0.0; 6], [0.0; 6]),
         };
 
         let spheres = gpu_spheres(&params.spheres);
@@ -131,6 +128,8 @@ impl GpuSolver {
             grid: grid_words,
             grid_rest_a: [rest[0], rest[1], rest[2], rest[3]],
             grid_rest_b: [rest[4], rest[5], 0.0, 0.0],
+            grid_max_a: [max_len[0], max_len[1], max_len[2], max_len[3]],
+            grid_max_b: [max_len[4], max_len[5], 0.0, 0.0],
             kind_k: kind(|m| m.stiffness),
             kind_kd: kind(|m| m.damping),
             kind_a: if semi_cg {

@@ -19,8 +19,8 @@
 //! stiffness) hold a spring of zero stiffness from the owner to itself; no
 //! kernel reaches them through the adjacency or [`INCIDENT`].
 
-use crate::model::Model;
-use crate::params::SpringKind;
+use crate::model::{Model, Spring};
+use crate::params::{Params, SpringKind};
 
 /// Directions of the springs a particle owns: `(row offset, column offset,
 /// kind)` of its second end. Twin: the direction column of the grid
@@ -65,15 +65,19 @@ pub struct GridLayout {
     /// Rest length of each direction \[m\], as the device holds it (0 where
     /// the direction has no springs).
     pub rest: [f32; 6],
+    /// Fix-up length limit of each direction \[m\] (0: not constrained),
+    /// as the device holds it.
+    pub max_len: [f32; 6],
     /// Bit `k` set: springs of kind `k` exist.
     pub kinds: u32,
 }
 
 impl GridLayout {
-    /// The layout of `model`, or `None` when it is not a grid whose springs
-    /// all follow [`DIRECTIONS`] with one rest length (in `f32`) per
-    /// direction — then the solver keeps the general adjacency kernels.
-    pub fn of(model: &Model) -> Option<GridLayout> {
+    /// The layout of `model` under `params`, or `None` when it is not a
+    /// grid whose springs all follow [`DIRECTIONS`] with one rest length and
+    /// one fix-up limit (as the device holds them, in `f32`) per direction
+    /// — then the solver keeps the general adjacency kernels.
+    pub fn of(model: &Model, params: &Params) -> Option<GridLayout> {
         let spec = model.grid.as_ref()?;
         let (nx, ny) = (spec.nx, spec.ny);
         let n = model.particle_count();
@@ -82,6 +86,7 @@ impl GridLayout {
         }
         let mut slot = Vec::with_capacity(model.springs.len());
         let mut rest: [Option<f32>; 6] = [None; 6];
+        let mut max_len: [Option<f32>; 6] = [None; 6];
         let mut kinds = 0u32;
         for sp in &model.springs {
             let (i, j) = (sp.i as usize, sp.j as usize);
@@ -90,11 +95,15 @@ impl GridLayout {
             let dir = DIRECTIONS.iter().position(|&(r, c, kind)| {
                 i64::from(r) == dr && i64::from(c) == dc && kind == sp.kind
             })?;
-            let r = sp.rest as f32;
-            match rest[dir] {
-                None => rest[dir] = Some(r),
-                Some(seen) if seen.to_bits() == r.to_bits() => {}
-                Some(_) => return None,
+            for (seen, value) in [
+                (&mut rest[dir], sp.rest as f32),
+                (&mut max_len[dir], fixup_limit(sp, params)),
+            ] {
+                match *seen {
+                    None => *seen = Some(value),
+                    Some(v) if v.to_bits() == value.to_bits() => {}
+                    Some(_) => return None,
+                }
             }
             kinds |= 1 << sp.kind.index();
             slot.push((dir * n + i) as u32);
@@ -104,6 +113,7 @@ impl GridLayout {
             ny: ny as u32,
             slot,
             rest: rest.map(|r| r.unwrap_or(0.0)),
+            max_len: max_len.map(|m| m.unwrap_or(0.0)),
             kinds,
         })
     }
@@ -134,6 +144,16 @@ impl GridLayout {
                 Some(((dir as usize * n + owner) as u32, other, at_j))
             })
             .collect()
+    }
+}
+
+/// The fix-up's length limit of a spring as the device holds it \[m\]: the
+/// kind's `max_stretch` times the rest length, or 0 (not constrained)
+/// without one or without fix-up passes.
+pub fn fixup_limit(sp: &Spring, params: &Params) -> f32 {
+    match params.spring(sp.kind).max_stretch {
+        Some(f) if params.fixup.iterations > 0 => (f * sp.rest) as f32,
+        _ => 0.0,
     }
 }
 
@@ -178,7 +198,7 @@ mod tests {
             ] {
                 for orientation in [Orientation::Horizontal, Orientation::Vertical] {
                     let model = grid(nx, ny, stiff, orientation);
-                    let Some(layout) = GridLayout::of(&model) else {
+                    let Some(layout) = GridLayout::of(&model, &Params::default()) else {
                         panic!("{nx}×{ny} {stiff:?}: not a grid layout");
                     };
                     for p in 0..model.particle_count() {
@@ -207,7 +227,7 @@ mod tests {
     #[test]
     fn slots_are_distinct_and_in_range() {
         let model = grid(6, 5, [1.0; 3], Orientation::Horizontal);
-        let Some(layout) = GridLayout::of(&model) else {
+        let Some(layout) = GridLayout::of(&model, &Params::default()) else {
             panic!("not a grid layout");
         };
         let mut seen = vec![false; layout.slots()];
@@ -230,14 +250,14 @@ mod tests {
             Ok(m) => m,
             Err(e) => panic!("{e}"),
         };
-        assert!(GridLayout::of(&parts).is_none());
+        assert!(GridLayout::of(&parts, &Params::default()).is_none());
     }
 
     #[test]
     fn uneven_rest_lengths_keep_the_general_kernels() {
         let mut model = grid(4, 4, [1.0; 3], Orientation::Horizontal);
         model.springs[0].rest *= 1.01;
-        assert!(GridLayout::of(&model).is_none());
+        assert!(GridLayout::of(&model, &Params::default()).is_none());
     }
 
     /// Every built-in scene gets the grid kernels.
@@ -252,7 +272,7 @@ mod tests {
                 Ok(m) => m,
                 Err(e) => panic!("{name}: {e}"),
             };
-            assert!(GridLayout::of(&model).is_some(), "{name}");
+            assert!(GridLayout::of(&model, &scene.params).is_some(), "{name}");
         }
     }
 }

@@ -74,6 +74,10 @@ pub struct GpuParams {
     pub grid_rest_a: [f32; 4],
     /// Rest length of grid directions 4–5 \[m\] (two unused).
     pub grid_rest_b: [f32; 4],
+    /// Fix-up length limit of grid directions 0–3 \[m\] (0: none).
+    pub grid_max_a: [f32; 4],
+    /// Fix-up length limit of grid directions 4–5 \[m\] (two unused).
+    pub grid_max_b: [f32; 4],
     /// Stiffness of each spring kind [N/m] (one unused).
     pub kind_k: [f32; 4],
     /// Damping of each spring kind [N·s/m] (one unused).
@@ -84,7 +88,7 @@ pub struct GpuParams {
     /// Sphere colliders; the first `sphere_count` are used.
     pub spheres: [GpuSphere; MAX_SPHERES],
 }
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 192 + 32 * MAX_SPHERES);
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 224 + 32 * MAX_SPHERES);
 
 /// Twin of WGSL `Spring`.
 #[repr(C)]

@@ -201,7 +201,7 @@ impl GpuSolver {
             Integrator::SemiImplicit => Some(SemiFilter::new(model, params)?),
             _ => None,
         };
-        let grid = GridLayout::of(model);
+        let grid = GridLayout::of(model, params);
         let n = model.particle_count() as u64;
         let s = grid.as_ref().map_or(model.springs.len(), GridLayout::slots) as u64;
         let limits = device.limits();
