@@ -53,10 +53,9 @@ fn explicit_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
             xn = r[0];
             vn = r[1];
         }
-        store_state(p, xn, vn, w, v0.w);
+        let ok = store_state(p, xn, vn, w, v0.w);
         if (SNAP_OUT != STATE_BUFFERS) {
             // The snapshot keeps what store_state kept.
-            let ok = finite3(xn) && finite3(vn);
             work[wi(SNAP_OUT, p)] = select(x0, vec4<f32>(xn, w), ok);
             work[wi(SNAP_OUT + 1u, p)] = select(v0, vec4<f32>(vn, v0.w), ok);
         }

@@ -23,5 +23,5 @@ fn finish_step(@builtin(global_invocation_id) gid: vec3<u32>) {
         xp = r[0];
         vp = r[1];
     }
-    store_state(p, xp, vp, w, v[p].w);
+    _ = store_state(p, xp, vp, w, v[p].w);
 }

@@ -38,5 +38,5 @@ fn implicit_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
         xp = r[0];
         vp = r[1];
     }
-    store_state(p, xp, vp, x0.w, v0.w);
+    _ = store_state(p, xp, vp, x0.w, v0.w);
 }

@@ -76,12 +76,7 @@ fn implicit_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
         work[wi(W_FILTER, p)] = vec4<f32>(normal, friction);
         work[wi(W_PRE_DIAG, p)] = vec4<f32>(pre.d, 0.0);
         work[wi(W_PRE_OFF, p)] = vec4<f32>(pre.o, 0.0);
-        // Warm start: the last two Δv extrapolated (twin: the MPCG set-up
-        // of cpu::implicit::step).
-        let dv_last = work[wi(W_DV, p)].xyz;
-        let guess = dv_last * 2.0 - work[wi(W_DV_PREV, p)].xyz;
-        work[wi(W_DV_PREV, p)] = vec4<f32>(dv_last, 0.0);
-        let dv = filter_apply(kind, normal, guess) + z;
+        let dv = filter_apply(kind, normal, warm_start(p)) + z;
         work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
         let sb = filter_apply(kind, normal, rhs);
         work[wi(W_RHS, p)] = vec4<f32>(rhs, dot3(sb, precond_mul(p, sb)));

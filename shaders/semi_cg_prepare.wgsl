@@ -29,11 +29,7 @@ fn semi_cg_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
         work[wi(W_FILTER, p)] = vec4<f32>(0.0);
         work[wi(W_PRE_DIAG, p)] = vec4<f32>(vec3<f32>(1.0 / diag), 0.0);
         work[wi(W_PRE_OFF, p)] = vec4<f32>(0.0);
-        // Warm start: the last two Δv extrapolated, as the implicit step.
-        let dv_last = work[wi(W_DV, p)].xyz;
-        let guess = dv_last * 2.0 - work[wi(W_DV_PREV, p)].xyz;
-        work[wi(W_DV_PREV, p)] = vec4<f32>(dv_last, 0.0);
-        let dv = filter_apply(kind, vec3<f32>(0.0), guess);
+        let dv = filter_apply(kind, vec3<f32>(0.0), warm_start(p));
         work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
         let rhs = work[wi(W_RHS, p)].xyz;
         let sb = filter_apply(kind, vec3<f32>(0.0), rhs);

@@ -27,6 +27,16 @@ fn filter_of(p: u32, a: vec3<f32>) -> vec3<f32> {
     return filter_apply(kind, work[wi(W_FILTER, p)].xyz, a);
 }
 
+// The CG warm start of particle p: the last two Δv extrapolated,
+// 2 Δv − Δv_prev (twin: the MPCG set-up of cpu::implicit::step), which
+// becomes the new Δv_prev. Unfiltered: the caller filters it.
+fn warm_start(p: u32) -> vec3<f32> {
+    let dv_last = work[wi(W_DV, p)].xyz;
+    let guess = dv_last * 2.0 - work[wi(W_DV_PREV, p)].xyz;
+    work[wi(W_DV_PREV, p)] = vec4<f32>(dv_last, 0.0);
+    return guess;
+}
+
 // A symmetric 3×3 matrix: diagonal (xx, yy, zz), off-diagonal (xy, xz, yz).
 struct Sym3 {
     d: vec3<f32>,
@@ -156,7 +166,6 @@ fn set_cg_args(running: bool) {
 }
 
 var<workgroup> scratch: array<f32, WORKGROUP>;
-var<workgroup> shared_value: f32;
 var<workgroup> shared_flag: u32;
 
 // Twin: implicit::block_sum inside one block: writes this workgroup's sum

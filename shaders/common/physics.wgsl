@@ -322,16 +322,17 @@ fn collide_particle(x_in: vec3<f32>, v_in: vec3<f32>) -> array<vec3<f32>, 2> {
 // Writes the end-of-step state of particle p, unless it is not finite: then
 // the last finite state stays (a renderer never receives NaN vertices) and
 // the step is recorded for the host. `inv_mass` and `mass` are the w of
-// x[p] and v[p], which stay.
-fn store_state(p: u32, xp: vec3<f32>, vp: vec3<f32>, inv_mass: f32, mass: f32) {
+// x[p] and v[p], which stay. Returns whether the new state was stored.
+fn store_state(p: u32, xp: vec3<f32>, vp: vec3<f32>, inv_mass: f32, mass: f32) -> bool {
     if (finite3(xp) && finite3(vp)) {
         x[p] = vec4<f32>(xp, inv_mass);
         v[p] = vec4<f32>(vp, mass);
-    } else {
-        let step = atomicLoad(&status[STATUS_STEP]);
-        let first = atomicMin(&status[STATUS_BAD_STEP], step);
-        if (step <= first) {
-            atomicMin(&status[STATUS_BAD_PARTICLE], p);
-        }
+        return true;
     }
+    let step = atomicLoad(&status[STATUS_STEP]);
+    let first = atomicMin(&status[STATUS_BAD_STEP], step);
+    if (step <= first) {
+        atomicMin(&status[STATUS_BAD_PARTICLE], p);
+    }
+    return false;
 }
