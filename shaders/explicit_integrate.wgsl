@@ -2,16 +2,18 @@
 // v* = 0). Twin: cpu::explicit::step up to the fix-up.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
+#include "generated/grid_block.wgsl"
 
-// Without fix-up, end the step here (twin: finish_step): collide and store
-// in place. Either this kernel then reads no other particle's state (the
-// general kernels without wind: the spring pass has gathered it), or it
-// reads it, wind triangles included, from a snapshot (below).
+// Without fix-up, end the step here (twin: finish_step): collide and store.
+// Either this kernel then reads no other particle's state (the general
+// kernels without wind: the spring pass has gathered it), and updates it
+// in place, or it reads the state, wind triangles included, from one
+// place and writes it to another (below).
 override FUSED: bool = false;
-// Single-pass grid steps (see GpuSolver::step_plan): read every particle's
-// state from the `work` sections SNAP_IN (x) and SNAP_IN + 1 (v) that the
-// previous step (or explicit_seed) wrote, and write the new state to x, v
-// and to SNAP_OUT, SNAP_OUT + 1 — no invocation reads what another writes.
+// Single-pass grid steps (see GpuSolver::step_plan) alternate between the
+// state buffers x, v and the `work` sections SNAPSHOT (x) and SNAPSHOT + 1
+// (v): read from SNAP_IN, write to SNAP_OUT (STATE_BUFFERS: x and v) —
+// no invocation reads what another writes.
 override SNAP_IN: u32 = 0xffffffffu;
 override SNAP_OUT: u32 = 0xffffffffu;
 
@@ -26,20 +28,53 @@ fn explicit_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
         atomicStore(&status[STATUS_FIXUP_PASSES], 0u);
         atomicStore(&status[STATUS_FIXUP_FLAG], 0u);
     }
-    if (p >= params.particle_count) {
+    // On a grid: one invocation per block of particles.
+    if (grid_gather_done(p)) {
         return;
     }
-    var x0: vec4<f32>;
-    var v0: vec4<f32>;
+    let own = block_load(p);
+    integrate_particle(p, own.x, own.v, total_force(p, own.x, own.v, SNAP_IN));
+}
+
+// The grid gather (generated/grid_block.wgsl): each particle's state, and
+// the sum of its spring forces.
+struct BlockData {
+    x: vec4<f32>,
+    v: vec4<f32>,
+}
+
+alias BlockAcc = vec3<f32>;
+
+fn block_load(i: u32) -> BlockData {
     if (SNAP_IN == STATE_BUFFERS) {
-        x0 = x[p];
-        v0 = v[p];
-    } else {
-        x0 = work[wi(SNAP_IN, p)];
-        v0 = work[wi(SNAP_IN + 1u, p)];
+        return BlockData(x[i], v[i]);
     }
+    return BlockData(work[wi(SNAP_IN, i)], work[wi(SNAP_IN + 1u, i)]);
+}
+
+fn block_start(p: u32, own: BlockData) -> vec3<f32> {
+    return vec3<f32>(0.0);
+}
+
+// Nothing per spring: the force is computed where it is summed.
+alias SpringData = u32;
+
+fn spring_load(inc: Incident, first: BlockData, second: BlockData) -> u32 {
+    return 0u;
+}
+
+fn block_term(sum: vec3<f32>, own: BlockData, other: BlockData, inc: Incident, sd: u32) -> vec3<f32> {
+    return sum + grid_spring_force(inc, own.x.xyz, own.v.xyz, other.x.xyz, other.v.xyz);
+}
+
+fn block_end(p: u32, own: BlockData, sum: vec3<f32>) {
+    integrate_particle(p, own.x, own.v, force_with_springs(p, sum, own.v.w, SNAP_IN));
+}
+
+// The rest of particle p's step from its state `x0`, `v0` and the total
+// force `f` on it [N].
+fn integrate_particle(p: u32, x0: vec4<f32>, v0: vec4<f32>, f: vec3<f32>) {
     let w = x0.w;
-    let f = total_force(p, x0, v0, SNAP_IN);
     var vn = v0.xyz + f * (params.dt * w);
     var xn = x0.xyz;
     if (w > 0.0) {
@@ -53,11 +88,17 @@ fn explicit_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
             xn = r[0];
             vn = r[1];
         }
-        let ok = store_state(p, xn, vn, w, v0.w);
-        if (SNAP_OUT != STATE_BUFFERS) {
-            // The snapshot keeps what store_state kept.
-            work[wi(SNAP_OUT, p)] = select(x0, vec4<f32>(xn, w), ok);
-            work[wi(SNAP_OUT + 1u, p)] = select(v0, vec4<f32>(vn, v0.w), ok);
+        // A state that is not finite is not stored: the last finite one
+        // is (see store_state).
+        let ok = finite_or_reported(p, xn, vn);
+        let x_out = select(x0, vec4<f32>(xn, w), ok);
+        let v_out = select(v0, vec4<f32>(vn, v0.w), ok);
+        if (SNAP_OUT == STATE_BUFFERS) {
+            x[p] = x_out;
+            v[p] = v_out;
+        } else {
+            work[wi(SNAP_OUT, p)] = x_out;
+            work[wi(SNAP_OUT + 1u, p)] = v_out;
         }
         return;
     }

@@ -1,7 +1,7 @@
-// Seeds the snapshot of single-pass explicit steps (explicit_integrate
-// with SNAP_IN): copies x and v into the `work` sections SNAP and
-// SNAP + 1. Recorded before the first such step and after the host wrote
-// positions or pins.
+// Copies x and v into the `work` sections SNAP and SNAP + 1, where
+// single-pass explicit steps (explicit_integrate with SNAP_IN) alternate
+// the state with x and v: recorded before an odd number of such steps, so
+// that the last one writes x and v.
 #include "common/bindings.wgsl"
 
 override SNAP: u32 = 4u;

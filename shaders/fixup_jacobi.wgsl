@@ -4,6 +4,7 @@
 // cpu::fixup::jacobi (one pass).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
+#include "generated/grid_block.wgsl"
 
 override SRC: u32 = 0u;
 override DST: u32 = 1u;
@@ -30,29 +31,61 @@ fn correction(s: u32) -> vec4<f32> {
     return vec4<f32>(0.0);
 }
 
-// `acc` (xyz: Σ ±c, w: count) plus grid spring `t`'s correction at
-// particle p, if it is over its limit: the correction as both ends compute
-// it (twin: cpu::fixup::correction), from the SRC positions and inverse
-// masses `xp`, `wp` of p and those of its neighbour. Branch-free: a
-// spring under its limit adds −0.
-fn grid_fixup_term(
-    acc: vec4<f32>,
-    p: u32,
-    rc: vec2<i32>,
-    xp: vec3<f32>,
-    wp: f32,
-    t: vec4<i32>,
-) -> vec4<f32> {
-    let inc = grid_incident(p, rc, t);
-    let xo = work[wi(SRC, inc.other)].xyz;
+// The grid gather (generated/grid_block.wgsl): each particle's SRC
+// position and inverse mass; the sum (xyz: Σ ±c, w: count) of the
+// corrections of its springs over their limits.
+struct BlockData {
+    x: vec3<f32>,
+    w: f32,
+}
+
+alias BlockAcc = vec4<f32>;
+
+fn block_load(i: u32) -> BlockData {
+    return BlockData(work[wi(SRC, i)].xyz, x[i].w);
+}
+
+fn block_start(p: u32, own: BlockData) -> vec4<f32> {
+    return vec4<f32>(0.0);
+}
+
+// Nothing per spring: the correction is computed where it is summed.
+alias SpringData = u32;
+
+fn spring_load(inc: Incident, first: BlockData, second: BlockData) -> u32 {
+    return 0u;
+}
+
+// `acc` plus spring `inc`'s correction, if it is over its limit: the
+// correction as both ends compute it (twin: cpu::fixup::correction).
+// Branch-free: a spring under its limit adds −0.
+fn block_term(acc: vec4<f32>, own: BlockData, other: BlockData, inc: Incident, sd: u32) -> vec4<f32> {
     // x_i + x_j in either order is the same sum.
-    let w = wp + x[inc.other].w;
-    let d = select(xp, xo, inc.at_j) - select(xo, xp, inc.at_j);
+    let w = own.w + other.w;
+    let d = select(own.x, other.x, inc.at_j) - select(other.x, own.x, inc.at_j);
     let l = len3(d);
     let over = inc.ok && inc.max_len > 0.0 && l > inc.max_len * SLACK && w > 0.0;
     let c = d * ((l - inc.max_len) / (l * w));
     // End i moves by −w c, end j by +w c.
     return acc + select(vec4<f32>(-0.0), vec4<f32>(select(-c, c, inc.at_j), 1.0), over);
+}
+
+fn block_end(p: u32, own: BlockData, acc: vec4<f32>) {
+    move_particle(p, own.x, own.w, acc.xyz, u32(acc.w));
+}
+
+// Moves particle p (SRC position `xp`, inverse mass `w`) by the mean of
+// its `count` corrections, whose sum is `sum`, into DST.
+fn move_particle(p: u32, xp: vec3<f32>, w: f32, sum: vec3<f32>, count: u32) {
+    var xn = xp;
+    if (count > 0u) {
+        atomicStore(&status[STATUS_FIXUP_MOVED], 1u);
+        atomicStore(&status[STATUS_FIXUP_FLAG + FLAG], 1u);
+        if (w > 0.0) {
+            xn += sum * (w * params.fixup_omega / f32(count));
+        }
+    }
+    work[wi(DST, p)] = vec4<f32>(xn, 0.0);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -75,37 +108,15 @@ fn fixup_jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
         atomicStore(&status[STATUS_FIXUP_RESULT], DST);
         atomicAdd(&status[STATUS_FIXUP_PASSES], 1u);
     }
-    if (p >= params.particle_count) {
+    // On a grid: one invocation per block of particles.
+    if (grid_gather_done(p)) {
         return;
     }
-    var xp = work[wi(SRC, p)].xyz;
-    let w = x[p].w;
+    let own = block_load(p);
     var sum = vec3<f32>(0.0);
     var count = 0u;
-    var begin = 0u;
-    var end = 0u;
-    if (!GRID) {
-        begin = topo[p];
-        end = topo[p + 1u];
-    } else {
-        // The same springs in the same order, two loads each.
-        let rc = grid_row_col(p);
-        var acc = vec4<f32>(0.0);
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(-1, 0, 1, 1));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(0, -1, 0, 1));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(0, 1, 0, 0));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(1, 0, 1, 0));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(-1, -1, 2, 1));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(-1, 1, 3, 1));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(1, -1, 3, 0));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(1, 1, 2, 0));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(-2, 0, 5, 1));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(0, -2, 4, 1));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(0, 2, 4, 0));
-        acc = grid_fixup_term(acc, p, rc, xp, w, vec4<i32>(2, 0, 5, 0));
-        sum = acc.xyz;
-        count = u32(acc.w);
-    }
+    let begin = topo[p];
+    let end = topo[p + 1u];
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
         let c = correction(e >> 1u);
@@ -119,12 +130,5 @@ fn fixup_jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         count += 1u;
     }
-    if (count > 0u) {
-        atomicStore(&status[STATUS_FIXUP_MOVED], 1u);
-        atomicStore(&status[STATUS_FIXUP_FLAG + FLAG], 1u);
-        if (w > 0.0) {
-            xp += sum * (w * params.fixup_omega / f32(count));
-        }
-    }
-    work[wi(DST, p)] = vec4<f32>(xp, 0.0);
+    move_particle(p, own.x, own.w, sum, count);
 }

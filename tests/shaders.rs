@@ -2,11 +2,16 @@
 //! every Pod twin matches its WGSL struct field by field.
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
+use wgcloth::gpu::grid::GridBlock;
 use wgcloth::gpu::layout::{GpuParams, GpuSphere, GpuSpring};
 use wgcloth::gpu::shaders;
 
 fn parse(name: &str) -> naga::Module {
-    let source = shaders::kernel_source(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+    parse_for(name, GridBlock::ONE)
+}
+
+fn parse_for(name: &str, block: GridBlock) -> naga::Module {
+    let source = shaders::kernel_source(name, block).unwrap_or_else(|e| panic!("{name}: {e}"));
     let module = naga::front::wgsl::parse_str(&source)
         .unwrap_or_else(|e| panic!("{name} does not parse:\n{}", e.emit_to_string(&source)));
     Validator::new(ValidationFlags::all(), Capabilities::all())
@@ -27,9 +32,25 @@ fn every_kernel_parses_and_validates() {
     }
 }
 
+/// The generated grid gather validates for every block shape the solver
+/// accepts, in every kernel that includes it.
+#[test]
+fn every_grid_block_shape_validates() {
+    for cols in 1..=GridBlock::MAX {
+        for rows in 1..=GridBlock::MAX {
+            let block = GridBlock { cols, rows };
+            for (name, source) in shaders::KERNELS {
+                if source.contains("generated/grid_block") {
+                    parse_for(name, block);
+                }
+            }
+        }
+    }
+}
+
 #[test]
 fn an_unknown_include_is_an_error() {
-    assert!(shaders::compose("#include \"common/missing.wgsl\"").is_err());
+    assert!(shaders::compose("#include \"common/missing.wgsl\"", GridBlock::ONE).is_err());
 }
 
 /// (field name, byte offset) of a WGSL struct, and its size.

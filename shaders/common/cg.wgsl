@@ -101,7 +101,28 @@ fn grid_apply_term(
     t: vec4<i32>,
 ) -> vec3<f32> {
     let inc = grid_incident(p, rc, t);
-    let other = work[wi(sec, inc.other)].xyz;
+    return grid_apply_with(acc, inc, own, work[wi(sec, inc.other)].xyz, spring_block(inc));
+}
+
+// The block (m, a) of grid spring `inc`; none (zero) with CONSTANT_BLOCKS,
+// whose blocks come from the parameters.
+fn spring_block(inc: Incident) -> vec4<f32> {
+    if (CONSTANT_BLOCKS) {
+        return vec4<f32>(0.0);
+    }
+    return spring_work[si(S_BLOCK, inc.slot)];
+}
+
+// `acc` plus ±B_s (a_i − a_j) of grid spring `inc`, whose block is `blk`
+// (see spring_block), at a particle whose vector value is `own`, its
+// neighbour's `other`.
+fn grid_apply_with(
+    acc: vec3<f32>,
+    inc: Incident,
+    own: vec3<f32>,
+    other: vec3<f32>,
+    blk: vec4<f32>,
+) -> vec3<f32> {
     let d = select(own - other, other - own, inc.at_j);
     var y: vec3<f32>;
     if (CONSTANT_BLOCKS) {
@@ -109,7 +130,6 @@ fn grid_apply_term(
         // of a zero.
         y = d * params.kind_a[inc.kind];
     } else {
-        let blk = spring_work[si(S_BLOCK, inc.slot)];
         y = d * blk.w + blk.xyz * dot3(blk.xyz, d);
     }
     // `a − y` is `a + (−y)` exactly.
@@ -156,13 +176,20 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
     return acc;
 }
 
-// Indirect dispatch arguments of cg_apply and cg_update (group 1, bound
-// only to cg_start, cg_alpha and cg_beta, which write them): workgroups,
-// or 0 once CG has stopped, so a stopped iteration runs no workgroup.
+// Indirect dispatch arguments of cg_apply (words 0–2) and cg_update
+// (words 3–5) (group 1, bound only to cg_start, cg_alpha and cg_beta,
+// which write them): workgroups, or 0 once CG has stopped, so a stopped
+// iteration runs no workgroup.
 @group(1) @binding(0) var<storage, read_write> cg_args: array<u32>;
 
 fn set_cg_args(running: bool) {
-    cg_args[0] = select(0u, params.partial_count, running);
+    // cg_apply gathers by block on a grid (params.grid.w blocks).
+    var apply = params.partial_count;
+    if (GRID) {
+        apply = (params.grid.w + WORKGROUP - 1u) / WORKGROUP;
+    }
+    cg_args[0] = select(0u, apply, running);
+    cg_args[3] = select(0u, params.partial_count, running);
 }
 
 var<workgroup> scratch: array<f32, WORKGROUP>;

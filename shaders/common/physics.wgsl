@@ -96,8 +96,8 @@ fn wind_triangle_force(t: u32, sec: u32) -> vec3<f32> {
 //   (-2, 0, 5, 1)  (0, -2, 4, 1)  (0, 2, 4, 0)  (2, 0, 5, 0)
 
 // Spring `t` (a row of the table above) at particle p = (row, col). Where
-// it does not exist (`ok` false), `other` is p and `slot` p's own slot of
-// the direction, so loads stay in bounds.
+// its other end is outside the grid, `other` is p and `slot` p's own slot
+// of the direction, so loads stay in bounds.
 struct Incident {
     ok: bool,
     other: u32,
@@ -116,27 +116,45 @@ fn grid_row_col(p: u32) -> vec2<i32> {
 }
 
 fn grid_incident(p: u32, rc: vec2<i32>, t: vec4<i32>) -> Incident {
-    let r = rc.x + t.x;
-    let c = rc.y + t.y;
-    let dir = u32(t.z);
+    return grid_spring(GridPoint(true, p), grid_point(rc, p, t.xy), u32(t.z), t.w != 0);
+}
+
+// A particle of a block's stencil (generated/grid_block.wgsl): inside the
+// grid or not, and its index — where it is outside, a particle that
+// exists (the block's first), so loads stay in bounds.
+struct GridPoint {
+    ok: bool,
+    index: u32,
+}
+
+// The particle `off` (row, column) away from the block's first particle
+// `o` (row, column), whose index is `oi`.
+fn grid_point(o: vec2<i32>, oi: u32, off: vec2<i32>) -> GridPoint {
+    let r = o.x + off.x;
+    let c = o.y + off.y;
+    let inside = r >= 0 && r < i32(params.grid.y) && c >= 0 && c < i32(params.grid.x);
+    return GridPoint(inside, select(oi, u32(r) * params.grid.x + u32(c), inside));
+}
+
+// The spring of direction `dir` between particle `me` and `other` (`at_j`:
+// `me` is its second end): it exists where `other` is inside the grid and
+// springs of its kind do; its slot is dir × N + its first end.
+fn grid_spring(me: GridPoint, other: GridPoint, dir: u32, at_j: bool) -> Incident {
     let kind = dir >> 1u;
-    let at_j = t.w != 0;
-    let ok = r >= 0 && r < i32(params.grid.y) && c >= 0 && c < i32(params.grid.x)
-        && (params.grid.z & (1u << kind)) != 0u;
-    let other = select(p, u32(r) * params.grid.x + u32(c), ok);
-    let owner = select(p, other, at_j);
+    let ok = other.ok && (params.grid.z & (1u << kind)) != 0u;
+    let owner = select(me.index, other.index, at_j);
     var rest = params.grid_rest_b[(dir - 4u) & 3u];
     var max_len = params.grid_max_b[(dir - 4u) & 3u];
     if (dir < 4u) {
         rest = params.grid_rest_a[dir];
         max_len = params.grid_max_a[dir];
     }
-    return Incident(ok, other, dir * params.particle_count + owner, kind, at_j, rest, max_len);
+    return Incident(ok, other.index, dir * params.particle_count + owner, kind, at_j, rest, max_len);
 }
 
-// Where a kernel reads the particles' state: the x and v buffers, or a
-// pair of `work` sections holding a snapshot of them (single-pass
-// explicit steps: explicit_integrate with SNAP_IN).
+// Where a kernel reads the particles' state: the x and v buffers, or the
+// pair of `work` sections that single-pass explicit steps alternate with
+// them (explicit_integrate with SNAP_IN).
 const STATE_BUFFERS: u32 = 0xffffffffu;
 
 fn state_x(i: u32, sec: u32) -> vec3<f32> {
@@ -166,23 +184,32 @@ fn grid_force_term(
     sec: u32,
 ) -> vec3<f32> {
     let inc = grid_incident(p, rc, t);
-    let xo = state_x(inc.other, sec);
     var vo = vec3<f32>(0.0);
     if (HAS_DAMPING) {
         vo = state_v(inc.other, sec);
     }
-    let k = params.kind_k[inc.kind];
-    let kd = params.kind_kd[inc.kind];
+    return sum + grid_spring_force(inc, xp, vp, state_x(inc.other, sec), vo);
+}
+
+// The force of grid spring `inc` on the particle at `xp`, `vp` whose
+// neighbour is at `xo`, `vo`, signed for the sum (see grid_term).
+fn grid_spring_force(
+    inc: Incident,
+    xp: vec3<f32>,
+    vp: vec3<f32>,
+    xo: vec3<f32>,
+    vo: vec3<f32>,
+) -> vec3<f32> {
     let f = spring_force_of(
         inc.rest,
-        k,
-        kd,
+        params.kind_k[inc.kind],
+        params.kind_kd[inc.kind],
         select(xp, xo, inc.at_j),
         select(xo, xp, inc.at_j),
         select(vp, vo, inc.at_j),
         select(vo, vp, inc.at_j),
     );
-    return sum + grid_term(f, inc);
+    return grid_term(f, inc);
 }
 
 // ±`y` for the sum of a grid spring, or −0 where the spring does not exist
@@ -232,8 +259,13 @@ fn spring_sum(p: u32, xp: vec3<f32>, vp: vec3<f32>, sec: u32) -> vec3<f32> {
 // loaded (on lavapipe every load counts, the same one twice included);
 // the neighbours' comes from `sec` (see state_x).
 fn total_force(p: u32, xp: vec4<f32>, vp: vec4<f32>, sec: u32) -> vec3<f32> {
-    let springs_sum = spring_sum(p, xp.xyz, vp.xyz, sec);
-    var f = params.gravity * vp.w;
+    return force_with_springs(p, spring_sum(p, xp.xyz, vp.xyz, sec), vp.w, sec);
+}
+
+// Gravity on mass `m`, plus the spring forces `springs_sum`, plus wind:
+// the total force on particle p in the order of total_force.
+fn force_with_springs(p: u32, springs_sum: vec3<f32>, m: f32, sec: u32) -> vec3<f32> {
+    var f = params.gravity * m;
     f += springs_sum;
     return add_wind(p, f, sec);
 }
@@ -324,9 +356,18 @@ fn collide_particle(x_in: vec3<f32>, v_in: vec3<f32>) -> array<vec3<f32>, 2> {
 // the step is recorded for the host. `inv_mass` and `mass` are the w of
 // x[p] and v[p], which stay. Returns whether the new state was stored.
 fn store_state(p: u32, xp: vec3<f32>, vp: vec3<f32>, inv_mass: f32, mass: f32) -> bool {
+    if (!finite_or_reported(p, xp, vp)) {
+        return false;
+    }
+    x[p] = vec4<f32>(xp, inv_mass);
+    v[p] = vec4<f32>(vp, mass);
+    return true;
+}
+
+// Whether particle p's new state is finite; if not, records the step (the
+// first bad step and, within it, the lowest particle) for the host.
+fn finite_or_reported(p: u32, xp: vec3<f32>, vp: vec3<f32>) -> bool {
     if (finite3(xp) && finite3(vp)) {
-        x[p] = vec4<f32>(xp, inv_mass);
-        v[p] = vec4<f32>(vp, mass);
         return true;
     }
     let step = atomicLoad(&status[STATUS_STEP]);

@@ -3,7 +3,7 @@
 
 use wgpu::util::DeviceExt;
 
-use super::grid::{fixup_limit, GridLayout};
+use super::grid::{fixup_limit, GridBlock, GridLayout};
 use super::layout::{self, section, GpuParams, GpuSpring};
 use super::pipelines::Pipelines;
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
@@ -25,6 +25,7 @@ impl GpuSolver {
     ) -> Result<GpuSolver> {
         let n = model.particle_count() as u32;
         let partial_count = n.div_ceil(WORKGROUP);
+        let block = GridBlock::for_adapter(&device.adapter_info());
         let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
         let (cg_tolerance, cg_max_iterations) = if semi_cg {
             (FILTER_CG_TOLERANCE, FILTER_CG_MAX_ITERATIONS)
@@ -95,7 +96,11 @@ impl GpuSolver {
             [k[0], k[1], k[2], 0.0]
         };
         let (grid_words, rest, max_len) = match &grid {
-            Some(g) => ([g.nx, g.ny, g.kinds, 0], g.rest, g.max_len),
+            Some(g) => (
+                [g.nx, g.ny, g.kinds, block.count(g.nx, g.ny)],
+                g.rest,
+                g.max_len,
+            ),
             None => ([0; 4], [0.0; 6], [0.0; 6]),
         };
 
@@ -317,9 +322,13 @@ impl GpuSolver {
         // stopped iteration then runs no workgroup. It lives in its own
         // group, bound only to the kernels that write it (a dispatch may
         // not read its arguments from a buffer its kernel binds).
+        let gather_groups = match &grid {
+            Some(g) => block.count(g.nx, g.ny).div_ceil(WORKGROUP),
+            None => partial_count,
+        };
         let cg_args = init(
             "wgcloth.cg_args",
-            bytemuck::cast_slice(&[partial_count, 1, 1, 0]),
+            bytemuck::cast_slice(&[gather_groups, 1, 1, partial_count, 1, 1]),
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
         );
         let args_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -340,7 +349,7 @@ impl GpuSolver {
             immediate_size: 0,
         });
 
-        let features = scene_features(model, params, grid.is_some());
+        let features = scene_features(model, params, grid.as_ref().map(|_| block));
         let mut pipelines = Pipelines::new(layout, args_layout);
         pipelines.ensure(device, params.integrator, features)?;
         queue.submit([]);
@@ -353,7 +362,7 @@ impl GpuSolver {
             springs: model.springs.len() as u32,
             spring_slots: slots as u32,
             grid: grid.is_some(),
-            snapshot: None,
+            block,
             triangles: model.triangles.len() as u32,
             fixup_iterations: if params.springs.iter().any(|s| s.max_stretch.is_some()) {
                 params.fixup.iterations

@@ -2,6 +2,7 @@
 //! spheres, pins, pinned positions and the kernel variants. Nothing is
 //! rebuilt but what the change invalidates.
 
+use super::grid::GridBlock;
 use super::layout::MAX_SPHERES;
 use super::pipelines::Features;
 use super::semi_filter::SemiFilter;
@@ -73,8 +74,6 @@ impl GpuSolver {
         self.check_particle(p)?;
         self.queue
             .write_buffer(&self.x, (p * 16) as u64, bytemuck::cast_slice(&position));
-        // A single-pass explicit step would read the old position.
-        self.snapshot = None;
         Ok(())
     }
 
@@ -95,7 +94,6 @@ impl GpuSolver {
         let base = (p * 16) as u64;
         self.queue
             .write_buffer(&self.x, base + 12, bytemuck::bytes_of(&inverse_mass));
-        self.snapshot = None;
         if pinned {
             self.queue
                 .write_buffer(&self.v, base, bytemuck::cast_slice(&[0f32; 3]));
@@ -134,11 +132,37 @@ impl GpuSolver {
         self.update_features()
     }
 
+    /// Sets how many particles (columns × rows) each invocation of the grid
+    /// gather kernels handles (see [`GridBlock`]; the default suits the
+    /// adapter: [`GridBlock::for_adapter`]). Results are the same for every
+    /// shape; speed is not. No effect on a cloth without grid layout.
+    pub fn set_grid_block(&mut self, block: GridBlock) -> Result<()> {
+        if !block.is_valid() {
+            return Err(Error::InvalidParameter {
+                key: "grid block".into(),
+                allowed: format!("1 to {} columns and rows", GridBlock::MAX),
+                got: format!("{} × {}", block.cols, block.rows),
+            });
+        }
+        self.block = block;
+        self.params.grid[3] = block.count(self.params.grid[0], self.params.grid[1]);
+        self.update_features()
+    }
+
+    /// The grid gather's block shape (see [`GpuSolver::set_grid_block`]).
+    pub fn grid_block(&self) -> GridBlock {
+        self.block
+    }
+
     /// Switches to the kernel variants of the current scene (compiling any
     /// not cached yet) and uploads the parameters.
     fn update_features(&mut self) -> Result<()> {
         let features = if self.specialised {
-            scene_features(&self.model, &self.host_params, self.grid)
+            scene_features(
+                &self.model,
+                &self.host_params,
+                self.grid.then_some(self.block),
+            )
         } else {
             Features {
                 wind: true,
@@ -147,6 +171,7 @@ impl GpuSolver {
                 filter: true,
                 damping: true,
                 grid: false,
+                block: GridBlock::ONE,
             }
         };
         self.pipelines

@@ -8,9 +8,11 @@
 //! find a particle's springs and neighbours by arithmetic on its row and
 //! column instead of loading an adjacency list. Forces are computed where
 //! they are summed, from the neighbours' state, so the explicit and
-//! semi-implicit steps need no per-spring pass (lavapipe, 129²: the
-//! explicit step 2.4× faster than with the general kernels); the CG
-//! product still loads one block per spring, and gains little.
+//! semi-implicit steps need no per-spring pass; the kernels that gather
+//! every step or CG iteration take a [`GridBlock`] of particles per
+//! invocation (lavapipe, 129²: the explicit step 2.4× faster than with
+//! the general kernels with one particle per invocation, 8× with 4 × 4
+//! blocks).
 //!
 //! The grid kernels visit a particle's springs in [`INCIDENT`] order, which
 //! is the order of the model's adjacency (ascending spring index), so they
@@ -147,6 +149,199 @@ impl GridLayout {
     }
 }
 
+/// Particles per invocation of the grid kernels that gather from their
+/// neighbours every step or CG iteration (explicit step, fix-up pass, CG
+/// product): a block of `cols × rows` particles loads each particle of its
+/// stencil once and sums every member's springs from those values.
+///
+/// Each particle of a grid cloth reads twelve neighbours, so a lone
+/// particle loads 13 states; a 4 × 2 block loads 36 for 8 particles. On
+/// lavapipe, where every storage load is a per-lane loop, that is most of
+/// a gather kernel's time (129², explicit step: see the README). On a real
+/// GPU, neighbours come from cache and one particle per invocation keeps
+/// every lane busy, so [`GridBlock::for_adapter`] picks blocks for CPU
+/// adapters only. Results do not depend on the shape: every member sums
+/// its springs in [`INCIDENT`] order from the same values.
+///
+/// The kernels' gather is generated for the shape ([`GridBlock::wgsl`]):
+/// WGSL has no loops the compilers keep in registers across a stencil, and
+/// writing the points out by hand for each shape would repeat one pattern
+/// dozens of times.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct GridBlock {
+    /// Columns of particles per block (1 to [`GridBlock::MAX`]).
+    pub cols: u32,
+    /// Rows of particles per block (1 to [`GridBlock::MAX`]).
+    pub rows: u32,
+}
+
+impl Default for GridBlock {
+    fn default() -> Self {
+        GridBlock::ONE
+    }
+}
+
+impl GridBlock {
+    /// One particle per invocation.
+    pub const ONE: GridBlock = GridBlock { cols: 1, rows: 1 };
+    /// The shape for CPU adapters. lavapipe, 128² yardstick, explicit step
+    /// (minimum of 15 interleaved batches): 1×1 1.03 ms, 4×2 0.62, 3×3
+    /// 0.58, 4×3 0.57, 4×4 0.55. Its kernels take seconds to compile
+    /// (once per process and variant; Mesa caches them on disk).
+    pub const CPU: GridBlock = GridBlock { cols: 4, rows: 4 };
+    /// Largest side: a 4 × 4 block already keeps 52 particle states live.
+    pub const MAX: u32 = 4;
+
+    /// [`GridBlock::CPU`] on a CPU adapter, else [`GridBlock::ONE`].
+    pub fn for_adapter(info: &wgpu::AdapterInfo) -> GridBlock {
+        if info.device_type == wgpu::DeviceType::Cpu {
+            GridBlock::CPU
+        } else {
+            GridBlock::ONE
+        }
+    }
+
+    /// Whether both sides are within 1 ..= [`GridBlock::MAX`].
+    pub fn is_valid(&self) -> bool {
+        (1..=Self::MAX).contains(&self.cols) && (1..=Self::MAX).contains(&self.rows)
+    }
+
+    /// Blocks covering an `nx × ny` grid (the last column and row of blocks
+    /// may stick out).
+    pub fn count(&self, nx: u32, ny: u32) -> u32 {
+        nx.div_ceil(self.cols) * ny.div_ceil(self.rows)
+    }
+
+    /// The stencil of a block: every particle its members read, as (row,
+    /// column) offsets from the block's first particle, in order of first
+    /// use (member by member, itself first, then its [`INCIDENT`] row).
+    pub fn stencil(&self) -> Vec<(i32, i32)> {
+        let mut points: Vec<(i32, i32)> = Vec::new();
+        for (r, c) in self.members() {
+            let own = std::iter::once((r, c));
+            let others = INCIDENT.iter().map(|&(dr, dc, _, _)| (r + dr, c + dc));
+            for point in own.chain(others) {
+                if !points.contains(&point) {
+                    points.push(point);
+                }
+            }
+        }
+        points
+    }
+
+    /// The members' offsets from the block's first particle, row by row.
+    fn members(&self) -> impl Iterator<Item = (i32, i32)> + '_ {
+        let (rows, cols) = (self.rows as i32, self.cols as i32);
+        (0..rows).flat_map(move |r| (0..cols).map(move |c| (r, c)))
+    }
+
+    /// The WGSL of `grid_block(block)`, which `#include
+    /// "generated/grid_block.wgsl"` brings into a kernel (see
+    /// [`super::shaders`]). The kernel defines what is gathered through
+    /// six hooks: the type `BlockData` of a particle's loaded values and
+    /// `block_load(index)` that loads them, once per stencil point; the
+    /// type `SpringData` and `spring_load(spring, first, second)`, once per
+    /// spring the members touch (`spring`: an `Incident` seen from its
+    /// first end — see `shaders/common/physics.wgsl` — whose `ok` does not
+    /// say whether the first end exists; `first`, `second`: the ends'
+    /// values); the accumulator type `BlockAcc`, `block_start(p, own)` and
+    /// `block_term(acc, own, other, spring, data)` (`spring` seen from the
+    /// member), member by member in [`INCIDENT`] order; and `block_end(p,
+    /// own, acc)`, which uses the sum. Hooks whose result is unused cost
+    /// nothing: the compilers drop dead loads.
+    pub fn wgsl(&self) -> String {
+        use std::fmt::Write;
+        let points = self.stencil();
+        let at = |p: (i32, i32)| points.iter().position(|&q| q == p).unwrap_or(0);
+        let mut s = String::new();
+        // Writing to a String cannot fail; `let _` keeps no unwrap here.
+        let _ = writeln!(
+            s,
+            "// Generated by wgcloth::gpu::grid::GridBlock::wgsl for blocks of \
+             {} × {} particles.\n\
+             const BLOCK_COLS: u32 = {}u;\n\
+             const BLOCK_ROWS: u32 = {}u;\n\n\
+             // On a grid, gathers block `i` (if there is one) and returns \
+             true: the invocation is done. Otherwise returns whether `i` is \
+             past the particles (the general kernels' test).\n\
+             fn grid_gather_done(i: u32) -> bool {{\n    \
+             if (GRID) {{\n        \
+             if (i < params.grid.w) {{\n            \
+             grid_block(i);\n        \
+             }}\n        \
+             return true;\n    \
+             }}\n    \
+             return i >= params.particle_count;\n\
+             }}\n\n\
+             // Gathers the members of block `block` (row-major over the \
+             grid's blocks; params.grid.w blocks).\n\
+             fn grid_block(block: u32) {{\n    \
+             let across = (params.grid.x + BLOCK_COLS - 1u) / BLOCK_COLS;\n    \
+             let o = vec2<i32>(i32((block / across) * BLOCK_ROWS), \
+             i32((block % across) * BLOCK_COLS));\n    \
+             let oi = u32(o.x) * params.grid.x + u32(o.y);",
+            self.cols, self.rows, self.cols, self.rows
+        );
+        for (k, &(dr, dc)) in points.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "    let pt{k} = grid_point(o, oi, vec2<i32>({dr}, {dc}));\n    \
+                 let ld{k} = block_load(pt{k}.index);"
+            );
+        }
+        // Each spring the members touch, once: (first end, second end,
+        // direction), as stencil points, in order of first use.
+        let mut springs: Vec<(usize, usize, u32)> = Vec::new();
+        let spring_of = |(r, c): (i32, i32), (dr, dc, dir, at_j): (i32, i32, u32, bool)| {
+            let (me, other) = (at((r, c)), at((r + dr, c + dc)));
+            if at_j {
+                (other, me, dir)
+            } else {
+                (me, other, dir)
+            }
+        };
+        for member in self.members() {
+            for &row in &INCIDENT {
+                let spring = spring_of(member, row);
+                if !springs.contains(&spring) {
+                    springs.push(spring);
+                }
+            }
+        }
+        for (k, &(first, second, dir)) in springs.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "    let sd{k} = spring_load(grid_spring(pt{first}, pt{second}, {dir}u, false), \
+                 ld{first}, ld{second});"
+            );
+        }
+        for member in self.members() {
+            let me = at(member);
+            let _ = writeln!(
+                s,
+                "    if (pt{me}.ok) {{\n        \
+                 var acc = block_start(pt{me}.index, ld{me});"
+            );
+            for &row in &INCIDENT {
+                let (dr, dc, dir, at_j) = row;
+                let other = at((member.0 + dr, member.1 + dc));
+                let k = springs
+                    .iter()
+                    .position(|&sp| sp == spring_of(member, row))
+                    .unwrap_or(0);
+                let _ = writeln!(
+                    s,
+                    "        acc = block_term(acc, ld{me}, ld{other}, \
+                     grid_spring(pt{me}, pt{other}, {dir}u, {at_j}), sd{k});"
+                );
+            }
+            let _ = writeln!(s, "        block_end(pt{me}.index, ld{me}, acc);\n    }}");
+        }
+        s.push_str("}\n");
+        s
+    }
+}
+
 /// The fix-up's length limit of a spring as the device holds it \[m\]: the
 /// kind's `max_stretch` times the rest length, or 0 (not constrained)
 /// without one or without fix-up passes.
@@ -222,6 +417,32 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// A block's stencil holds each of its members and their neighbours
+    /// once, and nothing else: 13 points for one particle, 52 for 4 × 4.
+    #[test]
+    fn a_block_stencil_is_its_members_and_their_neighbours() {
+        for cols in 1..=GridBlock::MAX {
+            for rows in 1..=GridBlock::MAX {
+                let block = GridBlock { cols, rows };
+                let stencil = block.stencil();
+                let mut want: Vec<(i32, i32)> = Vec::new();
+                for (r, c) in block.members() {
+                    want.push((r, c));
+                    want.extend(INCIDENT.iter().map(|&(dr, dc, _, _)| (r + dr, c + dc)));
+                }
+                want.sort_unstable();
+                want.dedup();
+                let mut got = stencil.clone();
+                got.sort_unstable();
+                assert_eq!(got.len(), stencil.len(), "{block:?}: a point twice");
+                assert_eq!(got, want, "{block:?}");
+            }
+        }
+        assert_eq!(GridBlock::ONE.stencil().len(), 13);
+        assert_eq!(GridBlock { cols: 4, rows: 4 }.stencil().len(), 52);
+        assert_eq!(GridBlock { cols: 4, rows: 4 }.count(129, 129), 33 * 33);
     }
 
     #[test]

@@ -121,10 +121,10 @@ pub mod section {
     pub const V_NEW: u32 = 2;
     /// CG unknown Δv.
     pub const DV: u32 = 3;
-    /// The two snapshots (x, then v) of single-pass explicit steps, which
-    /// alternate between steps: CG sections (R, C) and (Q, S), which the
+    /// Where single-pass explicit steps alternate the state (x, then v)
+    /// with the x and v buffers: the CG sections R and C, which the
     /// explicit integrator does not use.
-    pub const SNAPSHOTS: [u32; 2] = [4, 6];
+    pub const SNAPSHOT: u32 = 4;
     /// Number of sections.
     pub const COUNT: u32 = 14;
 }

@@ -21,5 +21,6 @@ pub mod shaders;
 mod solver;
 
 pub use context::GpuContext;
+pub use grid::GridBlock;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 pub use solver::{GpuSolver, GpuState, GpuStatus, SINGLE_PASS, WORKGROUP};

@@ -8,8 +8,10 @@
 //! sections. Switching a scene's features back and forth costs one compile
 //! per new variant, then nothing.
 
+use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 
+use super::grid::GridBlock;
 use super::layout::section;
 use super::shaders;
 use super::WORKGROUP;
@@ -32,6 +34,9 @@ pub struct Features {
     /// The springs are in grid layout (see [`super::grid`]): gather by row
     /// and column.
     pub grid: bool,
+    /// Particles per invocation of the grid gather kernels
+    /// ([`GridBlock::ONE`] without grid layout).
+    pub block: GridBlock,
 }
 
 /// One kernel variant: entry point, name suffix, extra constants.
@@ -54,8 +59,9 @@ const fn v(
 }
 
 const PRED: f64 = section::X_PRED as f64;
-const SNAP_A: f64 = section::SNAPSHOTS[0] as f64;
-const SNAP_B: f64 = section::SNAPSHOTS[1] as f64;
+const SNAPSHOT: f64 = section::SNAPSHOT as f64;
+/// `STATE_BUFFERS` in the kernels: read or write x and v.
+const STATE_BUFFERS: f64 = u32::MAX as f64;
 const ALT: f64 = section::X_ALT as f64;
 
 /// Fix-up and step end, shared by explicit and semi-implicit. Pass k of a
@@ -136,15 +142,23 @@ const EXPLICIT: &[Variant] = &[
     v("explicit_integrate", ".fused", &[("FUSED", 1.0)]),
     v(
         "explicit_integrate",
-        ".snap0",
-        &[("FUSED", 1.0), ("SNAP_IN", SNAP_A), ("SNAP_OUT", SNAP_B)],
+        ".to_snapshot",
+        &[
+            ("FUSED", 1.0),
+            ("SNAP_IN", STATE_BUFFERS),
+            ("SNAP_OUT", SNAPSHOT),
+        ],
     ),
     v(
         "explicit_integrate",
-        ".snap1",
-        &[("FUSED", 1.0), ("SNAP_IN", SNAP_B), ("SNAP_OUT", SNAP_A)],
+        ".from_snapshot",
+        &[
+            ("FUSED", 1.0),
+            ("SNAP_IN", SNAPSHOT),
+            ("SNAP_OUT", STATE_BUFFERS),
+        ],
     ),
-    v("explicit_seed", "", &[("SNAP", SNAP_A)]),
+    v("explicit_seed", "", &[("SNAP", SNAPSHOT)]),
 ];
 
 const IMPLICIT: &[Variant] = &[
@@ -183,7 +197,7 @@ pub struct Pipelines {
     layout: wgpu::PipelineLayout,
     /// With the CG dispatch arguments as group 1, for [`ARGS_WRITERS`].
     args_layout: wgpu::PipelineLayout,
-    modules: HashMap<&'static str, wgpu::ShaderModule>,
+    modules: HashMap<(&'static str, GridBlock), wgpu::ShaderModule>,
     cache: HashMap<(String, Features), wgpu::ComputePipeline>,
 }
 
@@ -212,14 +226,17 @@ impl Pipelines {
             if self.cache.contains_key(&(name.clone(), features)) {
                 continue;
             }
-            if !self.modules.contains_key(variant.entry) {
-                let source = shaders::kernel_source(variant.entry).map_err(Error::Gpu)?;
-                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(&format!("wgcloth.{}", variant.entry)),
-                    source: wgpu::ShaderSource::Wgsl(source.into()),
-                });
-                self.modules.insert(variant.entry, module);
-            }
+            let module = match self.modules.entry((variant.entry, features.block)) {
+                Entry::Occupied(e) => e.into_mut(),
+                Entry::Vacant(e) => {
+                    let source = shaders::kernel_source(variant.entry, features.block)
+                        .map_err(Error::Gpu)?;
+                    e.insert(device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                        label: Some(&format!("wgcloth.{}", variant.entry)),
+                        source: wgpu::ShaderSource::Wgsl(source.into()),
+                    }))
+                }
+            };
             let flag = |on: bool| f64::from(u8::from(on));
             let mut constants: Vec<(&str, f64)> = vec![
                 ("WORKGROUP", f64::from(WORKGROUP)),
@@ -242,7 +259,7 @@ impl Pipelines {
                 } else {
                     &self.layout
                 }),
-                module: &self.modules[variant.entry],
+                module,
                 entry_point: Some(variant.entry),
                 compilation_options: wgpu::PipelineCompilationOptions {
                     constants: &constants,

@@ -1,6 +1,6 @@
 //! The GPU solver: buffers, pipelines and the recording of steps.
 
-use super::grid::GridLayout;
+use super::grid::{GridBlock, GridLayout};
 use super::layout::{self, section, GpuParams, GpuSphere, MAX_SPHERES};
 use super::pipelines::{fixup_variant, Features, Pipelines};
 use super::readback;
@@ -25,17 +25,21 @@ pub(super) fn widen_step(low: u32, recorded: u64) -> u64 {
     recorded - u64::from((recorded as u32).wrapping_sub(low))
 }
 
-/// The step-plan entry of a single-pass explicit step; `encode_steps`
-/// records it as `explicit_integrate.snap0` or `.snap1` (the snapshot it
-/// reads alternates), preceded by `explicit_seed` when no snapshot holds
-/// the current state.
+/// The step-plan entry of a single-pass explicit step. Such a step reads
+/// every particle's neighbours, so it cannot update the state in place:
+/// `encode_steps` alternates it between the x, v buffers and a snapshot in
+/// `work` (`explicit_integrate.to_snapshot`, `.from_snapshot`), two stores
+/// per particle and step. An odd number of steps starts with
+/// `explicit_seed` (a copy into the snapshot), so the last step always
+/// writes x and v.
 pub const SINGLE_PASS: &str = "explicit_integrate.snapshot";
 
-/// Per-particle CG kernels, dispatched indirectly (see `cg_args`): on
-/// lavapipe a dispatch whose invocations all return at once still costs
-/// about a third of a working one — the masked-off code runs — while an
-/// indirect dispatch of zero workgroups costs ~15 µs.
-const INDIRECT_CG: [&str; 2] = ["cg_apply", "cg_update"];
+/// Per-iteration CG kernels, dispatched indirectly (see `cg_args`) with
+/// the byte offset of their arguments: on lavapipe a dispatch whose
+/// invocations all return at once still costs about a third of a working
+/// one — the masked-off code runs — while an indirect dispatch of zero
+/// workgroups costs ~15 µs.
+const INDIRECT_CG: [(&str, u64); 2] = [("cg_apply", 0), ("cg_update", 12)];
 
 /// Storage buffers one kernel binds (see `shaders/common/bindings.wgsl`).
 pub(super) const STORAGE_BUFFERS: u32 = 10;
@@ -91,9 +95,8 @@ pub struct GpuSolver {
     pub(super) spring_slots: u32,
     /// The springs are in grid layout (see [`super::grid`]).
     pub(super) grid: bool,
-    /// Single-pass explicit steps: which snapshot holds the current state
-    /// (`None`: none does, so the next such step seeds one first).
-    pub(super) snapshot: Option<usize>,
+    /// Particles per invocation of the grid gather kernels.
+    pub(super) block: GridBlock,
     pub(super) triangles: u32,
     pub(super) fixup_iterations: u32,
     pub(super) cg_max_iterations: u32,
@@ -130,7 +133,8 @@ pub struct GpuSolver {
 }
 
 /// What the scene uses, for the kernel variants.
-pub(super) fn scene_features(model: &Model, params: &Params, grid: bool) -> Features {
+/// `grid`: the block shape of the grid kernels, `None` without grid layout.
+pub(super) fn scene_features(model: &Model, params: &Params, grid: Option<GridBlock>) -> Features {
     let colliders = params.ground.is_some() || !params.spheres.is_empty();
     Features {
         wind: params.wind.is_some(),
@@ -141,7 +145,8 @@ pub(super) fn scene_features(model: &Model, params: &Params, grid: bool) -> Feat
             .springs
             .iter()
             .any(|k| k.stiffness > 0.0 && k.damping > 0.0),
-        grid,
+        grid: grid.is_some(),
+        block: grid.unwrap_or(GridBlock::ONE),
     }
 }
 
@@ -261,8 +266,8 @@ impl GpuSolver {
             let (d, s) = self.recorded.get();
             self.recorded.set((d + 1, s));
             pass.set_pipeline(p);
-            if INDIRECT_CG.contains(&name) {
-                pass.dispatch_workgroups_indirect(&self.cg_args, 0);
+            if let Some(&(_, offset)) = INDIRECT_CG.iter().find(|(n, _)| *n == name) {
+                pass.dispatch_workgroups_indirect(&self.cg_args, offset);
                 return;
             }
             pass.dispatch_workgroups(items.div_ceil(WORKGROUP), 1, 1);
@@ -280,9 +285,11 @@ impl GpuSolver {
         pass.set_bind_group(1, &self.args_bind_group, &[]);
         self.recorded.set((0, n));
         let plan = self.step_plan();
-        if !plan.iter().any(|&(name, _)| name == SINGLE_PASS) {
-            // Other steps do not keep the snapshot up to date.
-            self.snapshot = None;
+        // Single-pass steps: the state is in the snapshot (else in x, v).
+        let mut in_snapshot = false;
+        if n % 2 == 1 && plan.iter().any(|&(name, _)| name == SINGLE_PASS) {
+            self.dispatch(&mut pass, "explicit_seed", self.particles);
+            in_snapshot = true;
         }
         for _ in 0..n {
             for &(name, items) in &plan {
@@ -290,20 +297,13 @@ impl GpuSolver {
                     self.dispatch(&mut pass, name, items);
                     continue;
                 }
-                let current = match self.snapshot {
-                    Some(s) => s,
-                    None => {
-                        self.dispatch(&mut pass, "explicit_seed", items);
-                        0
-                    }
-                };
-                let variant = if current == 0 {
-                    "explicit_integrate.snap0"
+                let variant = if in_snapshot {
+                    "explicit_integrate.from_snapshot"
                 } else {
-                    "explicit_integrate.snap1"
+                    "explicit_integrate.to_snapshot"
                 };
                 self.dispatch(&mut pass, variant, items);
-                self.snapshot = Some(1 - current);
+                in_snapshot = !in_snapshot;
             }
         }
         self.steps_recorded += u64::from(n);
@@ -324,6 +324,12 @@ impl GpuSolver {
     /// too, stops on the device once a pass moves nothing.
     pub fn step_plan(&self) -> Vec<(&'static str, u32)> {
         let (n, s) = (self.particles, self.spring_slots);
+        // Invocations of the kernels that gather from neighbours.
+        let gather = if self.features.grid {
+            self.params.grid[3]
+        } else {
+            n
+        };
         let mut plan = Vec::new();
         let cg = |plan: &mut Vec<(&'static str, u32)>| {
             // The per-particle kernels leave their dot-product terms in
@@ -335,7 +341,7 @@ impl GpuSolver {
             plan.push(("cg_start", one));
             for _ in 0..self.cg_budget {
                 plan.extend([
-                    ("cg_apply", n),
+                    ("cg_apply", gather),
                     ("cg_alpha", one),
                     ("cg_update", n),
                     ("cg_beta", one),
@@ -355,11 +361,11 @@ impl GpuSolver {
             // the state from the snapshot the previous step wrote (see
             // `encode_steps`).
             Integrator::Explicit if self.single_pass_explicit() => {
-                plan.push((SINGLE_PASS, n));
+                plan.push((SINGLE_PASS, gather));
                 return plan;
             }
             Integrator::Explicit if self.features.grid => {
-                plan.push(("explicit_integrate", n));
+                plan.push(("explicit_integrate", gather));
             }
             Integrator::Explicit => {
                 plan.push(("spring_forces", s));
@@ -392,7 +398,7 @@ impl GpuSolver {
             }
         }
         for k in 0..self.fixup_iterations {
-            plan.push((fixup_variant(k), n));
+            plan.push((fixup_variant(k), gather));
         }
         plan.push(("finish_step", n));
         plan
