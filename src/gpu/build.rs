@@ -322,13 +322,12 @@ impl GpuSolver {
         // stopped iteration then runs no workgroup. It lives in its own
         // group, bound only to the kernels that write it (a dispatch may
         // not read its arguments from a buffer its kernel binds).
-        let gather_groups = match &grid {
-            Some(g) => block.count(g.nx, g.ny).div_ceil(WORKGROUP),
-            None => partial_count,
-        };
+        // cg_start writes the workgroup counts at the start of every
+        // solve, before any dispatch reads them (set_cg_args in
+        // shaders/common/cg.wgsl is their one formula).
         let cg_args = init(
             "wgcloth.cg_args",
-            bytemuck::cast_slice(&[gather_groups, 1, 1, partial_count, 1, 1]),
+            bytemuck::cast_slice(&[0u32, 1, 1, 0, 1, 1]),
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
         );
         let args_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
