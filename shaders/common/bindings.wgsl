@@ -128,6 +128,11 @@ const W_PRE_DIAG: u32 = 11u;
 const W_PRE_OFF: u32 = 12u;
 // Δv of the step before the last (CG warm start: 2 Δv − Δv_prev).
 const W_DV_PREV: u32 = 13u;
+// The start-of-step positions of an implicit step on a grid with
+// colliders, from which implicit_finish computes the spring blocks of its
+// contact particles while x is being overwritten (the section of the
+// explicit integrator's predicted positions, unused by the implicit one).
+const W_X_START: u32 = W_X_PRED;
 
 // `spring_work` sections: the implicit block (m, a) with B = a I + m mᵀ;
 // K_s u; the spring force on end i.

@@ -75,6 +75,79 @@ fn sym3_inverse(a: Sym3) -> Sym3Inverse {
     );
 }
 
+// `a` unchanged, through an xor with a zero the compiler cannot see (the
+// unused fourth stiffness, which the host sets to 0). WGSL has no
+// `precise`: Mesa rewrites float expressions it can see through, so a
+// spring's block computed and used in one kernel (as the grid kernels do)
+// rounded differently from the same block loaded from memory and from the
+// CPU's. Passing it through here makes it as opaque as a load.
+fn unseen4(a: vec4<f32>) -> vec4<f32> {
+    return bitcast<vec4<f32>>(bitcast<vec4<u32>>(a) ^ vec4<u32>(bitcast<u32>(params.kind_k[3])));
+}
+
+// A spring linearised at the start of an implicit step: its CG block
+// (m, a), B = a I + m mᵀ, and K_s u, the product of its stiffness matrix
+// with u = v_i − v_j, on end i (twin: the spring loop of
+// cpu::implicit::step).
+struct Linearised {
+    blk: vec4<f32>,
+    kv: vec3<f32>,
+}
+
+fn linearise(
+    rest: f32,
+    k: f32,
+    kd: f32,
+    xi: vec3<f32>,
+    xj: vec3<f32>,
+    vi: vec3<f32>,
+    vj: vec3<f32>,
+) -> Linearised {
+    let dt = params.dt;
+    let dt2 = dt * dt;
+    let d = xi - xj;
+    let l = len3(d);
+    var dir = vec3<f32>(0.0);
+    var transverse = 0.0;
+    if (l > TINY) {
+        dir = d / l;
+        transverse = max(1.0 - rest / l, 0.0);
+    }
+    let a = dt2 * k * transverse;
+    let b = dt2 * k - a + dt * kd;
+    let m = dir * sqrt(max(b, 0.0));
+    let u = vi - vj;
+    let k_long = k * (1.0 - transverse);
+    let kv = -(u * (k * transverse) + dir * (k_long * dot3(dir, u)));
+    return Linearised(unseen4(vec4<f32>(m, a)), unseen4(vec4<f32>(kv, 0.0)).xyz);
+}
+
+// Grid spring `inc` linearised from its ends' state (end i first).
+fn grid_linearise(inc: Incident, xi: vec3<f32>, xj: vec3<f32>, vi: vec3<f32>, vj: vec3<f32>) -> Linearised {
+    return linearise(inc.rest, params.kind_k[inc.kind], params.kind_kd[inc.kind], xi, xj, vi, vj);
+}
+
+// The block (m, a) of grid spring `inc` from its ends' positions (end i
+// first): the kernels compute it where they use it rather than load it,
+// which on lavapipe costs more. None (zero) with CONSTANT_BLOCKS, whose
+// blocks come from the parameters.
+fn grid_spring_block(inc: Incident, xi: vec3<f32>, xj: vec3<f32>) -> vec4<f32> {
+    if (CONSTANT_BLOCKS) {
+        return vec4<f32>(0.0);
+    }
+    return grid_linearise(inc, xi, xj, vec3<f32>(0.0), vec3<f32>(0.0)).blk;
+}
+
+// Twin: Sym3::add_iso_aniso(a, 1, m) for the block (m, a) `blk`.
+fn sym3_add_block(s: Sym3, blk: vec4<f32>) -> Sym3 {
+    let a = blk.w;
+    let m = blk.xyz;
+    return Sym3(
+        vec3<f32>(s.d.x + (a + m.x * m.x), s.d.y + (a + m.y * m.y), s.d.z + (a + m.z * m.z)),
+        vec3<f32>(s.o.x + m.x * m.y, s.o.y + m.x * m.z, s.o.z + m.y * m.z),
+    );
+}
+
 // Twin: mat3::Sym3::mul.
 fn sym3_mul(m: Sym3, a: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(
@@ -91,30 +164,28 @@ fn precond_mul(p: u32, a: vec3<f32>) -> vec3<f32> {
 }
 
 // `acc` plus ±B_s (a_i − a_j) of grid spring `t` (a row of the grid
-// incidence table in physics.wgsl) at particle p.
+// incidence table in physics.wgsl) at particle p, whose start-of-step
+// position is `xp`.
 fn grid_apply_term(
     acc: vec3<f32>,
     sec: u32,
     p: u32,
     rc: vec2<i32>,
     own: vec3<f32>,
+    xp: vec3<f32>,
     t: vec4<i32>,
 ) -> vec3<f32> {
     let inc = grid_incident(p, rc, t);
-    return grid_apply_with(acc, inc, own, work[wi(sec, inc.other)].xyz, spring_block(inc));
-}
-
-// The block (m, a) of grid spring `inc`; none (zero) with CONSTANT_BLOCKS,
-// whose blocks come from the parameters.
-fn spring_block(inc: Incident) -> vec4<f32> {
-    if (CONSTANT_BLOCKS) {
-        return vec4<f32>(0.0);
+    var xo = vec3<f32>(0.0);
+    if (!CONSTANT_BLOCKS) {
+        xo = work[wi(W_X_START, inc.other)].xyz;
     }
-    return spring_work[si(S_BLOCK, inc.slot)];
+    let blk = grid_spring_block(inc, select(xp, xo, inc.at_j), select(xo, xp, inc.at_j));
+    return grid_apply_with(acc, inc, own, work[wi(sec, inc.other)].xyz, blk);
 }
 
 // `acc` plus ±B_s (a_i − a_j) of grid spring `inc`, whose block is `blk`
-// (see spring_block), at a particle whose vector value is `own`, its
+// (see grid_spring_block), at a particle whose vector value is `own`, its
 // neighbour's `other`.
 fn grid_apply_with(
     acc: vec3<f32>,
@@ -144,20 +215,27 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
     let own = work[wi(sec, p)].xyz;
     var acc = own * v[p].w;
     if (GRID) {
-        // The same terms in the same order; two loads per spring.
+        // The same terms in the same order. The grid kernels that run
+        // during CG gather by block (generated/grid_block.wgsl); this path
+        // serves implicit_finish, which overwrites the positions as it
+        // goes: the blocks come from the start-of-step copy.
         let rc = grid_row_col(p);
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(-1, 0, 1, 1));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(0, -1, 0, 1));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(0, 1, 0, 0));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(1, 0, 1, 0));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(-1, -1, 2, 1));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(-1, 1, 3, 1));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(1, -1, 3, 0));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(1, 1, 2, 0));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(-2, 0, 5, 1));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(0, -2, 4, 1));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(0, 2, 4, 0));
-        acc = grid_apply_term(acc, sec, p, rc, own, vec4<i32>(2, 0, 5, 0));
+        var xp = vec3<f32>(0.0);
+        if (!CONSTANT_BLOCKS) {
+            xp = work[wi(W_X_START, p)].xyz;
+        }
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(-1, 0, 1, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(0, -1, 0, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(0, 1, 0, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(1, 0, 1, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(-1, -1, 2, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(-1, 1, 3, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(1, -1, 3, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(1, 1, 2, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(-2, 0, 5, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(0, -2, 4, 1));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(0, 2, 4, 0));
+        acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(2, 0, 5, 0));
         return acc;
     }
     let begin = topo[p];
@@ -226,10 +304,12 @@ fn sum_partials(slot: u32) -> f32 {
 
 // Σ_p work[wi(sec, p)].w in block_sum's order, by one workgroup:
 // invocation l adds up blocks l, l + WORKGROUP, … into partials[slot],
-// then every invocation adds the block sums in sequence. The per-particle
-// kernels leave their dot-product terms in the w of a vector they write
-// anyway, so they need no workgroup barrier. Call from uniform control
-// flow.
+// then invocation 0 adds the block sums in sequence and returns the total
+// (the others return 0: they have nothing left to do, and on lavapipe a
+// load costs the same whether or not the address is the same for every
+// invocation). The per-particle kernels leave their dot-product terms in
+// the w of a vector they write anyway, so they need no workgroup barrier.
+// Call from uniform control flow.
 fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
     for (var b = lid; b < params.partial_count; b += WORKGROUP) {
         let start = b * WORKGROUP;
@@ -241,6 +321,9 @@ fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
         partials[slot * params.partial_count + b] = block;
     }
     storageBarrier();
+    if (lid != 0u) {
+        return 0.0;
+    }
     return sum_partials(slot);
 }
 

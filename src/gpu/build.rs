@@ -93,6 +93,7 @@ impl GpuSolver {
         }
         let kind = |f: fn(&crate::params::SpringParams) -> f64| {
             let k = params.springs.map(|m| f(&m) as f32);
+            // The fourth stays 0: kind_k's is the kernels' opaque zero.
             [k[0], k[1], k[2], 0.0]
         };
         let (grid_words, rest, max_len) = match &grid {

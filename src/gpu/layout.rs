@@ -78,7 +78,8 @@ pub struct GpuParams {
     pub grid_max_a: [f32; 4],
     /// Fix-up length limit of grid directions 4–5 \[m\] (two unused).
     pub grid_max_b: [f32; 4],
-    /// Stiffness of each spring kind [N/m] (one unused).
+    /// Stiffness of each spring kind [N/m]; the fourth is 0, the kernels'
+    /// opaque zero (`unseen4` in `shaders/common/cg.wgsl`).
     pub kind_k: [f32; 4],
     /// Damping of each spring kind [N·s/m] (one unused).
     pub kind_kd: [f32; 4],

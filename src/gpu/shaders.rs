@@ -30,6 +30,7 @@ const COMMON: &[(&str, &str)] = &[
     wgsl!("common/bindings"),
     wgsl!("common/physics"),
     wgsl!("common/cg"),
+    wgsl!("common/apply_block"),
     wgsl!("common/torque"),
 ];
 

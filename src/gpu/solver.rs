@@ -313,8 +313,9 @@ impl GpuSolver {
     ///
     /// Only what the scene uses is recorded: no fix-up passes without a
     /// constrained spring kind or with zero iterations; no torque passes for
-    /// a pinned cloth; no per-spring force pass on a grid (see
-    /// [`super::grid`]); without fix-up an explicit step on a grid is one
+    /// a pinned cloth; no per-spring pass on a grid (see [`super::grid`]:
+    /// the kernels compute each spring's force, or its implicit
+    /// linearisation, where they gather it); without fix-up an explicit step on a grid is one
     /// pass ([`SINGLE_PASS`]; the general kernels fuse integration and step
     /// end after their spring pass when there is no wind either); wind, ground, spheres, pins and
     /// damping are compiled out of the kernels when absent (see
@@ -337,7 +338,7 @@ impl GpuSolver {
             // each summed once, by a one-workgroup kernel — no workgroup
             // barrier in any per-particle pass.
             let one = WORKGROUP;
-            plan.push(("cg_init", n));
+            plan.push(("cg_init", gather));
             plan.push(("cg_start", one));
             for _ in 0..self.cg_budget {
                 plan.extend([
@@ -350,8 +351,12 @@ impl GpuSolver {
         };
         match self.integrator {
             Integrator::Implicit => {
-                plan.push(("implicit_springs", s));
-                plan.push(("implicit_prepare", n));
+                // On a grid the gathering kernels linearise the springs
+                // they use: no spring pass.
+                if !self.features.grid {
+                    plan.push(("implicit_springs", s));
+                }
+                plan.push(("implicit_prepare", gather));
                 cg(&mut plan);
                 plan.push(("implicit_finish", n));
                 return plan;
