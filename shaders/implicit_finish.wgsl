@@ -17,7 +17,9 @@ fn implicit_finish(@builtin(global_invocation_id) gid: vec3<u32>) {
     let x0 = x[p];
     let v0 = v[p];
     var vp = v0.xyz + work[wi(W_DV, p)].xyz;
-    if (work[wi(W_Z, p)].w == FILTER_PLANE) {
+    // Only colliders make plane filters: without them the contact code
+    // is compiled out (lavapipe runs a branch no lane takes).
+    if ((HAS_GROUND || HAS_SPHERES) && work[wi(W_Z, p)].w == FILTER_PLANE) {
         let filt = work[wi(W_FILTER, p)];
         let normal = filt.xyz;
         let impulse = dot3(apply_a(W_DV, p) - work[wi(W_RHS, p)].xyz, normal);

@@ -19,11 +19,22 @@ impl GpuContext {
     /// (case-insensitive) if given, else the one named by the
     /// `WGPU_ADAPTER_NAME` environment variable, else the default
     /// high-performance adapter. Backends come from `WGPU_BACKEND` (default:
-    /// Vulkan, Metal, DX12). The device gets the adapter's own limits.
+    /// Vulkan, Metal, DX12). The device gets the adapter's own limits. The
+    /// instance skips wgpu's validation of indirect dispatches (see the
+    /// comment inside; a host that embeds the solver may do the same).
     pub fn new(name: Option<&str>) -> Result<GpuContext> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
-        desc.flags = wgpu::InstanceFlags::from_build_config().with_env();
+        // wgpu validates each indirect dispatch with a compute pass of its
+        // own (on by default, release builds too). The solver's only
+        // indirect dispatches are its CG kernels', whose arguments its own
+        // kernels write: zero or a workgroup count checked against the
+        // device's limits when the solver is built. On lavapipe the extra
+        // passes cost 5–10 % of a 128² implicit step, so this context turns
+        // the check off; `WGPU_VALIDATION_INDIRECT_CALL=1` turns it on.
+        desc.flags = wgpu::InstanceFlags::from_build_config()
+            .difference(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL)
+            .with_env();
         let instance = wgpu::Instance::new(desc);
         let wanted = name
             .map(str::to_owned)
