@@ -9,7 +9,9 @@ fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
     if (kind == FILTER_FIXED) {
         return vec3<f32>(0.0);
     }
-    if (kind == FILTER_PLANE) {
+    // Only colliders make plane filters (lavapipe runs a branch no lane
+    // takes, so it is compiled out without them).
+    if ((HAS_GROUND || HAS_SPHERES) && kind == FILTER_PLANE) {
         return a - n * dot3(a, n);
     }
     return a;
