@@ -48,10 +48,7 @@ struct BlockData {
     v: vec4<f32>,
 }
 
-struct SpringData {
-    f: vec3<f32>,
-    lin: Linearised,
-}
+alias SpringData = Linearised;
 
 struct BlockAcc {
     f: vec3<f32>,
@@ -68,24 +65,15 @@ fn block_start(p: u32, own: BlockData) -> BlockAcc {
 }
 
 fn spring_load(inc: Incident, first: BlockData, second: BlockData) -> SpringData {
-    let f = spring_force_of(
-        inc.rest,
-        params.kind_k[inc.kind],
-        params.kind_kd[inc.kind],
-        first.x.xyz,
-        second.x.xyz,
-        first.v.xyz,
-        second.v.xyz,
-    );
-    return SpringData(f, grid_linearise(inc, first.x.xyz, second.x.xyz, first.v.xyz, second.v.xyz));
+    return grid_linearise(inc, first.x.xyz, second.x.xyz, first.v.xyz, second.v.xyz);
 }
 
 fn block_term(acc: BlockAcc, own: BlockData, other: BlockData, inc: Incident, sd: SpringData) -> BlockAcc {
     var pre = acc.pre;
     if (inc.ok) {
-        pre = sym3_add_block(pre, sd.lin.blk);
+        pre = sym3_add_block(pre, sd.blk);
     }
-    return BlockAcc(acc.f + grid_term(sd.f, inc), acc.kv + grid_term(sd.lin.kv, inc), pre);
+    return BlockAcc(acc.f + grid_term(sd.f, inc), acc.kv + grid_term(sd.kv, inc), pre);
 }
 
 fn block_end(p: u32, own: BlockData, acc: BlockAcc) {

@@ -88,12 +88,13 @@ fn unseen4(a: vec4<f32>) -> vec4<f32> {
 }
 
 // A spring linearised at the start of an implicit step: its CG block
-// (m, a), B = a I + m mᵀ, and K_s u, the product of its stiffness matrix
-// with u = v_i − v_j, on end i (twin: the spring loop of
-// cpu::implicit::step).
+// (m, a), B = a I + m mᵀ, K_s u, the product of its stiffness matrix with
+// u = v_i − v_j, on end i, and its force on end i (twin: the spring loop
+// of cpu::implicit::step).
 struct Linearised {
     blk: vec4<f32>,
     kv: vec3<f32>,
+    f: vec3<f32>,
 }
 
 fn linearise(
@@ -121,7 +122,11 @@ fn linearise(
     let u = vi - vj;
     let k_long = k * (1.0 - transverse);
     let kv = -(u * (k * transverse) + dir * (k_long * dot3(dir, u)));
-    return Linearised(unseen4(vec4<f32>(m, a)), unseen4(vec4<f32>(kv, 0.0)).xyz);
+    return Linearised(
+        unseen4(vec4<f32>(m, a)),
+        unseen4(vec4<f32>(kv, 0.0)).xyz,
+        spring_force_of(rest, k, kd, xi, xj, vi, vj),
+    );
 }
 
 // Grid spring `inc` linearised from its ends' state (end i first).
