@@ -2,6 +2,7 @@
 // v* = 0). Twin: cpu::explicit::step up to the fix-up.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
+#include "common/no_spring_data.wgsl"
 #include "generated/grid_block.wgsl"
 
 // Without fix-up, end the step here (twin: finish_step): collide and store.
@@ -54,13 +55,6 @@ fn block_load(i: u32) -> BlockData {
 
 fn block_start(p: u32, own: BlockData) -> vec3<f32> {
     return vec3<f32>(0.0);
-}
-
-// Nothing per spring: the force is computed where it is summed.
-alias SpringData = u32;
-
-fn spring_load(inc: Incident, first: BlockData, second: BlockData) -> u32 {
-    return 0u;
 }
 
 fn block_term(sum: vec3<f32>, own: BlockData, other: BlockData, inc: Incident, sd: u32) -> vec3<f32> {

@@ -4,6 +4,7 @@
 // cpu::fixup::jacobi (one pass).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
+#include "common/no_spring_data.wgsl"
 #include "generated/grid_block.wgsl"
 
 override SRC: u32 = 0u;
@@ -47,13 +48,6 @@ fn block_load(i: u32) -> BlockData {
 
 fn block_start(p: u32, own: BlockData) -> vec4<f32> {
     return vec4<f32>(0.0);
-}
-
-// Nothing per spring: the correction is computed where it is summed.
-alias SpringData = u32;
-
-fn spring_load(inc: Incident, first: BlockData, second: BlockData) -> u32 {
-    return 0u;
 }
 
 // `acc` plus spring `inc`'s correction, if it is over its limit: the

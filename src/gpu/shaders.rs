@@ -31,6 +31,7 @@ const COMMON: &[(&str, &str)] = &[
     wgsl!("common/physics"),
     wgsl!("common/cg"),
     wgsl!("common/apply_block"),
+    wgsl!("common/no_spring_data"),
     wgsl!("common/torque"),
 ];
 
