@@ -233,8 +233,10 @@ fn skipping_table(ctx: &GpuContext) {
 /// The yardstick: a 128 × 128 cloth with stretch, shear and bend
 /// springs and two pinned corners; explicit without fix-up (target ≤ 0.75
 /// ms per step on lavapipe on the 2-core machine) and implicit at CG
-/// tolerance 1e-3 (target ≤ 18 ms). Shared machines are noisy: the
-/// minimum of many batches is printed beside the median.
+/// tolerance 1e-3 (target ≤ 18 ms), with the coarse levels (the default)
+/// and with block Jacobi alone, each from the same start. Shared machines
+/// are noisy: the minimum of many batches is printed beside the median,
+/// and the mean CG iterations of the batches' last steps beside them.
 fn yardstick(ctx: &GpuContext) {
     let n = 128;
     println!(
@@ -242,27 +244,45 @@ fn yardstick(ctx: &GpuContext) {
         ctx.describe()
     );
     println!(
-        "{:>14} {:>8} {:>8} {:>8} {:>11} {:>8}",
-        "integrator", "min", "median", "target", "dispatches", "springs"
+        "{:>22} {:>8} {:>8} {:>8} {:>11} {:>8} {:>8}",
+        "integrator", "min", "median", "target", "dispatches", "springs", "CG its"
     );
-    for (integrator, target) in [(Integrator::Explicit, 0.75), (Integrator::Implicit, 18.0)] {
-        let (model, params) = scene(integrator, n);
+    let rows = [
+        ("explicit", Integrator::Explicit, true, 0.75),
+        ("implicit", Integrator::Implicit, true, 18.0),
+        ("implicit, block Jacobi", Integrator::Implicit, false, 18.0),
+    ];
+    for (name, integrator, coarse_levels, target) in rows {
+        let (model, mut params) = scene(integrator, n);
+        params.implicit.coarse_levels = coarse_levels;
         let mut g = gpu_solver(ctx, &model, &params);
         let batch = if integrator == Integrator::Explicit {
             20
         } else {
             2
         };
-        let mut times: Vec<f64> = (0..15).map(|_| gpu_median(&mut g, batch, 1)).collect();
+        let mut its = 0u32;
+        let mut times: Vec<f64> = (0..15)
+            .map(|_| {
+                let t = Instant::now();
+                let status = match g.step(batch) {
+                    Ok(s) => s,
+                    Err(e) => panic!("GPU step: {e}"),
+                };
+                its += status.cg_iterations;
+                t.elapsed().as_secs_f64() / f64::from(batch)
+            })
+            .collect();
         times.sort_by(f64::total_cmp);
         println!(
-            "{:>14} {:>8.3} {:>8.3} {:>8.2} {:>11.0} {:>8}",
-            integrator.as_str(),
+            "{:>22} {:>8.3} {:>8.3} {:>8.2} {:>11.0} {:>8} {:>8.1}",
+            name,
             times[0] * 1e3,
             times[times.len() / 2] * 1e3,
             target,
             g.dispatches_per_step(),
-            model.springs.len()
+            model.springs.len(),
+            f64::from(its) / 15.0
         );
     }
 }

@@ -1,10 +1,12 @@
 // Implicit step, per particle: forces, constraint filter and z, right-hand
 // side, block-diagonal preconditioner, warm-started Δv, and the partial
-// term of δ0 = (Sb)ᵀP(Sb) in the w of W_RHS. Twin: the particle loop of
-// cpu::implicit::step.
+// term of δ0 = (Sb)ᵀP(Sb) in the w of W_RHS; with coarse levels, the
+// particle's contributions to its aggregates' D. Twin: the particle loop
+// of cpu::implicit::step.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
+#include "common/coarse.wgsl"
 #include "generated/grid_block.wgsl"
 
 // Twin: cpu::collide::CONTACT_SLOP.
@@ -28,16 +30,52 @@ fn implicit_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
     let v0 = v[p];
     var kv = vec3<f32>(0.0);
     var pre = Sym3(vec3<f32>(v0.w), vec3<f32>(0.0));
+    var levels = levels_start(p, v0.w);
     let begin = topo[p];
     let end = topo[p + 1u];
+    let others = spring_adj_others();
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
         let s = e >> 1u;
         let kvs = spring_work[si(S_KV, s)].xyz;
         kv += select(kvs, -kvs, (e & 1u) != 0u);
-        pre = sym3_add_block(pre, spring_work[si(S_BLOCK, s)]);
+        let blk = spring_work[si(S_BLOCK, s)];
+        pre = sym3_add_block(pre, blk);
+        levels = levels_add(levels, topo[others + k], blk);
     }
-    prepare_particle(p, x0, v0, total_force(p, x0, v0, STATE_BUFFERS), kv, pre);
+    prepare_particle(p, x0, v0, total_force(p, x0, v0, STATE_BUFFERS), kv, pre, levels);
+}
+
+// A particle's contributions to its aggregates' D at both levels (twin:
+// `levels` in cpu::implicit::step): its mass times I plus the blocks of
+// its springs whose other end lies in another aggregate of that level.
+struct Levels {
+    own: vec2<u32>,
+    d1: Sym3,
+    d2: Sym3,
+}
+
+fn levels_start(p: u32, m: f32) -> Levels {
+    let diag = Sym3(vec3<f32>(m), vec3<f32>(0.0));
+    if (!COARSE) {
+        return Levels(vec2<u32>(0u), diag, diag);
+    }
+    return Levels(vec2<u32>(coarse_of(LEVEL1_SIDE, p), coarse_of(LEVEL2_SIDE, p)), diag, diag);
+}
+
+// `l` plus the block `blk` of a spring whose other end is `other`.
+fn levels_add(l: Levels, other: u32, blk: vec4<f32>) -> Levels {
+    if (!COARSE) {
+        return l;
+    }
+    var out = l;
+    if (coarse_of(LEVEL1_SIDE, other) != l.own.x) {
+        out.d1 = sym3_add_block(out.d1, blk);
+    }
+    if (coarse_of(LEVEL2_SIDE, other) != l.own.y) {
+        out.d2 = sym3_add_block(out.d2, blk);
+    }
+    return out;
 }
 
 // The grid gather (generated/grid_block.wgsl): each particle's state; each
@@ -54,6 +92,7 @@ struct BlockAcc {
     f: vec3<f32>,
     kv: vec3<f32>,
     pre: Sym3,
+    levels: Levels,
 }
 
 fn block_load(i: u32) -> BlockData {
@@ -61,7 +100,12 @@ fn block_load(i: u32) -> BlockData {
 }
 
 fn block_start(p: u32, own: BlockData) -> BlockAcc {
-    return BlockAcc(vec3<f32>(0.0), vec3<f32>(0.0), Sym3(vec3<f32>(own.v.w), vec3<f32>(0.0)));
+    return BlockAcc(
+        vec3<f32>(0.0),
+        vec3<f32>(0.0),
+        Sym3(vec3<f32>(own.v.w), vec3<f32>(0.0)),
+        levels_start(p, own.v.w),
+    );
 }
 
 fn spring_load(inc: Incident, first: BlockData, second: BlockData) -> SpringData {
@@ -70,21 +114,31 @@ fn spring_load(inc: Incident, first: BlockData, second: BlockData) -> SpringData
 
 fn block_term(acc: BlockAcc, own: BlockData, other: BlockData, inc: Incident, sd: SpringData) -> BlockAcc {
     var pre = acc.pre;
+    var levels = acc.levels;
     if (inc.ok) {
         pre = sym3_add_block(pre, sd.blk);
+        levels = levels_add(levels, inc.other, sd.blk);
     }
-    return BlockAcc(acc.f + grid_term(sd.f, inc), acc.kv + grid_term(sd.kv, inc), pre);
+    return BlockAcc(acc.f + grid_term(sd.f, inc), acc.kv + grid_term(sd.kv, inc), pre, levels);
 }
 
 fn block_end(p: u32, own: BlockData, acc: BlockAcc) {
     let f = force_with_springs(p, acc.f, own.v.w, STATE_BUFFERS);
-    prepare_particle(p, own.x, own.v, f, acc.kv, acc.pre);
+    prepare_particle(p, own.x, own.v, f, acc.kv, acc.pre, acc.levels);
 }
 
 // The rest of particle p's set-up from its state `x0`, `v0`, the total
-// force `f` on it [N], the sum `kv` of its springs' K v and the matrix
-// `pre` = m I plus its springs' blocks.
-fn prepare_particle(p: u32, x0: vec4<f32>, v0: vec4<f32>, f: vec3<f32>, kv: vec3<f32>, pre_in: Sym3) {
+// force `f` on it [N], the sum `kv` of its springs' K v, the matrix
+// `pre` = m I plus its springs' blocks, and its coarse contributions.
+fn prepare_particle(
+    p: u32,
+    x0: vec4<f32>,
+    v0: vec4<f32>,
+    f: vec3<f32>,
+    kv: vec3<f32>,
+    pre_in: Sym3,
+    levels: Levels,
+) {
     let m = v0.w;
     let vp = v0.xyz;
     var kind = FILTER_FREE;
@@ -117,6 +171,12 @@ fn prepare_particle(p: u32, x0: vec4<f32>, v0: vec4<f32>, f: vec3<f32>, kv: vec3
     work[wi(W_FILTER, p)] = vec4<f32>(normal, friction);
     work[wi(W_PRE_DIAG, p)] = vec4<f32>(pre.d, 0.0);
     work[wi(W_PRE_OFF, p)] = vec4<f32>(pre.o, 0.0);
+    if (COARSE) {
+        work[wi(W_LEVEL1_D, p)] = vec4<f32>(levels.d1.d, 0.0);
+        work[wi(W_LEVEL1_O, p)] = vec4<f32>(levels.d1.o, 0.0);
+        work[wi(W_LEVEL2_D, p)] = vec4<f32>(levels.d2.d, 0.0);
+        work[wi(W_LEVEL2_O, p)] = vec4<f32>(levels.d2.o, 0.0);
+    }
     let dv = filter_apply(kind, normal, warm_start(p)) + z;
     work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
     let sb = filter_apply(kind, normal, rhs);

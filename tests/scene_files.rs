@@ -119,6 +119,7 @@ omega = 1.5
 [implicit]
 tolerance = 1e-6
 max_iterations = 500
+coarse_levels = false
 
 [semi_implicit]
 filter = "banded"
@@ -193,6 +194,7 @@ fn a_file_with_every_key_gives_exactly_those_values() {
         implicit: ImplicitParams {
             tolerance: 1e-6,
             max_iterations: 500,
+            coarse_levels: false,
         },
         semi_implicit: SemiImplicitParams {
             filter: FilterMethod::Banded,

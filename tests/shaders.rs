@@ -129,6 +129,7 @@ fn pod_twins_match_their_wgsl_structs() {
             kind_k,
             kind_kd,
             kind_a,
+            coarse,
             spheres
         }),
         std::mem::size_of::<GpuParams>(),

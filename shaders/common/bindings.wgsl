@@ -21,6 +21,9 @@ override GRID: bool = false;
 // a I with a = dt² k of its kind (params.kind_a), so the grid kernels need
 // not load it.
 override CONSTANT_BLOCKS: bool = false;
+// The implicit CG adds the coarse levels (common/coarse.wgsl) to its
+// preconditioner.
+override COARSE: bool = false;
 
 const MAX_SPHERES: u32 = 16u;
 
@@ -71,6 +74,9 @@ struct Params {
     kind_kd: vec4<f32>,
     // Semi-implicit CG: the constant block a = dt² k of each spring kind.
     kind_a: vec4<f32>,
+    // The implicit CG's coarse levels (common/coarse.wgsl): columns, rows,
+    // level-1 aggregates, level-2 aggregates.
+    coarse: vec4<u32>,
     spheres: array<Sphere, 16>,
 }
 
@@ -133,6 +139,19 @@ const W_DV_PREV: u32 = 13u;
 // contact particles while x is being overwritten (the section of the
 // explicit integrator's predicted positions, unused by the implicit one).
 const W_X_START: u32 = W_X_PRED;
+// The coarse levels (common/coarse.wgsl), indexed by aggregate: D⁻¹'s
+// diagonal and off-diagonal, and the correction z = D⁻¹ Πᵀr (w: the
+// coarse terms of δ, level-2 aggregates only).
+const W_COARSE_INV_D: u32 = 14u;
+const W_COARSE_INV_O: u32 = 15u;
+const W_COARSE_Z: u32 = 16u;
+// Each particle's contribution to its aggregates' D at levels 1 and 2
+// (diagonal, off-diagonal), from implicit_prepare to coarse_setup: in CG
+// sections that cg_init writes afterwards.
+const W_LEVEL1_D: u32 = W_R;
+const W_LEVEL1_O: u32 = W_C;
+const W_LEVEL2_D: u32 = W_Q;
+const W_LEVEL2_O: u32 = W_S;
 
 // `spring_work` sections: the implicit block (m, a) with B = a I + m mᵀ;
 // K_s u; the spring force on end i.

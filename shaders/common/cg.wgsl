@@ -334,7 +334,9 @@ fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
     return sum_partials(slot);
 }
 
-// CG scalars, after the partials: δ0, δ (current r·P r), α, β.
+// CG scalars, after the partials: δ0, δ (current rᵀM⁻¹r: with the coarse
+// levels more than ρ = rᵀP⁻¹r with the block-Jacobi P alone, which decides
+// convergence and is summed where it is tested), α, β.
 const C_DELTA0: u32 = 0u;
 const C_DELTA: u32 = 1u;
 const C_ALPHA: u32 = 2u;

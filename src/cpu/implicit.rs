@@ -12,15 +12,18 @@
 //! - `b = dt² k − a + dt kd ≥ 0` — the longitudinal stiffness plus damping.
 //!
 //! With `m = √b n`, `B = a I + m mᵀ`: `A p = M p + Σ ±B_s (p_i − p_j)` is
-//! evaluated from four numbers per spring, never as an assembled matrix. The preconditioner is the inverse
-//! of `A`'s 3×3 diagonal blocks. The filter `S_p` is `0` for a pinned
+//! evaluated from four numbers per spring, never as an assembled matrix. The preconditioner `P⁻¹` is the inverse
+//! of `A`'s 3×3 diagonal blocks; on a grid cloth the coarse levels of
+//! [`super::coarse`] add aggregate corrections to it (`M⁻¹`). The filter `S_p` is `0` for a pinned
 //! particle and `I − n nᵀ` for one resting on a collider (the constrained
 //! component of `Δv` is prescribed by `z_p`, which cancels an inward normal
 //! velocity); CG applies it to the residual and search direction so
 //! constrained directions never move.
 //!
 //! Convergence: stop when `rᵀP⁻¹r ≤ tol² · (Sb)ᵀP⁻¹(Sb)`, i.e. the
-//! preconditioned residual norm relative to the filtered right-hand side.
+//! block-Jacobi preconditioned residual norm relative to the filtered
+//! right-hand side — with or without coarse levels, so they change how
+//! fast CG gets there, not where "there" is.
 //! CG starts from the last two steps' `Δv` extrapolated, `2 Δv₁ − Δv₂`
 //! (filtered) — a warm start that cuts iterations for smooth motion
 //! without changing the answer beyond the tolerance.
@@ -169,6 +172,15 @@ fn dot<R: Real>(a: &[Vec3<R>], b: &[Vec3<R>]) -> R {
     block_sum(a.len(), |p| a[p].dot(b[p]))
 }
 
+/// δ = rᵀM⁻¹r from ρ = rᵀP⁻¹r: with coarse levels, adds their corrections
+/// to `w.s` (= S P r on entry) and their terms to ρ; without, ρ.
+fn coarse_correct<R: Real>(w: &mut Workspace<R>, rho: R) -> R {
+    match &mut w.coarse {
+        Some(coarse) => rho + coarse.correct(&w.r, &w.filter, &mut w.s),
+        None => rho,
+    }
+}
+
 /// One implicit step.
 pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -> StepStats {
     let n = st.x.len();
@@ -225,15 +237,31 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         let kv = gather_signed(&sys.spring_adj, &w.per_spring, p);
         w.rhs[p] = (w.force[p] + kv * dt) * dt;
         let mut diag = Sym3::scaled_identity(sys.mass[p]);
+        let mut levels = [diag; 2];
         for &e in sys.spring_adj.of(p) {
             let blk = &w.blocks[(e >> 1) as usize];
             diag.add_iso_aniso(blk.a, R::ONE, blk.m);
+            if let Some(coarse) = &w.coarse {
+                let other = blk.ends[(e & 1 == 0) as usize] as usize;
+                for (level, d) in levels.iter_mut().enumerate() {
+                    if coarse.agg.of(level, other) != coarse.agg.of(level, p) {
+                        d.add_iso_aniso(blk.a, R::ONE, blk.m);
+                    }
+                }
+            }
+        }
+        if let Some(coarse) = &mut w.coarse {
+            coarse.contrib[p] = levels;
         }
         // A's diagonal block is m I plus positive semi-definite terms, so it
         // is invertible; the fallback only guards a pathological input.
         w.precond[p] = diag
             .inverse()
             .unwrap_or(Sym3::scaled_identity(R::ONE / sys.mass[p]));
+    }
+
+    if let Some(coarse) = &mut w.coarse {
+        coarse.set_up();
     }
 
     // MPCG, warm-started from the last two steps' Δv extrapolated
@@ -257,7 +285,11 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         w.c[p] = Vec3::ZERO;
         w.q[p] = Vec3::ZERO;
     }
-    let mut delta = dot(&w.r, &w.s);
+    // ρ = rᵀP⁻¹r with the block-Jacobi P alone decides convergence (the
+    // coarse levels change the iterates, not what "converged" means); δ =
+    // rᵀM⁻¹r with the coarse terms drives CG.
+    let mut rho = dot(&w.r, &w.s);
+    let mut delta = coarse_correct(w, rho);
     let mut beta = R::ZERO;
     let tol2 = R::from_f64(sys.cg_tolerance * sys.cg_tolerance);
     let mut iterations = 0;
@@ -267,7 +299,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
     // plus the old product. On the GPU this saves the direction pass (its
     // neighbours' c would otherwise have to be complete before the
     // product). The same iterates in exact arithmetic.
-    while delta > tol2 * delta0 && iterations < sys.cg_max_iterations {
+    while rho > tol2 * delta0 && iterations < sys.cg_max_iterations {
         apply_a(sys, &w.blocks, &w.filter, &w.s, &mut w.t);
         for p in 0..n {
             w.c[p] = w.s[p] + w.c[p] * beta;
@@ -289,12 +321,13 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
             w.t[p] = s;
             w.s[p] = w.filter[p].apply(s);
         }
-        delta = dot(&w.r, &w.t);
+        rho = dot(&w.r, &w.t);
+        delta = coarse_correct(w, rho);
         beta = delta / delta_old;
         iterations += 1;
     }
     let residual = if delta0 > R::ZERO {
-        (delta / delta0).to_f64().max(0.0).sqrt()
+        (rho / delta0).to_f64().max(0.0).sqrt()
     } else {
         0.0
     };

@@ -11,6 +11,7 @@
 //! # Ok(()) }
 //! ```
 
+pub mod coarse;
 pub mod collide;
 pub mod explicit;
 pub mod filter;
@@ -26,6 +27,7 @@ use crate::error::{Error, Result};
 use crate::model::{Adjacency, Model};
 use crate::params::{FilterMethod, FixupMethod, Integrator, Params};
 use crate::real::{Real, Vec3};
+use coarse::{Aggregation, Coarse};
 use filter::{BandedFilter, ConstantFilter, DenseFilter, FilterSystem};
 use implicit::{Filter, SpringBlock};
 use mat3::Sym3;
@@ -294,6 +296,9 @@ pub struct Workspace<R> {
     pub constant_filter: Option<ConstantFilter<R>>,
     /// Scratch for the constant filter.
     pub scratch: Vec<Vec3<R>>,
+    /// The implicit CG's coarse levels (a grid cloth with
+    /// [`crate::params::ImplicitParams::coarse_levels`]).
+    pub coarse: Option<Coarse<R>>,
 }
 
 impl<R: Real> Workspace<R> {
@@ -332,6 +337,7 @@ impl<R: Real> Workspace<R> {
             blocks: vec![SpringBlock::default(); springs],
             constant_filter: None,
             scratch: Vec::new(),
+            coarse: None,
         }
     }
 }
@@ -408,7 +414,8 @@ impl<R: Real> CpuSolver<R> {
                 .collect(),
             v: vec![Vec3::ZERO; n],
         };
-        let work = Workspace::new(n, model.springs.len(), model.triangles.len());
+        let mut work = Workspace::new(n, model.springs.len(), model.triangles.len());
+        work.coarse = Aggregation::for_scene(model, params).map(Coarse::new);
         let mut solver = CpuSolver {
             integrator: params.integrator,
             filter_method: params.semi_implicit.filter,

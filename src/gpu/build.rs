@@ -8,6 +8,7 @@ use super::layout::{self, section, GpuParams, GpuSpring};
 use super::pipelines::Pipelines;
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 use super::solver::{gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND, WORKGROUP};
+use crate::cpu::coarse::Aggregation;
 use crate::error::Result;
 use crate::model::Model;
 use crate::params::Params;
@@ -144,6 +145,9 @@ impl GpuSolver {
             } else {
                 [0.0; 4]
             },
+            coarse: Aggregation::for_scene(model, params).map_or([0; 4], |a| {
+                [a.nx, a.ny, a.count(0), a.count(1)].map(|c| c as u32)
+            }),
             spheres,
         };
 

@@ -172,6 +172,10 @@ impl GpuSolver {
                 damping: true,
                 grid: false,
                 block: GridBlock::ONE,
+                // The coarse levels change the iterates (the CPU mirror
+                // follows the scene's choice), not which code is compiled
+                // in.
+                coarse: self.features.coarse,
             }
         };
         self.pipelines

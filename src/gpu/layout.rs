@@ -86,10 +86,13 @@ pub struct GpuParams {
     /// Semi-implicit CG: the constant block `a = dt² k` of each spring
     /// kind \[kg\] (zero otherwise; one unused).
     pub kind_a: [f32; 4],
+    /// The implicit CG's coarse levels ([`crate::cpu::coarse`]): columns,
+    /// rows, level-1 and level-2 aggregates; zero without them.
+    pub coarse: [u32; 4],
     /// Sphere colliders; the first `sphere_count` are used.
     pub spheres: [GpuSphere; MAX_SPHERES],
 }
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 224 + 32 * MAX_SPHERES);
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 240 + 32 * MAX_SPHERES);
 
 /// Twin of WGSL `Spring`.
 #[repr(C)]
@@ -126,8 +129,8 @@ pub mod section {
     /// with the x and v buffers: the CG sections R and C, which the
     /// explicit integrator does not use.
     pub const SNAPSHOT: u32 = 4;
-    /// Number of sections.
-    pub const COUNT: u32 = 14;
+    /// Number of sections (the last three: the coarse levels' aggregates).
+    pub const COUNT: u32 = 17;
 }
 
 /// Sections of the per-spring buffer.

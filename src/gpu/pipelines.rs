@@ -37,6 +37,8 @@ pub struct Features {
     /// Particles per invocation of the grid gather kernels
     /// ([`GridBlock::ONE`] without grid layout).
     pub block: GridBlock,
+    /// The implicit CG's coarse levels ([`crate::cpu::coarse`]).
+    pub coarse: bool,
 }
 
 /// One kernel variant: entry point, name suffix, extra constants.
@@ -164,6 +166,8 @@ const EXPLICIT: &[Variant] = &[
 const IMPLICIT: &[Variant] = &[
     v("implicit_springs", "", &[]),
     v("implicit_prepare", "", &[]),
+    v("coarse_setup", "", &[]),
+    v("cg_prolong", "", &[]),
     v("implicit_finish", "", &[]),
 ];
 
@@ -250,6 +254,7 @@ impl Pipelines {
                     "CONSTANT_BLOCKS",
                     flag(integrator == Integrator::SemiImplicit),
                 ),
+                ("COARSE", flag(features.coarse)),
             ];
             constants.extend_from_slice(variant.constants);
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

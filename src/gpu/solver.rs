@@ -5,6 +5,7 @@ use super::layout::{self, section, GpuParams, GpuSphere, MAX_SPHERES};
 use super::pipelines::{fixup_variant, Features, Pipelines};
 use super::readback;
 use super::semi_filter::SemiFilter;
+use crate::cpu::coarse::Aggregation;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::params::{Ground, Integrator, Params, Sphere, Wind};
@@ -39,7 +40,7 @@ pub const SINGLE_PASS: &str = "explicit_integrate.snapshot";
 /// invocations all return at once still costs about a third of a working
 /// one — the masked-off code runs — while an indirect dispatch of zero
 /// workgroups costs ~15 µs.
-const INDIRECT_CG: [(&str, u64); 2] = [("cg_apply", 0), ("cg_update", 12)];
+const INDIRECT_CG: [(&str, u64); 3] = [("cg_apply", 0), ("cg_update", 12), ("cg_prolong", 12)];
 
 /// Storage buffers one kernel binds (see `shaders/common/bindings.wgsl`).
 pub(super) const STORAGE_BUFFERS: u32 = 10;
@@ -147,6 +148,7 @@ pub(super) fn scene_features(model: &Model, params: &Params, grid: Option<GridBl
             .any(|k| k.stiffness > 0.0 && k.damping > 0.0),
         grid: grid.is_some(),
         block: grid.unwrap_or(GridBlock::ONE),
+        coarse: Aggregation::for_scene(model, params).is_some(),
     }
 }
 
@@ -337,9 +339,16 @@ impl GpuSolver {
             // their output vectors; δ0, α, β and the convergence test are
             // each summed once, by a one-workgroup kernel — no workgroup
             // barrier in any per-particle pass.
+            // With coarse levels the scalar kernels also restrict the
+            // residual and solve the aggregates' 3×3 systems; cg_prolong
+            // adds the corrections to the search direction's source.
             let one = WORKGROUP;
+            let coarse = self.features.coarse;
             plan.push(("cg_init", gather));
             plan.push(("cg_start", one));
+            if coarse {
+                plan.push(("cg_prolong", n));
+            }
             for _ in 0..self.cg_budget {
                 plan.extend([
                     ("cg_apply", gather),
@@ -347,6 +356,9 @@ impl GpuSolver {
                     ("cg_update", n),
                     ("cg_beta", one),
                 ]);
+                if coarse {
+                    plan.push(("cg_prolong", n));
+                }
             }
         };
         match self.integrator {
@@ -357,6 +369,10 @@ impl GpuSolver {
                     plan.push(("implicit_springs", s));
                 }
                 plan.push(("implicit_prepare", gather));
+                if self.features.coarse {
+                    let [_, _, n1, n2] = self.params.coarse;
+                    plan.push(("coarse_setup", n1 + n2));
+                }
                 cg(&mut plan);
                 plan.push(("implicit_finish", n));
                 return plan;

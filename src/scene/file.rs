@@ -112,6 +112,7 @@ struct FixupTable {
 struct ImplicitTable {
     tolerance: Option<f64>,
     max_iterations: Option<u32>,
+    coarse_levels: Option<bool>,
 }
 
 #[derive(Deserialize, Default)]
@@ -198,6 +199,7 @@ impl SceneFile {
         set(&mut p.fixup.omega, self.fixup.omega);
         set(&mut p.implicit.tolerance, self.implicit.tolerance);
         set(&mut p.implicit.max_iterations, self.implicit.max_iterations);
+        set(&mut p.implicit.coarse_levels, self.implicit.coarse_levels);
         let si = self.semi_implicit;
         set(&mut p.semi_implicit.filter, si.filter.map(|c| c.0));
         set(

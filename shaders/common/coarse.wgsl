@@ -1,0 +1,87 @@
+// The implicit CG's coarse levels on a grid cloth (twin: cpu::coarse):
+// square aggregates of LEVEL1_SIDE and LEVEL2_SIDE particles a side, each
+// with the inverse of its 3×3 Galerkin diagonal block D, added to the
+// block-Jacobi preconditioner. params.coarse = (columns, rows, level-1
+// aggregates, level-2 aggregates); every aggregate lives at its index
+// among both levels (level 1's first) in the W_COARSE_* sections.
+
+// Twin: cpu::coarse::LEVEL_SIDES.
+const LEVEL1_SIDE: u32 = 4u;
+const LEVEL2_SIDE: u32 = 16u;
+// Level-1 aggregates per level-2 aggregate side.
+const LEVEL_RATIO: u32 = 4u;
+
+// Aggregates per row of a level whose aggregates have `side` particles a
+// side (twin: Aggregation::across).
+fn coarse_across(side: u32) -> u32 {
+    return (params.coarse.x + side - 1u) / side;
+}
+
+// Aggregates per column (twin: Aggregation::down).
+fn coarse_down(side: u32) -> u32 {
+    return (params.coarse.y + side - 1u) / side;
+}
+
+// Index of particle p's aggregate of side `side`, among both levels'
+// (twin: Aggregation::of).
+fn coarse_of(side: u32, p: u32) -> u32 {
+    let row = p / params.coarse.x;
+    let col = p % params.coarse.x;
+    let offset = select(0u, params.coarse.z, side == LEVEL2_SIDE);
+    return offset + (row / side) * coarse_across(side) + col / side;
+}
+
+fn coarse_inverse(k: u32) -> Sym3 {
+    return Sym3(work[wi(W_COARSE_INV_D, k)].xyz, work[wi(W_COARSE_INV_O, k)].xyz);
+}
+
+// δ = ρ + the coarse terms of rᵀM⁻¹r, from the residual in W_R: each
+// aggregate's correction z = D⁻¹ Πᵀr into W_COARSE_Z (twin:
+// Coarse::correct's sums). Invocation l takes level-2 aggregates l,
+// l + WORKGROUP, …, each its level-1 aggregates then its own, and leaves
+// their terms in the w of its own z; invocation 0 adds them in sequence.
+// `rho` and the result are valid in invocation 0 only (see sum_w). Call
+// from uniform control flow.
+fn cg_coarse(rho: f32, lid: u32) -> f32 {
+    let nx = params.coarse.x;
+    let ny = params.coarse.y;
+    let n1 = params.coarse.z;
+    let n2 = params.coarse.w;
+    let across1 = coarse_across(LEVEL1_SIDE);
+    let down1 = coarse_down(LEVEL1_SIDE);
+    let across2 = coarse_across(LEVEL2_SIDE);
+    for (var b = lid; b < n2; b += WORKGROUP) {
+        let row2 = b / across2;
+        let col2 = b % across2;
+        var term = 0.0;
+        var r2 = vec3<f32>(0.0);
+        for (var row1 = row2 * LEVEL_RATIO; row1 < min((row2 + 1u) * LEVEL_RATIO, down1); row1++) {
+            for (var col1 = col2 * LEVEL_RATIO; col1 < min((col2 + 1u) * LEVEL_RATIO, across1); col1++) {
+                var r1 = vec3<f32>(0.0);
+                for (var row = row1 * LEVEL1_SIDE; row < min((row1 + 1u) * LEVEL1_SIDE, ny); row++) {
+                    for (var col = col1 * LEVEL1_SIDE; col < min((col1 + 1u) * LEVEL1_SIDE, nx); col++) {
+                        r1 += work[wi(W_R, row * nx + col)].xyz;
+                    }
+                }
+                let a = row1 * across1 + col1;
+                let z1 = sym3_mul(coarse_inverse(a), r1);
+                work[wi(W_COARSE_Z, a)] = vec4<f32>(z1, 0.0);
+                term += dot3(r1, z1);
+                r2 += r1;
+            }
+        }
+        let k = n1 + b;
+        let z2 = sym3_mul(coarse_inverse(k), r2);
+        term += dot3(r2, z2);
+        work[wi(W_COARSE_Z, k)] = vec4<f32>(z2, term);
+    }
+    storageBarrier();
+    if (lid != 0u) {
+        return 0.0;
+    }
+    var total = 0.0;
+    for (var b = 0u; b < n2; b++) {
+        total += work[wi(W_COARSE_Z, n1 + b)].w;
+    }
+    return rho + total;
+}
