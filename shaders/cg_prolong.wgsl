@@ -1,5 +1,6 @@
-// CG, after each δ: s += S (z₁ + z₂), the coarse corrections of particle
-// p's two aggregates (twin: the last loop of cpu::coarse::Coarse::correct).
+// CG, after each δ, one invocation per level-1 aggregate: s += S z of its
+// level-2 aggregate's correction, particle by particle (twin: the last
+// loop of cpu::coarse::Coarse::level2). s's w is spent (cg_beta summed it).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
@@ -7,12 +8,15 @@
 
 @compute @workgroup_size(WORKGROUP)
 fn cg_prolong(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let p = gid.x;
-    if (p >= params.particle_count || cg_done()) {
+    let a = gid.x;
+    if (a >= params.coarse.z || cg_done()) {
         return;
     }
-    let z = work[wi(W_COARSE_Z, coarse_of(LEVEL1_SIDE, p))].xyz
-        + work[wi(W_COARSE_Z, coarse_of(LEVEL2_SIDE, p))].xyz;
-    let s = work[wi(W_S, p)];
-    work[wi(W_S, p)] = vec4<f32>(s.xyz + filter_of(p, z), s.w);
+    let z = work[wi(W_COARSE_Z, coarse_of(LEVEL2_SIDE, level1_particle(a, 0u)))].xyz;
+    for (var k = 0u; k < LEVEL1_SIDE * LEVEL1_SIDE; k++) {
+        let p = level1_particle(a, k);
+        if (p != NO_PARTICLE) {
+            work[wi(W_S, p)] = vec4<f32>(work[wi(W_S, p)].xyz + filter_of(p, z), 0.0);
+        }
+    }
 }

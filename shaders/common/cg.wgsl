@@ -273,8 +273,14 @@ fn set_cg_args(running: bool) {
     if (GRID) {
         apply = (params.grid.w + WORKGROUP - 1u) / WORKGROUP;
     }
+    // cg_update (and cg_prolong) take a level-1 aggregate per invocation
+    // with coarse levels.
+    var update = params.partial_count;
+    if (COARSE) {
+        update = (params.coarse.z + WORKGROUP - 1u) / WORKGROUP;
+    }
     cg_args[0] = select(0u, apply, running);
-    cg_args[3] = select(0u, params.partial_count, running);
+    cg_args[3] = select(0u, update, running);
 }
 
 var<workgroup> scratch: array<f32, WORKGROUP>;

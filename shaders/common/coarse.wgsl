@@ -4,6 +4,8 @@
 // block-Jacobi preconditioner. params.coarse = (columns, rows, level-1
 // aggregates, level-2 aggregates); every aggregate lives at its index
 // among both levels (level 1's first) in the W_COARSE_* sections.
+// The per-iteration kernels that touch particles (cg_update, cg_prolong)
+// take one level-1 aggregate per invocation.
 
 // Twin: cpu::coarse::LEVEL_SIDES.
 const LEVEL1_SIDE: u32 = 4u;
@@ -31,20 +33,35 @@ fn coarse_of(side: u32, p: u32) -> u32 {
     return offset + (row / side) * coarse_across(side) + col / side;
 }
 
+// Particle k (0 ≤ k < LEVEL1_SIDE², row-major) of level-1 aggregate a,
+// or NO_PARTICLE where the grid's edge cuts the aggregate. Loops over k
+// with this fixed trip count are unrolled by the compilers.
+const NO_PARTICLE: u32 = 0xffffffffu;
+
+fn level1_particle(a: u32, k: u32) -> u32 {
+    let nx = params.coarse.x;
+    let across = coarse_across(LEVEL1_SIDE);
+    let row = (a / across) * LEVEL1_SIDE + k / LEVEL1_SIDE;
+    let col = (a % across) * LEVEL1_SIDE + k % LEVEL1_SIDE;
+    if (row >= params.coarse.y || col >= nx) {
+        return NO_PARTICLE;
+    }
+    return row * nx + col;
+}
+
 fn coarse_inverse(k: u32) -> Sym3 {
     return Sym3(work[wi(W_COARSE_INV_D, k)].xyz, work[wi(W_COARSE_INV_O, k)].xyz);
 }
 
-// δ = ρ + the coarse terms of rᵀM⁻¹r, from the residual in W_R: each
-// aggregate's correction z = D⁻¹ Πᵀr into W_COARSE_Z (twin:
-// Coarse::correct's sums). Invocation l takes level-2 aggregates l,
-// l + WORKGROUP, …, each its level-1 aggregates then its own, and leaves
-// their terms in the w of its own z; invocation 0 adds them in sequence.
-// `rho` and the result are valid in invocation 0 only (see sum_w). Call
-// from uniform control flow.
+// δ = ρ + the coarse terms of rᵀM⁻¹r, after the per-aggregate cg_update
+// left each level-1 aggregate's Πᵀr and term in W_COARSE_Z: each level-2
+// aggregate's Πᵀr summed from its level-1 aggregates', its correction
+// z = D⁻¹Πᵀr into its W_COARSE_Z (twin: Coarse::level2). Invocation l
+// takes level-2 aggregates l, l + WORKGROUP, … and leaves their terms
+// (level-1 ones first) in the w of their z; invocation 0 adds them in
+// sequence. `rho` and the result are valid in invocation 0 only (see
+// sum_w). Call from uniform control flow.
 fn cg_coarse(rho: f32, lid: u32) -> f32 {
-    let nx = params.coarse.x;
-    let ny = params.coarse.y;
     let n1 = params.coarse.z;
     let n2 = params.coarse.w;
     let across1 = coarse_across(LEVEL1_SIDE);
@@ -57,23 +74,15 @@ fn cg_coarse(rho: f32, lid: u32) -> f32 {
         var r2 = vec3<f32>(0.0);
         for (var row1 = row2 * LEVEL_RATIO; row1 < min((row2 + 1u) * LEVEL_RATIO, down1); row1++) {
             for (var col1 = col2 * LEVEL_RATIO; col1 < min((col2 + 1u) * LEVEL_RATIO, across1); col1++) {
-                var r1 = vec3<f32>(0.0);
-                for (var row = row1 * LEVEL1_SIDE; row < min((row1 + 1u) * LEVEL1_SIDE, ny); row++) {
-                    for (var col = col1 * LEVEL1_SIDE; col < min((col1 + 1u) * LEVEL1_SIDE, nx); col++) {
-                        r1 += work[wi(W_R, row * nx + col)].xyz;
-                    }
-                }
-                let a = row1 * across1 + col1;
-                let z1 = sym3_mul(coarse_inverse(a), r1);
-                work[wi(W_COARSE_Z, a)] = vec4<f32>(z1, 0.0);
-                term += dot3(r1, z1);
-                r2 += r1;
+                let level1 = work[wi(W_COARSE_Z, row1 * across1 + col1)];
+                term += level1.w;
+                r2 += level1.xyz;
             }
         }
         let k = n1 + b;
-        let z2 = sym3_mul(coarse_inverse(k), r2);
-        term += dot3(r2, z2);
-        work[wi(W_COARSE_Z, k)] = vec4<f32>(z2, term);
+        let z = sym3_mul(coarse_inverse(k), r2);
+        term += dot3(r2, z);
+        work[wi(W_COARSE_Z, k)] = vec4<f32>(z, term);
     }
     storageBarrier();
     if (lid != 0u) {

@@ -24,12 +24,14 @@
 //! the 16-particle level instead of its diagonal gained one to four more;
 //! a third level (64) none.
 //!
-//! Everything is summed in a fixed order that the GPU reproduces (twin:
-//! `coarse_setup.wgsl`, `cg_coarse` in `shaders/common/cg.wgsl` and
-//! `cg_prolong.wgsl`): an aggregate's particles in row-major order; a
-//! level-2 aggregate's residual as the sum of its level-1 aggregates'
-//! (row-major); the coarse terms of `rᵀM⁻¹r` level-2 aggregate by level-2
-//! aggregate, each its level-1 terms then its own.
+//! Everything is summed in a fixed order that the GPU reproduces (twins:
+//! `coarse_setup.wgsl`; the per-aggregate `cg_update.wgsl` for level 1;
+//! `cg_coarse` in `shaders/common/coarse.wgsl` and `cg_prolong.wgsl` for
+//! level 2): an aggregate's particles in row-major order; a level-2
+//! aggregate's residual as the sum of its level-1 aggregates' (row-major);
+//! the coarse terms of `rᵀM⁻¹r` level-2 aggregate by level-2 aggregate,
+//! each its level-1 terms then its own; `s` gets the block-Jacobi term,
+//! then level 1's, then level 2's.
 
 use super::implicit::Filter;
 use super::mat3::Sym3;
@@ -130,8 +132,10 @@ pub struct Coarse<R> {
     /// `D⁻¹` of each aggregate (zero where `D` is not invertible, which
     /// drops that aggregate's correction).
     pub inv: Vec<Sym3<R>>,
-    /// The correction `D⁻¹ Πᵀ r` of each aggregate.
-    pub z: Vec<Vec3<R>>,
+    /// `Πᵀr` of each level-1 aggregate.
+    pub r1: Vec<Vec3<R>>,
+    /// `(Πᵀr)·D⁻¹Πᵀr` of each level-1 aggregate.
+    pub term1: Vec<R>,
 }
 
 impl<R: Real> Coarse<R> {
@@ -141,7 +145,8 @@ impl<R: Real> Coarse<R> {
             agg,
             contrib: vec![[Sym3::default(); 2]; agg.nx * agg.ny],
             inv: vec![Sym3::default(); agg.total()],
-            z: vec![Vec3::ZERO; agg.total()],
+            r1: vec![Vec3::ZERO; agg.count(0)],
+            term1: vec![R::ZERO; agg.count(0)],
         }
     }
 
@@ -163,9 +168,34 @@ impl<R: Real> Coarse<R> {
         }
     }
 
-    /// Applies the coarse terms to the filtered residual `r`: adds
-    /// `S Σ_l Π_l D_l⁻¹ Π_lᵀ r` to `s` and returns their part of `rᵀM⁻¹r`.
-    pub fn correct(&mut self, r: &[Vec3<R>], filter: &[Filter<R>], s: &mut [Vec3<R>]) -> R {
+    /// Level 1 of the coarse terms, per level-1 aggregate: `Πᵀr`, its
+    /// correction `z = D⁻¹ Πᵀr` added to `s` as `S z` (after the block
+    /// Jacobi term already there), and the term `(Πᵀr)·z` of `rᵀM⁻¹r`.
+    /// The GPU does this in its per-aggregate `cg_update`.
+    pub fn level1(&mut self, r: &[Vec3<R>], filter: &[Filter<R>], s: &mut [Vec3<R>]) {
+        let agg = self.agg;
+        for row in 0..agg.down(0) {
+            for col in 0..agg.across(0) {
+                let a = agg.index(0, row, col);
+                let mut r1 = Vec3::ZERO;
+                for p in agg.particles(0, row, col) {
+                    r1 += r[p];
+                }
+                let z = self.inv[a].mul(r1);
+                self.r1[a] = r1;
+                self.term1[a] = r1.dot(z);
+                for p in agg.particles(0, row, col) {
+                    s[p] += filter[p].apply(z);
+                }
+            }
+        }
+    }
+
+    /// Level 2, after [`Coarse::level1`]: each level-2 aggregate's `Πᵀr`
+    /// summed from its level-1 aggregates' and its correction added to
+    /// `s`; returns both levels' terms of `rᵀM⁻¹r`, level-2 aggregate by
+    /// level-2 aggregate (its level-1 terms, then its own).
+    pub fn level2(&mut self, filter: &[Filter<R>], s: &mut [Vec3<R>]) -> R {
         let agg = self.agg;
         let mut total = R::ZERO;
         for row2 in 0..agg.down(1) {
@@ -174,25 +204,19 @@ impl<R: Real> Coarse<R> {
                 let mut r2 = Vec3::ZERO;
                 for row1 in row2 * RATIO..((row2 + 1) * RATIO).min(agg.down(0)) {
                     for col1 in col2 * RATIO..((col2 + 1) * RATIO).min(agg.across(0)) {
-                        let mut r1 = Vec3::ZERO;
-                        for p in agg.particles(0, row1, col1) {
-                            r1 += r[p];
-                        }
                         let a = agg.index(0, row1, col1);
-                        self.z[a] = self.inv[a].mul(r1);
-                        term += r1.dot(self.z[a]);
-                        r2 += r1;
+                        term += self.term1[a];
+                        r2 += self.r1[a];
                     }
                 }
                 let b = agg.index(1, row2, col2);
-                self.z[b] = self.inv[b].mul(r2);
-                term += r2.dot(self.z[b]);
+                let z = self.inv[b].mul(r2);
+                term += r2.dot(z);
                 total += term;
+                for p in agg.particles(1, row2, col2) {
+                    s[p] += filter[p].apply(z);
+                }
             }
-        }
-        for (p, sp) in s.iter_mut().enumerate() {
-            let z = self.z[agg.of(0, p)] + self.z[agg.of(1, p)];
-            *sp += filter[p].apply(z);
         }
         total
     }

@@ -172,12 +172,24 @@ fn dot<R: Real>(a: &[Vec3<R>], b: &[Vec3<R>]) -> R {
     block_sum(a.len(), |p| a[p].dot(b[p]))
 }
 
-/// δ = rᵀM⁻¹r from ρ = rᵀP⁻¹r: with coarse levels, adds their corrections
-/// to `w.s` (= S P r on entry) and their terms to ρ; without, ρ.
-fn coarse_correct<R: Real>(w: &mut Workspace<R>, rho: R) -> R {
+/// `w.t = P r`, `w.s = S P r` and ρ = rᵀP⁻¹r for the residual in `w.r`,
+/// then δ = rᵀM⁻¹r: with coarse levels, their corrections added to `w.s`
+/// and their terms to ρ; without, ρ. Returns (ρ, δ). (On the GPU: the end
+/// of cg_update, cg_beta's sums and cg_prolong.)
+fn precondition<R: Real>(w: &mut Workspace<R>) -> (R, R) {
+    for p in 0..w.r.len() {
+        let s = w.precond[p].mul(w.r[p]);
+        // ρ's term before the filter: r is filtered already.
+        w.t[p] = s;
+        w.s[p] = w.filter[p].apply(s);
+    }
+    let rho = dot(&w.r, &w.t);
     match &mut w.coarse {
-        Some(coarse) => rho + coarse.correct(&w.r, &w.filter, &mut w.s),
-        None => rho,
+        Some(coarse) => {
+            coarse.level1(&w.r, &w.filter, &mut w.s);
+            (rho, rho + coarse.level2(&w.filter, &mut w.s))
+        }
+        None => (rho, rho),
     }
 }
 
@@ -288,8 +300,14 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
     // ρ = rᵀP⁻¹r with the block-Jacobi P alone decides convergence (the
     // coarse levels change the iterates, not what "converged" means); δ =
     // rᵀM⁻¹r with the coarse terms drives CG.
-    let mut rho = dot(&w.r, &w.s);
-    let mut delta = coarse_correct(w, rho);
+    let (mut rho, mut delta) = if w.coarse.is_some() {
+        // The GPU preconditions r again, as each iteration does (its
+        // cg_update.first).
+        precondition(w)
+    } else {
+        let rho = dot(&w.r, &w.s);
+        (rho, rho)
+    };
     let mut beta = R::ZERO;
     let tol2 = R::from_f64(sys.cg_tolerance * sys.cg_tolerance);
     let mut iterations = 0;
@@ -316,13 +334,8 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         for p in 0..n {
             w.dv[p] += w.c[p] * alpha;
             w.r[p] -= w.q[p] * alpha;
-            let s = w.precond[p].mul(w.r[p]);
-            // δ's term before the filter: r is filtered already.
-            w.t[p] = s;
-            w.s[p] = w.filter[p].apply(s);
         }
-        rho = dot(&w.r, &w.t);
-        delta = coarse_correct(w, rho);
+        (rho, delta) = precondition(w);
         beta = delta / delta_old;
         iterations += 1;
     }

@@ -167,6 +167,7 @@ const IMPLICIT: &[Variant] = &[
     v("implicit_springs", "", &[]),
     v("implicit_prepare", "", &[]),
     v("coarse_setup", "", &[]),
+    v("cg_update", ".first", &[("FIRST", 1.0)]),
     v("cg_prolong", "", &[]),
     v("implicit_finish", "", &[]),
 ];

@@ -342,22 +342,29 @@ impl GpuSolver {
             // With coarse levels the scalar kernels also restrict the
             // residual and solve the aggregates' 3×3 systems; cg_prolong
             // adds the corrections to the search direction's source.
+            // With coarse levels cg_update and cg_prolong take a level-1
+            // aggregate per invocation, and cg_update.first preconditions
+            // the initial residual.
             let one = WORKGROUP;
             let coarse = self.features.coarse;
+            let update = if coarse { self.params.coarse[2] } else { n };
             plan.push(("cg_init", gather));
+            if coarse {
+                plan.push(("cg_update.first", update));
+            }
             plan.push(("cg_start", one));
             if coarse {
-                plan.push(("cg_prolong", n));
+                plan.push(("cg_prolong", update));
             }
             for _ in 0..self.cg_budget {
                 plan.extend([
                     ("cg_apply", gather),
                     ("cg_alpha", one),
-                    ("cg_update", n),
+                    ("cg_update", update),
                     ("cg_beta", one),
                 ]);
                 if coarse {
-                    plan.push(("cg_prolong", n));
+                    plan.push(("cg_prolong", update));
                 }
             }
         };
