@@ -14,7 +14,9 @@ fn cg_alpha(@builtin(local_invocation_id) lid: vec3<u32>) {
     if (lid.x != 0u) {
         return;
     }
-    if (!(finite1(cq) && cq > 0.0)) {
+    let running = finite1(cq) && cq > 0.0;
+    alpha_slots_next(cg_iteration(), running);
+    if (!running) {
         atomicStore(&status[STATUS_CG_STOPPED], 1u);
         set_cg_args(false);
         return;

@@ -21,9 +21,10 @@ fn cg_beta(@builtin(local_invocation_id) lid: vec3<u32>) {
     }
     partials[scalar_index(C_BETA)] = delta / partials[scalar_index(C_DELTA)];
     partials[scalar_index(C_DELTA)] = delta;
-    atomicAdd(&status[STATUS_CG_ITERATIONS], 1u);
     // The direction update of this iteration is only needed by the next.
-    if (!(rho > params.cg_tolerance_sq * partials[scalar_index(C_DELTA0)])) {
+    let running = rho > params.cg_tolerance_sq * partials[scalar_index(C_DELTA0)];
+    beta_slots_next(atomicAdd(&status[STATUS_CG_ITERATIONS], 1u), running);
+    if (!running) {
         atomicStore(&status[STATUS_CG_STOPPED], 1u);
         set_cg_args(false);
     }

@@ -26,4 +26,5 @@ fn cg_start(@builtin(local_invocation_id) lid: vec3<u32>) {
         atomicStore(&status[STATUS_CG_STOPPED], 1u);
     }
     set_cg_args(running);
+    start_slots(running);
 }

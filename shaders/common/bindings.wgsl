@@ -180,6 +180,9 @@ const STATUS_FIXUP_STOPPED: u32 = 7u;
 const STATUS_FIXUP_RESULT: u32 = 8u;
 const STATUS_FIXUP_PASSES: u32 = 9u;
 const STATUS_FIXUP_FLAG: u32 = 10u;
+// CG: the slots of cg_alpha and cg_beta last enabled (common/cg.wgsl).
+const STATUS_ALPHA_SLOT: u32 = 13u;
+const STATUS_BETA_SLOT: u32 = 14u;
 
 // Filter kinds (w of W_Z).
 const FILTER_FREE: f32 = 0.0;

@@ -335,26 +335,60 @@ impl GpuSolver {
             bytemuck::cast_slice(&[0u32, 1, 1, 0, 1, 1]),
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
         );
-        let args_bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("wgcloth.cg_args"),
-            entries: &[storage_entry(0, false)],
-        });
-        let args_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("wgcloth.cg_args"),
-            layout: &args_bgl,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: cg_args.as_entire_binding(),
-            }],
-        });
-        let args_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("wgcloth.pipeline_layout.cg_args"),
-            bind_group_layouts: &[Some(&bgl), Some(&args_bgl)],
-            immediate_size: 0,
-        });
+        // The scalar kernels' own indirect arguments: a (workgroups, 1, 1)
+        // slot per CG iteration, which the kernels enable one ahead and
+        // clear behind them (see alpha_slots in shaders/common/cg.wgsl).
+        let slot_words: Vec<u32> = (0..cg_max_iterations.max(1))
+            .flat_map(|_| [0u32, 1, 1])
+            .collect();
+        let slot_buffer = |label: &str| {
+            init(
+                label,
+                bytemuck::cast_slice(&slot_words),
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            )
+        };
+        let alpha_slots = slot_buffer("wgcloth.alpha_slots");
+        let beta_slots = slot_buffer("wgcloth.beta_slots");
+        // Group 1 of each kernel that writes dispatch arguments: cg_args
+        // and the slots of the other scalar kernel (cg_start: both).
+        let args_group = |name: &str, bindings: &[(u32, &wgpu::Buffer)]| {
+            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some(name),
+                entries: &bindings
+                    .iter()
+                    .map(|&(b, _)| storage_entry(b, false))
+                    .collect::<Vec<_>>(),
+            });
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(name),
+                layout: &layout,
+                entries: &bindings
+                    .iter()
+                    .map(|&(binding, buffer)| wgpu::BindGroupEntry {
+                        binding,
+                        resource: buffer.as_entire_binding(),
+                    })
+                    .collect::<Vec<_>>(),
+            });
+            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(name),
+                bind_group_layouts: &[Some(&bgl), Some(&layout)],
+                immediate_size: 0,
+            });
+            (group, pipeline_layout)
+        };
+        let (start_group, start_layout) = args_group(
+            "wgcloth.args.cg_start",
+            &[(0, &cg_args), (1, &alpha_slots), (2, &beta_slots)],
+        );
+        let (alpha_group, alpha_layout) =
+            args_group("wgcloth.args.cg_alpha", &[(0, &cg_args), (2, &beta_slots)]);
+        let (beta_group, beta_layout) =
+            args_group("wgcloth.args.cg_beta", &[(0, &cg_args), (1, &alpha_slots)]);
 
         let features = scene_features(model, params, grid.as_ref().map(|_| block));
-        let mut pipelines = Pipelines::new(layout, args_layout);
+        let mut pipelines = Pipelines::new(layout, [start_layout, alpha_layout, beta_layout]);
         pipelines.ensure(device, params.integrator, features)?;
         queue.submit([]);
 
@@ -386,7 +420,9 @@ impl GpuSolver {
             status,
             bind_group,
             cg_args,
-            args_bind_group,
+            alpha_slots,
+            beta_slots,
+            args_groups: [start_group, alpha_group, beta_group],
             pipelines,
             features,
             steps_recorded: 0,

@@ -165,6 +165,11 @@ pub mod status {
     /// Fix-up passes run in the last step (the last one found nothing to
     /// move when it stopped early).
     pub const FIXUP_PASSES: usize = 9;
+    /// The CG iteration whose `cg_alpha` was last enabled (its slot may
+    /// still hold a workgroup; `cg_start` clears it).
+    pub const ALPHA_SLOT: usize = 13;
+    /// The same for `cg_beta`.
+    pub const BETA_SLOT: usize = 14;
     /// Number of status words (three rotating fix-up flags follow 9).
     pub const COUNT: usize = 16;
 }

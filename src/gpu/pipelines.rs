@@ -125,8 +125,10 @@ pub fn fixup_variant(k: u32) -> &'static str {
     }
 }
 
-/// The kernels that write the CG kernels' indirect dispatch arguments.
-const ARGS_WRITERS: [&str; 3] = ["cg_start", "cg_alpha", "cg_beta"];
+/// The kernels that write the CG kernels' indirect dispatch arguments,
+/// each with a group 1 of its own (see `alpha_slots` in
+/// `shaders/common/cg.wgsl`).
+pub const ARGS_WRITERS: [&str; 3] = ["cg_start", "cg_alpha", "cg_beta"];
 
 /// CG, shared by implicit and the scalable semi-implicit filter.
 const CG: &[Variant] = &[
@@ -200,19 +202,21 @@ fn variants(integrator: Integrator) -> impl Iterator<Item = &'static Variant> {
 #[derive(Debug)]
 pub struct Pipelines {
     layout: wgpu::PipelineLayout,
-    /// With the CG dispatch arguments as group 1, for [`ARGS_WRITERS`].
-    args_layout: wgpu::PipelineLayout,
+    /// With the CG dispatch arguments as group 1, one per entry of
+    /// [`ARGS_WRITERS`].
+    args_layouts: [wgpu::PipelineLayout; 3],
     modules: HashMap<(&'static str, GridBlock), wgpu::ShaderModule>,
     cache: HashMap<(String, Features), wgpu::ComputePipeline>,
 }
 
 impl Pipelines {
-    /// An empty cache for pipelines of `layout` (`args_layout` for the
-    /// kernels that write the CG dispatch arguments).
-    pub fn new(layout: wgpu::PipelineLayout, args_layout: wgpu::PipelineLayout) -> Self {
+    /// An empty cache for pipelines of `layout` (`args_layouts` for the
+    /// kernels that write the CG dispatch arguments, in [`ARGS_WRITERS`]
+    /// order).
+    pub fn new(layout: wgpu::PipelineLayout, args_layouts: [wgpu::PipelineLayout; 3]) -> Self {
         Pipelines {
             layout,
-            args_layout,
+            args_layouts,
             modules: HashMap::new(),
             cache: HashMap::new(),
         }
@@ -260,11 +264,12 @@ impl Pipelines {
             constants.extend_from_slice(variant.constants);
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                 label: Some(&format!("wgcloth.{name}")),
-                layout: Some(if ARGS_WRITERS.contains(&variant.entry) {
-                    &self.args_layout
-                } else {
-                    &self.layout
-                }),
+                layout: Some(
+                    match ARGS_WRITERS.iter().position(|&w| w == variant.entry) {
+                        Some(k) => &self.args_layouts[k],
+                        None => &self.layout,
+                    },
+                ),
                 module,
                 entry_point: Some(variant.entry),
                 compilation_options: wgpu::PipelineCompilationOptions {

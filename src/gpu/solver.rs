@@ -2,7 +2,7 @@
 
 use super::grid::{GridBlock, GridLayout};
 use super::layout::{self, section, GpuParams, GpuSphere, MAX_SPHERES};
-use super::pipelines::{fixup_variant, Features, Pipelines};
+use super::pipelines::{fixup_variant, Features, Pipelines, ARGS_WRITERS};
 use super::readback;
 use super::semi_filter::SemiFilter;
 use crate::cpu::coarse::Aggregation;
@@ -42,8 +42,10 @@ pub const SINGLE_PASS: &str = "explicit_integrate.snapshot";
 /// workgroups costs ~15 µs.
 const INDIRECT_CG: [(&str, u64); 3] = [("cg_apply", 0), ("cg_update", 12), ("cg_prolong", 12)];
 
-/// Storage buffers one kernel binds (see `shaders/common/bindings.wgsl`).
-pub(super) const STORAGE_BUFFERS: u32 = 10;
+/// Storage buffers a kernel binds at most: group 0's ten (see
+/// `shaders/common/bindings.wgsl`) and cg_start's three dispatch-argument
+/// buffers in group 1.
+pub(super) const STORAGE_BUFFERS: u32 = 13;
 
 /// Positions and velocities read back from the device.
 #[derive(Clone, Debug, PartialEq)]
@@ -117,7 +119,12 @@ pub struct GpuSolver {
     /// once CG has stopped), and the group that binds it to the kernels
     /// that write it.
     pub(super) cg_args: wgpu::Buffer,
-    pub(super) args_bind_group: wgpu::BindGroup,
+    /// Indirect arguments of cg_alpha and cg_beta, a slot per recorded
+    /// CG iteration (see `alpha_slots` in `shaders/common/cg.wgsl`).
+    pub(super) alpha_slots: wgpu::Buffer,
+    pub(super) beta_slots: wgpu::Buffer,
+    /// Group 1 of cg_start, cg_alpha and cg_beta ([`ARGS_WRITERS`] order).
+    pub(super) args_groups: [wgpu::BindGroup; 3],
     pub(super) pipelines: Pipelines,
     pub(super) features: Features,
     pub(super) steps_recorded: u64,
@@ -262,17 +269,25 @@ impl GpuSolver {
 
     /// Dispatches `name` over `items` invocations, in workgroups of
     /// [`WORKGROUP`] (the per-particle CG kernels: indirectly, see
-    /// [`INDIRECT_CG`]).
-    fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, name: &str, items: u32) {
+    /// [`INDIRECT_CG`]; cg_alpha and cg_beta: indirectly from the slot of
+    /// CG iteration `iteration`).
+    fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, name: &str, items: u32, iteration: u32) {
         if let Some(p) = self.pipelines.get(name, self.features) {
             let (d, s) = self.recorded.get();
             self.recorded.set((d + 1, s));
             pass.set_pipeline(p);
-            if let Some(&(_, offset)) = INDIRECT_CG.iter().find(|(n, _)| *n == name) {
-                pass.dispatch_workgroups_indirect(&self.cg_args, offset);
-                return;
+            if let Some(k) = ARGS_WRITERS.iter().position(|&w| w == name) {
+                pass.set_bind_group(1, &self.args_groups[k], &[]);
             }
-            pass.dispatch_workgroups(items.div_ceil(WORKGROUP), 1, 1);
+            let slot = u64::from(iteration) * 12;
+            match name {
+                "cg_alpha" => pass.dispatch_workgroups_indirect(&self.alpha_slots, slot),
+                "cg_beta" => pass.dispatch_workgroups_indirect(&self.beta_slots, slot),
+                _ => match INDIRECT_CG.iter().find(|(n, _)| *n == name) {
+                    Some(&(_, offset)) => pass.dispatch_workgroups_indirect(&self.cg_args, offset),
+                    None => pass.dispatch_workgroups(items.div_ceil(WORKGROUP), 1, 1),
+                },
+            }
         }
     }
 
@@ -284,19 +299,23 @@ impl GpuSolver {
             timestamp_writes: None,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.set_bind_group(1, &self.args_bind_group, &[]);
         self.recorded.set((0, n));
         let plan = self.step_plan();
         // Single-pass steps: the state is in the snapshot (else in x, v).
         let mut in_snapshot = false;
         if n % 2 == 1 && plan.iter().any(|&(name, _)| name == SINGLE_PASS) {
-            self.dispatch(&mut pass, "explicit_seed", self.particles);
+            self.dispatch(&mut pass, "explicit_seed", self.particles, 0);
             in_snapshot = true;
         }
         for _ in 0..n {
+            // The CG iteration each cg_alpha / cg_beta belongs to.
+            let mut iteration = 0;
             for &(name, items) in &plan {
                 if name != SINGLE_PASS {
-                    self.dispatch(&mut pass, name, items);
+                    self.dispatch(&mut pass, name, items, iteration);
+                    if name == "cg_beta" {
+                        iteration += 1;
+                    }
                     continue;
                 }
                 let variant = if in_snapshot {
@@ -304,7 +323,7 @@ impl GpuSolver {
                 } else {
                     "explicit_integrate.to_snapshot"
                 };
-                self.dispatch(&mut pass, variant, items);
+                self.dispatch(&mut pass, variant, items, 0);
                 in_snapshot = !in_snapshot;
             }
         }
@@ -469,7 +488,7 @@ impl GpuSolver {
             timestamp_writes: None,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
-        self.dispatch(&mut pass, "normals", self.particles);
+        self.dispatch(&mut pass, "normals", self.particles, 0);
     }
 
     /// Records and submits `n` steps in one encoder, then checks the
