@@ -125,6 +125,8 @@ impl Aggregation {
 pub struct Coarse<R> {
     /// How the grid is aggregated.
     pub agg: Aggregation,
+    /// Each particle's aggregate at both levels ([`Aggregation::of`]).
+    pub of: Vec<[u32; 2]>,
     /// Per particle and level: its mass times `I` plus the blocks of its
     /// springs whose other end lies in another aggregate of that level
     /// (filled by the implicit step's particle loop).
@@ -143,6 +145,9 @@ impl<R: Real> Coarse<R> {
     pub fn new(agg: Aggregation) -> Self {
         Coarse {
             agg,
+            of: (0..agg.nx * agg.ny)
+                .map(|p| [agg.of(0, p) as u32, agg.of(1, p) as u32])
+                .collect(),
             contrib: vec![[Sym3::default(); 2]; agg.nx * agg.ny],
             inv: vec![Sym3::default(); agg.total()],
             r1: vec![Vec3::ZERO; agg.count(0)],

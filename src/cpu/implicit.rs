@@ -172,24 +172,26 @@ fn dot<R: Real>(a: &[Vec3<R>], b: &[Vec3<R>]) -> R {
     block_sum(a.len(), |p| a[p].dot(b[p]))
 }
 
-/// `w.t = P r`, `w.s = S P r` and ρ = rᵀP⁻¹r for the residual in `w.r`,
-/// then δ = rᵀM⁻¹r: with coarse levels, their corrections added to `w.s`
-/// and their terms to ρ; without, ρ. Returns (ρ, δ). (On the GPU: the end
-/// of cg_update, cg_beta's sums and cg_prolong.)
-fn precondition<R: Real>(w: &mut Workspace<R>) -> (R, R) {
-    for p in 0..w.r.len() {
-        let s = w.precond[p].mul(w.r[p]);
-        // ρ's term before the filter: r is filtered already.
-        w.t[p] = s;
-        w.s[p] = w.filter[p].apply(s);
-    }
-    let rho = dot(&w.r, &w.t);
+/// Particle p's block-Jacobi term: `w.t = P r` (ρ's term before the
+/// filter: r is filtered already) and `w.s = S P r`.
+#[inline]
+fn precondition_at<R: Real>(w: &mut Workspace<R>, p: usize) {
+    let s = w.precond[p].mul(w.r[p]);
+    w.t[p] = s;
+    w.s[p] = w.filter[p].apply(s);
+}
+
+/// δ = rᵀM⁻¹r from ρ = rᵀP⁻¹r once every particle's block-Jacobi term is
+/// in `w.s`: with coarse levels, their corrections added to `w.s` and
+/// their terms to ρ; without, ρ. (On the GPU: the end of cg_update,
+/// cg_beta's sums and cg_prolong.)
+fn coarse_terms<R: Real>(w: &mut Workspace<R>, rho: R) -> R {
     match &mut w.coarse {
         Some(coarse) => {
             coarse.level1(&w.r, &w.filter, &mut w.s);
-            (rho, rho + coarse.level2(&w.filter, &mut w.s))
+            rho + coarse.level2(&w.filter, &mut w.s)
         }
-        None => (rho, rho),
+        None => rho,
     }
 }
 
@@ -256,7 +258,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
             if let Some(coarse) = &w.coarse {
                 let other = blk.ends[(e & 1 == 0) as usize] as usize;
                 for (level, d) in levels.iter_mut().enumerate() {
-                    if coarse.agg.of(level, other) != coarse.agg.of(level, p) {
+                    if coarse.of[other][level] != coarse.of[p][level] {
                         d.add_iso_aniso(blk.a, R::ONE, blk.m);
                     }
                 }
@@ -300,14 +302,16 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
     // ρ = rᵀP⁻¹r with the block-Jacobi P alone decides convergence (the
     // coarse levels change the iterates, not what "converged" means); δ =
     // rᵀM⁻¹r with the coarse terms drives CG.
-    let (mut rho, mut delta) = if w.coarse.is_some() {
+    let mut rho = dot(&w.r, &w.s);
+    if w.coarse.is_some() {
         // The GPU preconditions r again, as each iteration does (its
         // cg_update.first).
-        precondition(w)
-    } else {
-        let rho = dot(&w.r, &w.s);
-        (rho, rho)
-    };
+        for p in 0..n {
+            precondition_at(w, p);
+        }
+        rho = dot(&w.r, &w.t);
+    }
+    let mut delta = coarse_terms(w, rho);
     let mut beta = R::ZERO;
     let tol2 = R::from_f64(sys.cg_tolerance * sys.cg_tolerance);
     let mut iterations = 0;
@@ -334,8 +338,10 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         for p in 0..n {
             w.dv[p] += w.c[p] * alpha;
             w.r[p] -= w.q[p] * alpha;
+            precondition_at(w, p);
         }
-        (rho, delta) = precondition(w);
+        rho = dot(&w.r, &w.t);
+        delta = coarse_terms(w, rho);
         beta = delta / delta_old;
         iterations += 1;
     }
