@@ -12,10 +12,7 @@ fn cg_beta(@builtin(local_invocation_id) lid: vec3<u32>) {
         return;
     }
     let rho = sum_w(W_S, P_RS, lid.x);
-    var delta = rho;
-    if (COARSE) {
-        delta = cg_coarse(rho, lid.x);
-    }
+    let delta = cg_delta(rho, lid.x);
     if (lid.x != 0u) {
         return;
     }

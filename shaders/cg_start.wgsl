@@ -11,10 +11,7 @@
 fn cg_start(@builtin(local_invocation_id) lid: vec3<u32>) {
     let delta0 = sum_w(W_RHS, P_D0, lid.x);
     let rho = sum_w(W_S, P_RS, lid.x);
-    var delta = rho;
-    if (COARSE) {
-        delta = cg_coarse(rho, lid.x);
-    }
+    let delta = cg_delta(rho, lid.x);
     if (lid.x != 0u) {
         return;
     }

@@ -53,6 +53,15 @@ fn coarse_inverse(k: u32) -> Sym3 {
     return Sym3(work[wi(W_COARSE_INV_D, k)].xyz, work[wi(W_COARSE_INV_O, k)].xyz);
 }
 
+// δ = rᵀM⁻¹r from ρ = rᵀP⁻¹r: ρ itself without coarse levels, else
+// ρ plus their terms (cg_coarse). Call from uniform control flow.
+fn cg_delta(rho: f32, lid: u32) -> f32 {
+    if (!COARSE) {
+        return rho;
+    }
+    return cg_coarse(rho, lid);
+}
+
 // δ = ρ + the coarse terms of rᵀM⁻¹r, after the per-aggregate cg_update
 // left each level-1 aggregate's Πᵀr and term in W_COARSE_Z: each level-2
 // aggregate's Πᵀr summed from its level-1 aggregates', its correction
