@@ -37,7 +37,7 @@ fn coarse_setup(@builtin(global_invocation_id) gid: vec3<u32>) {
             let p = row * nx + col;
             d += work[wi(sec_d, p)].xyz;
             o += work[wi(sec_o, p)].xyz;
-            mass += work[wi(W_LEVEL1_D, p)].w;
+            mass += v[p].w;
             trace += work[wi(W_LEVEL1_O, p)].w;
         }
     }

@@ -172,9 +172,9 @@ fn prepare_particle(
     work[wi(W_PRE_DIAG, p)] = vec4<f32>(pre.d, 0.0);
     work[wi(W_PRE_OFF, p)] = vec4<f32>(pre.o, 0.0);
     if (COARSE) {
-        // The w's: mass and trace of the block-Jacobi block, for θ.
+        // The trace of the block-Jacobi block, for θ (coarse_setup).
         let trace = pre_in.d.x + pre_in.d.y + pre_in.d.z;
-        work[wi(W_LEVEL1_D, p)] = vec4<f32>(levels.d1.d, m);
+        work[wi(W_LEVEL1_D, p)] = vec4<f32>(levels.d1.d, 0.0);
         work[wi(W_LEVEL1_O, p)] = vec4<f32>(levels.d1.o, trace);
         work[wi(W_LEVEL2_D, p)] = vec4<f32>(levels.d2.d, 0.0);
         work[wi(W_LEVEL2_O, p)] = vec4<f32>(levels.d2.o, 0.0);

@@ -146,7 +146,8 @@ const W_COARSE_INV_D: u32 = 14u;
 const W_COARSE_INV_O: u32 = 15u;
 const W_COARSE_Z: u32 = 16u;
 // Each particle's contribution to its aggregates' D at levels 1 and 2
-// (diagonal, off-diagonal), from implicit_prepare to coarse_setup: in CG
+// (diagonal, off-diagonal; W_LEVEL1_O's w: the trace of the particle's
+// block-Jacobi block), from implicit_prepare to coarse_setup: in CG
 // sections that cg_init writes afterwards.
 const W_LEVEL1_D: u32 = W_R;
 const W_LEVEL1_O: u32 = W_C;

@@ -142,9 +142,9 @@ pub struct Coarse<R> {
     /// springs whose other end lies in another aggregate of that level
     /// (filled by the implicit step's particle loop).
     pub contrib: Vec<[Sym3<R>; 2]>,
-    /// Per particle: its mass \[kg\] and the trace of its block-Jacobi
-    /// block (of `A`'s diagonal block) \[kg\], for the weight θ.
-    pub mass_trace: Vec<(R, R)>,
+    /// Per particle: the trace of its block-Jacobi block (of `A`'s
+    /// diagonal block) \[kg\], for the weight θ.
+    pub trace: Vec<R>,
     /// `D⁻¹` of each aggregate (zero where `D` is not invertible, which
     /// drops that aggregate's correction).
     pub inv: Vec<Sym3<R>>,
@@ -163,7 +163,7 @@ impl<R: Real> Coarse<R> {
                 .map(|p| [agg.of(0, p) as u32, agg.of(1, p) as u32])
                 .collect(),
             contrib: vec![[Sym3::default(); 2]; agg.nx * agg.ny],
-            mass_trace: vec![(R::ZERO, R::ZERO); agg.nx * agg.ny],
+            trace: vec![R::ZERO; agg.nx * agg.ny],
             inv: vec![Sym3::default(); agg.total()],
             r1: vec![Vec3::ZERO; agg.count(0)],
             term1: vec![R::ZERO; agg.count(0)],
@@ -171,16 +171,17 @@ impl<R: Real> Coarse<R> {
     }
 
     /// Sums each aggregate's `D` from the particles' contributions and
-    /// stores `θ D⁻¹` (see the module docs for the weight θ).
-    pub fn set_up(&mut self) {
+    /// stores `θ D⁻¹` (see the module docs for the weight θ); `mass`: the
+    /// particles' masses \[kg\].
+    pub fn set_up(&mut self, mass: &[R]) {
         for level in 0..2 {
             for row in 0..self.agg.down(level) {
                 for col in 0..self.agg.across(level) {
                     let mut d = Sym3::default();
                     let (mut sm, mut st) = (R::ZERO, R::ZERO);
                     for p in self.agg.particles(level, row, col) {
-                        sm += self.mass_trace[p].0;
-                        st += self.mass_trace[p].1;
+                        sm += mass[p];
+                        st += self.trace[p];
                         for (e, c) in d.m.iter_mut().zip(self.contrib[p][level].m) {
                             *e += c;
                         }

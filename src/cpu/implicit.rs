@@ -266,7 +266,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         }
         if let Some(coarse) = &mut w.coarse {
             coarse.contrib[p] = levels;
-            coarse.mass_trace[p] = (sys.mass[p], diag.m[0] + diag.m[1] + diag.m[2]);
+            coarse.trace[p] = diag.m[0] + diag.m[1] + diag.m[2];
         }
         // A's diagonal block is m I plus positive semi-definite terms, so it
         // is invertible; the fallback only guards a pathological input.
@@ -276,7 +276,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
     }
 
     if let Some(coarse) = &mut w.coarse {
-        coarse.set_up();
+        coarse.set_up(&sys.mass);
     }
 
     // MPCG, warm-started from the last two steps' Δv extrapolated
