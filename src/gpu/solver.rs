@@ -35,12 +35,29 @@ pub(super) fn widen_step(low: u32, recorded: u64) -> u64 {
 /// writes x and v.
 pub const SINGLE_PASS: &str = "explicit_integrate.snapshot";
 
-/// Per-iteration CG kernels, dispatched indirectly (see `cg_args`) with
-/// the byte offset of their arguments: on lavapipe a dispatch whose
-/// invocations all return at once still costs about a third of a working
-/// one — the masked-off code runs — while an indirect dispatch of zero
-/// workgroups costs ~15 µs.
-const INDIRECT_CG: [(&str, u64); 3] = [("cg_apply", 0), ("cg_update", 12), ("cg_prolong", 12)];
+/// Where an indirectly dispatched kernel finds its workgroup count.
+#[derive(Clone, Copy)]
+enum Indirect {
+    /// `cg_args` at this byte offset.
+    Args(u64),
+    /// Its slot of the CG iteration in `alpha_slots`.
+    AlphaSlot,
+    /// Its slot of the CG iteration in `beta_slots`.
+    BetaSlot,
+}
+
+/// Per-iteration CG kernels, dispatched indirectly (see `cg_args` and
+/// `alpha_slots` in `shaders/common/cg.wgsl`): on lavapipe a dispatch
+/// whose invocations all return at once still costs about a third of a
+/// working one — the masked-off code runs — while an indirect dispatch of
+/// zero workgroups costs ~15 µs.
+const INDIRECT_CG: [(&str, Indirect); 5] = [
+    ("cg_apply", Indirect::Args(0)),
+    ("cg_update", Indirect::Args(12)),
+    ("cg_prolong", Indirect::Args(12)),
+    ("cg_alpha", Indirect::AlphaSlot),
+    ("cg_beta", Indirect::BetaSlot),
+];
 
 /// Storage buffers a kernel binds at most: group 0's ten (see
 /// `shaders/common/bindings.wgsl`) and cg_start's three dispatch-argument
@@ -280,13 +297,21 @@ impl GpuSolver {
                 pass.set_bind_group(1, &self.args_groups[k], &[]);
             }
             let slot = u64::from(iteration) * 12;
-            match name {
-                "cg_alpha" => pass.dispatch_workgroups_indirect(&self.alpha_slots, slot),
-                "cg_beta" => pass.dispatch_workgroups_indirect(&self.beta_slots, slot),
-                _ => match INDIRECT_CG.iter().find(|(n, _)| *n == name) {
-                    Some(&(_, offset)) => pass.dispatch_workgroups_indirect(&self.cg_args, offset),
-                    None => pass.dispatch_workgroups(items.div_ceil(WORKGROUP), 1, 1),
-                },
+            match INDIRECT_CG
+                .iter()
+                .find(|(n, _)| *n == name)
+                .map(|&(_, i)| i)
+            {
+                Some(Indirect::Args(offset)) => {
+                    pass.dispatch_workgroups_indirect(&self.cg_args, offset)
+                }
+                Some(Indirect::AlphaSlot) => {
+                    pass.dispatch_workgroups_indirect(&self.alpha_slots, slot)
+                }
+                Some(Indirect::BetaSlot) => {
+                    pass.dispatch_workgroups_indirect(&self.beta_slots, slot)
+                }
+                None => pass.dispatch_workgroups(items.div_ceil(WORKGROUP), 1, 1),
             }
         }
     }
