@@ -1,13 +1,22 @@
 // CG iteration, part 1: the direction c = s + β c and its product
 // q = S A c = S A s + β q (twin: the folded direction update of
-// cpu::implicit::step), and cᵀq's term in q's w.
+// cpu::implicit::step), and cᵀq's term in q's w. On a grid with coarse
+// levels the s loaded here is cg_update's plus the level-2 correction
+// S z of its level-2 aggregate, added at each stencil point as it is
+// loaded (twin: the last loop of cpu::coarse::Coarse::level2; elsewhere
+// cg_prolong adds it before).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
+#include "common/coarse.wgsl"
 #include "common/apply_block.wgsl"
 #include "generated/grid_block.wgsl"
 
 const APPLY_SEC: u32 = W_S;
+
+// β, loaded once per invocation (a load after a store to `work` is not
+// merged with the one before it).
+var<private> beta: f32;
 
 @compute @workgroup_size(WORKGROUP)
 fn cg_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -15,19 +24,31 @@ fn cg_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (cg_done()) {
         return;
     }
+    beta = partials[scalar_index(C_BETA)];
+    if (GRID && COARSE && p < params.grid.w) {
+        near_load(grid_block_origin(p), vec2<i32>(i32(BLOCK_ROWS), i32(BLOCK_COLS)));
+    }
     // On a grid: one invocation per block of particles.
     if (grid_gather_done(p)) {
         return;
     }
-    apply_end(p, work[wi(W_S, p)].xyz, apply_a(W_S, p));
+    apply_end(p, work[wi(W_S, p)], apply_a(W_S, p));
 }
 
-// c = s + β c and q = S (A s) + β q for particle p, whose s is `s` and
-// (A s)_p, unfiltered, `as_p`.
-fn apply_end(p: u32, s: vec3<f32>, as_p: vec3<f32>) {
-    let beta = partials[scalar_index(C_BETA)];
-    let t = filter_of(p, as_p);
-    let c = s + work[wi(W_C, p)].xyz * beta;
+// s at a stencil point from what cg_update stored there (s and the
+// filter kind).
+fn apply_value(pt: GridPoint, stored: vec4<f32>) -> vec3<f32> {
+    if (!(GRID && COARSE)) {
+        return stored.xyz;
+    }
+    return stored.xyz + filter_with(stored.w, pt.index, near_correction(pt.rc));
+}
+
+// c = s + β c and q = S (A s) + β q for particle p, whose s (with its
+// filter kind in w) is `s` and (A s)_p, unfiltered, `as_p`.
+fn apply_end(p: u32, s: vec4<f32>, as_p: vec3<f32>) {
+    let t = filter_with(s.w, p, as_p);
+    let c = s.xyz + work[wi(W_C, p)].xyz * beta;
     let q = t + work[wi(W_Q, p)].xyz * beta;
     work[wi(W_C, p)] = vec4<f32>(c, 0.0);
     work[wi(W_Q, p)] = vec4<f32>(q, dot3(c, q));

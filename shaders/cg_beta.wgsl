@@ -1,4 +1,4 @@
-// CG iteration, scalars: ρ summed from the w of W_S, δ_new = ρ plus the
+// CG iteration, scalars: ρ summed from the w of W_R, δ_new = ρ plus the
 // coarse terms, β = δ_new / δ, count the iteration, and stop if ρ has
 // converged (one workgroup).
 #include "common/bindings.wgsl"
@@ -11,7 +11,7 @@ fn cg_beta(@builtin(local_invocation_id) lid: vec3<u32>) {
     if (cg_stopped(lid.x)) {
         return;
     }
-    let rho = sum_w(W_S, P_RS, lid.x);
+    let rho = sum_w(W_R, P_RS, lid.x);
     let delta = cg_delta(rho, lid.x);
     if (lid.x != 0u) {
         return;

@@ -1,5 +1,5 @@
 // CG scalars, once per solve (one workgroup): δ0 from the w of W_RHS, ρ
-// from the w of W_S and δ = ρ plus the coarse terms, in the CPU's order,
+// from the w of W_R and δ = ρ plus the coarse terms, in the CPU's order,
 // and whether CG is done before its first iteration (twin: the loop
 // condition of cpu::implicit::step).
 #include "common/bindings.wgsl"
@@ -10,7 +10,7 @@
 @compute @workgroup_size(WORKGROUP)
 fn cg_start(@builtin(local_invocation_id) lid: vec3<u32>) {
     let delta0 = sum_w(W_RHS, P_D0, lid.x);
-    let rho = sum_w(W_S, P_RS, lid.x);
+    let rho = sum_w(W_R, P_RS, lid.x);
     let delta = cg_delta(rho, lid.x);
     if (lid.x != 0u) {
         return;

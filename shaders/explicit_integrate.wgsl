@@ -33,7 +33,7 @@ fn explicit_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (grid_gather_done(p)) {
         return;
     }
-    let own = block_load(p);
+    let own = block_load(lone_point(p));
     integrate_particle(p, own.x, own.v, total_force(p, own.x, own.v, SNAP_IN));
 }
 
@@ -46,7 +46,8 @@ struct BlockData {
 
 alias BlockAcc = vec3<f32>;
 
-fn block_load(i: u32) -> BlockData {
+fn block_load(pt: GridPoint) -> BlockData {
+    let i = pt.index;
     if (SNAP_IN == STATE_BUFFERS) {
         return BlockData(x[i], v[i]);
     }

@@ -42,8 +42,8 @@ struct BlockData {
 
 alias BlockAcc = vec4<f32>;
 
-fn block_load(i: u32) -> BlockData {
-    return BlockData(work[wi(SRC, i)].xyz, x[i].w);
+fn block_load(pt: GridPoint) -> BlockData {
+    return BlockData(work[wi(SRC, pt.index)].xyz, x[pt.index].w);
 }
 
 fn block_start(p: u32, own: BlockData) -> vec4<f32> {
@@ -106,7 +106,7 @@ fn fixup_jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (grid_gather_done(p)) {
         return;
     }
-    let own = block_load(p);
+    let own = block_load(lone_point(p));
     var sum = vec3<f32>(0.0);
     var count = 0u;
     let begin = topo[p];

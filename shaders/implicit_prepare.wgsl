@@ -95,8 +95,8 @@ struct BlockAcc {
     levels: Levels,
 }
 
-fn block_load(i: u32) -> BlockData {
-    return BlockData(x[i], v[i]);
+fn block_load(pt: GridPoint) -> BlockData {
+    return BlockData(x[pt.index], v[pt.index]);
 }
 
 fn block_start(p: u32, own: BlockData) -> BlockAcc {
@@ -180,7 +180,7 @@ fn prepare_particle(
         work[wi(W_LEVEL2_O, p)] = vec4<f32>(levels.d2.o, 0.0);
     }
     let dv = filter_apply(kind, normal, warm_start(p)) + z;
-    work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
+    work[wi(W_DV, p)] = vec4<f32>(dv, kind);
     let sb = filter_apply(kind, normal, rhs);
     work[wi(W_RHS, p)] = vec4<f32>(rhs, dot3(sb, sym3_mul(pre, sb)));
 }

@@ -30,7 +30,7 @@ fn semi_cg_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
         work[wi(W_PRE_DIAG, p)] = vec4<f32>(vec3<f32>(1.0 / diag), 0.0);
         work[wi(W_PRE_OFF, p)] = vec4<f32>(0.0);
         let dv = filter_apply(kind, vec3<f32>(0.0), warm_start(p));
-        work[wi(W_DV, p)] = vec4<f32>(dv, 0.0);
+        work[wi(W_DV, p)] = vec4<f32>(dv, kind);
         let rhs = work[wi(W_RHS, p)].xyz;
         let sb = filter_apply(kind, vec3<f32>(0.0), rhs);
         work[wi(W_RHS, p)] = vec4<f32>(rhs, dot3(sb, precond_mul(p, sb)));

@@ -134,6 +134,11 @@ const W_PRE_DIAG: u32 = 11u;
 const W_PRE_OFF: u32 = 12u;
 // Δv of the step before the last (CG warm start: 2 Δv − Δv_prev).
 const W_DV_PREV: u32 = 13u;
+// The w of the CG vectors: W_DV's and W_S's hold the particle's filter
+// kind (W_DV's from the CG set-up, implicit_prepare or semi_cg_prepare,
+// to the step's end; W_S's from cg_init and cg_update), for the kernels
+// that load them anyway; W_R's, W_Q's and W_RHS's the particle's terms of
+// ρ, cᵀq and δ0, summed by the one-workgroup kernels (see sum_w).
 // The start-of-step positions of an implicit step on a grid with
 // colliders, from which implicit_finish computes the spring blocks of its
 // contact particles while x is being overwritten (the section of the

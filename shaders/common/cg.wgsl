@@ -17,16 +17,26 @@ fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
     return a;
 }
 
-fn filter_of(p: u32, a: vec3<f32>) -> vec3<f32> {
+// Particle p's filter kind (W_Z's w; free without filters).
+fn filter_kind(p: u32) -> f32 {
     if (!HAS_FILTER) {
-        return a;
+        return FILTER_FREE;
     }
-    let kind = work[wi(W_Z, p)].w;
-    if (!(HAS_GROUND || HAS_SPHERES)) {
-        // Pins only: no plane filter, so no normal to load.
-        return filter_apply(kind, vec3<f32>(0.0), a);
+    return work[wi(W_Z, p)].w;
+}
+
+// S_p a for particle p of filter kind `kind`: only a plane filter loads
+// its normal.
+fn filter_with(kind: f32, p: u32, a: vec3<f32>) -> vec3<f32> {
+    var n = vec3<f32>(0.0);
+    if (HAS_FILTER && (HAS_GROUND || HAS_SPHERES) && kind == FILTER_PLANE) {
+        n = work[wi(W_FILTER, p)].xyz;
     }
-    return filter_apply(kind, work[wi(W_FILTER, p)].xyz, a);
+    return filter_apply(kind, n, a);
+}
+
+fn filter_of(p: u32, a: vec3<f32>) -> vec3<f32> {
+    return filter_with(filter_kind(p), p, a);
 }
 
 // The CG warm start of particle p: the last two Δv extrapolated,

@@ -103,3 +103,54 @@ fn cg_coarse(rho: f32, lid: u32) -> f32 {
     }
     return rho + total;
 }
+
+// The level-2 corrections z (W_COARSE_Z's xyz) within reach of one grid
+// block, for cg_apply, which adds S z to each s it loads. A block's
+// stencil spans its rows and columns and GRID_REACH more each way, fewer
+// than LEVEL2_SIDE (the assertion beside gpu::grid::REACH),
+// so at most two level-2 aggregates each way: `first` is the (row,
+// column) of the top-left one and zij the correction i rows and j columns
+// from it. Loaded once per block, picked per stencil point.
+struct Near {
+    first: vec2<i32>,
+    z00: vec3<f32>,
+    z01: vec3<f32>,
+    z10: vec3<f32>,
+    z11: vec3<f32>,
+}
+
+var<private> near: Near;
+
+// Grid springs join particles up to this many rows or columns apart
+// (twin: gpu::grid::REACH).
+const GRID_REACH: i32 = 2;
+
+fn level2_correction(at: vec2<i32>) -> vec3<f32> {
+    let k = params.coarse.z + u32(at.x) * coarse_across(LEVEL2_SIDE) + u32(at.y);
+    return work[wi(W_COARSE_Z, k)].xyz;
+}
+
+// Loads the corrections near the block whose first particle is at `o`
+// (row, column) and whose size is `size` (rows, columns).
+fn near_load(o: vec2<i32>, size: vec2<i32>) {
+    let side = i32(LEVEL2_SIDE);
+    let last = vec2<i32>(i32(params.coarse.y), i32(params.coarse.x)) - 1;
+    let lo = max(o - GRID_REACH, vec2<i32>(0)) / side;
+    let hi = min(o + size - 1 + GRID_REACH, last) / side;
+    near = Near(
+        lo,
+        level2_correction(lo),
+        level2_correction(vec2<i32>(lo.x, hi.y)),
+        level2_correction(vec2<i32>(hi.x, lo.y)),
+        level2_correction(hi),
+    );
+}
+
+// The level-2 correction of the particle at `rc` (row, column), which is
+// within reach of the block of the last near_load.
+fn near_correction(rc: vec2<i32>) -> vec3<f32> {
+    let d = rc / i32(LEVEL2_SIDE) - near.first;
+    let top = select(near.z00, near.z01, d.y != 0);
+    let bottom = select(near.z10, near.z11, d.y != 0);
+    return select(top, bottom, d.x != 0);
+}

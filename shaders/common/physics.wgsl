@@ -116,15 +116,22 @@ fn grid_row_col(p: u32) -> vec2<i32> {
 }
 
 fn grid_incident(p: u32, rc: vec2<i32>, t: vec4<i32>) -> Incident {
-    return grid_spring(GridPoint(true, p), grid_point(rc, p, t.xy), u32(t.z), t.w != 0);
+    return grid_spring(GridPoint(true, p, rc), grid_point(rc, p, t.xy), u32(t.z), t.w != 0);
 }
 
 // A particle of a block's stencil (generated/grid_block.wgsl): inside the
-// grid or not, and its index — where it is outside, a particle that
-// exists (the block's first), so loads stay in bounds.
+// grid or not, its index and its (row, column) — where it is outside, a
+// particle that exists (the block's first), so loads stay in bounds.
 struct GridPoint {
     ok: bool,
     index: u32,
+    rc: vec2<i32>,
+}
+
+// Particle p as a stencil point of the general (adjacency) kernels, which
+// keep no rows and columns.
+fn lone_point(p: u32) -> GridPoint {
+    return GridPoint(true, p, vec2<i32>(0));
 }
 
 // The particle `off` (row, column) away from the block's first particle
@@ -133,7 +140,11 @@ fn grid_point(o: vec2<i32>, oi: u32, off: vec2<i32>) -> GridPoint {
     let r = o.x + off.x;
     let c = o.y + off.y;
     let inside = r >= 0 && r < i32(params.grid.y) && c >= 0 && c < i32(params.grid.x);
-    return GridPoint(inside, select(oi, u32(r) * params.grid.x + u32(c), inside));
+    return GridPoint(
+        inside,
+        select(oi, u32(r) * params.grid.x + u32(c), inside),
+        select(o, vec2<i32>(r, c), inside),
+    );
 }
 
 // The spring of direction `dir` between particle `me` and `other` (`at_j`:

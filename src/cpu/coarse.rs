@@ -37,8 +37,9 @@
 //!
 //! Everything is summed in a fixed order that the GPU reproduces (twins:
 //! `coarse_setup.wgsl`; the per-aggregate `cg_update.wgsl` for level 1;
-//! `cg_coarse` in `shaders/common/coarse.wgsl` and `cg_prolong.wgsl` for
-//! level 2): an aggregate's particles in row-major order; a level-2
+//! `cg_coarse` and `near_correction` (for `cg_apply`) in
+//! `shaders/common/coarse.wgsl`, or `cg_prolong.wgsl`, for level 2): an
+//! aggregate's particles in row-major order; a level-2
 //! aggregate's residual as the sum of its level-1 aggregates' (row-major);
 //! the coarse terms of `rᵀM⁻¹r` level-2 aggregate by level-2 aggregate,
 //! each its level-1 terms then its own; `s` gets the block-Jacobi term,

@@ -184,7 +184,8 @@ fn precondition_at<R: Real>(w: &mut Workspace<R>, p: usize) {
 /// δ = rᵀM⁻¹r from ρ = rᵀP⁻¹r once every particle's block-Jacobi term is
 /// in `w.s`: with coarse levels, their corrections added to `w.s` and
 /// their terms to ρ; without, ρ. (On the GPU: the end of cg_update,
-/// cg_beta's sums and cg_prolong.)
+/// cg_beta's sums, and level 2's corrections added by cg_apply to each s
+/// it loads — by a cg_prolong pass off the grid kernels.)
 fn coarse_terms<R: Real>(w: &mut Workspace<R>, rho: R) -> R {
     match &mut w.coarse {
         Some(coarse) => {

@@ -55,6 +55,34 @@ pub const INCIDENT: [(i32, i32, u32, bool); 12] = [
     (2, 0, 5, false),
 ];
 
+/// How many rows or columns apart the ends of a grid spring lie at most
+/// (twin: `GRID_REACH` in `shaders/common/coarse.wgsl`).
+pub const REACH: i32 = {
+    let mut reach = 0;
+    let mut k = 0;
+    while k < INCIDENT.len() {
+        let (dr, dc, _, _) = INCIDENT[k];
+        reach = max_i32(reach, max_i32(dr.abs(), dc.abs()));
+        k += 1;
+    }
+    reach
+};
+
+const fn max_i32(a: i32, b: i32) -> i32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+// cg_apply adds the level-2 corrections of the at most 2 × 2 level-2
+// aggregates that a block's stencil reaches (`near_load` in
+// shaders/common/coarse.wgsl): a block's side plus the reach each way must
+// fit in a level-2 aggregate's side.
+const _: () =
+    assert!(GridBlock::MAX as usize + 2 * REACH as usize <= crate::cpu::coarse::LEVEL_SIDES[1]);
+
 /// Where a grid cloth's springs live on the device.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridLayout {
@@ -239,7 +267,8 @@ impl GridBlock {
     /// "generated/grid_block.wgsl"` brings into a kernel (see
     /// [`super::shaders`]). The kernel defines what is gathered through
     /// six hooks: the type `BlockData` of a particle's loaded values and
-    /// `block_load(index)` that loads them, once per stencil point; the
+    /// `block_load(point)` that loads them, once per stencil point (`point`:
+    /// a `GridPoint`); the
     /// type `SpringData` and `spring_load(spring, first, second)`, once per
     /// spring the members touch (`spring`: an `Incident` seen from its
     /// first end — see `shaders/common/physics.wgsl` — whose `ok` does not
@@ -273,12 +302,16 @@ impl GridBlock {
              }}\n    \
              return i >= params.particle_count;\n\
              }}\n\n\
-             // Gathers the members of block `block` (row-major over the \
-             grid's blocks; params.grid.w blocks).\n\
-             fn grid_block(block: u32) {{\n    \
+             // The (row, column) of block `block`'s first particle \
+             (blocks row-major over the grid; params.grid.w blocks).\n\
+             fn grid_block_origin(block: u32) -> vec2<i32> {{\n    \
              let across = (params.grid.x + BLOCK_COLS - 1u) / BLOCK_COLS;\n    \
-             let o = vec2<i32>(i32((block / across) * BLOCK_ROWS), \
-             i32((block % across) * BLOCK_COLS));\n    \
+             return vec2<i32>(i32((block / across) * BLOCK_ROWS), \
+             i32((block % across) * BLOCK_COLS));\n\
+             }}\n\n\
+             // Gathers the members of block `block`.\n\
+             fn grid_block(block: u32) {{\n    \
+             let o = grid_block_origin(block);\n    \
              let oi = u32(o.x) * params.grid.x + u32(o.y);",
             self.cols, self.rows, self.cols, self.rows
         );
@@ -286,7 +319,7 @@ impl GridBlock {
             let _ = writeln!(
                 s,
                 "    let pt{k} = grid_point(o, oi, vec2<i32>({dr}, {dc}));\n    \
-                 let ld{k} = block_load(pt{k}.index);"
+                 let ld{k} = block_load(pt{k});"
             );
         }
         // Each spring the members touch, once: (first end, second end,

@@ -384,20 +384,22 @@ impl GpuSolver {
             // each summed once, by a one-workgroup kernel — no workgroup
             // barrier in any per-particle pass.
             // With coarse levels the scalar kernels also restrict the
-            // residual and solve the aggregates' 3×3 systems; cg_prolong
-            // adds the corrections to the search direction's source.
-            // With coarse levels cg_update and cg_prolong take a level-1
-            // aggregate per invocation, and cg_update.first preconditions
-            // the initial residual.
+            // residual and solve the level-2 aggregates' 3×3 systems, and
+            // the level-2 corrections are added to the search direction's
+            // source: by cg_apply as it loads it on a grid, else by a
+            // cg_prolong pass. With coarse levels cg_update and cg_prolong
+            // take a level-1 aggregate per invocation, and cg_update.first
+            // preconditions the initial residual.
             let one = WORKGROUP;
             let coarse = self.features.coarse;
+            let prolong = coarse && !self.features.grid;
             let update = if coarse { self.params.coarse[2] } else { n };
             plan.push(("cg_init", gather));
             if coarse {
                 plan.push(("cg_update.first", update));
             }
             plan.push(("cg_start", one));
-            if coarse {
+            if prolong {
                 plan.push(("cg_prolong", update));
             }
             for _ in 0..self.cg_budget {
@@ -407,7 +409,7 @@ impl GpuSolver {
                     ("cg_update", update),
                     ("cg_beta", one),
                 ]);
-                if coarse {
+                if prolong {
                     plan.push(("cg_prolong", update));
                 }
             }
