@@ -1,6 +1,7 @@
 // CG start: r = S b − S A Δv with ρ = r·s's term in its w, s = S P r
-// with the particle's filter kind in its w (see cg_update), and a zero
-// previous direction and product (the first iteration has β = 0).
+// with the particle's filter kind in its w (see cg_update; with coarse
+// levels cg_update.first computes s and ρ's terms), and a zero previous
+// direction and product (the first iteration has β = 0).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
@@ -30,9 +31,14 @@ fn apply_end(p: u32, dv: vec4<f32>, adv: vec3<f32>) {
     let kind = dv.w;
     let q = filter_with(kind, p, adv);
     let r = filter_with(kind, p, work[wi(W_RHS, p)].xyz) - q;
-    let s = filter_with(kind, p, precond_mul(p, r));
-    work[wi(W_R, p)] = vec4<f32>(r, dot3(r, s));
-    work[wi(W_S, p)] = vec4<f32>(s, kind);
+    if (COARSE) {
+        // cg_update.first preconditions r with the coarse levels.
+        work[wi(W_R, p)] = vec4<f32>(r, 0.0);
+    } else {
+        let s = filter_with(kind, p, precond_mul(p, r));
+        work[wi(W_R, p)] = vec4<f32>(r, dot3(r, s));
+        work[wi(W_S, p)] = vec4<f32>(s, kind);
+    }
     work[wi(W_C, p)] = vec4<f32>(0.0);
     work[wi(W_Q, p)] = vec4<f32>(0.0);
 }
