@@ -215,7 +215,14 @@ impl GridBlock {
     /// The shape for CPU adapters. lavapipe, 128² yardstick, explicit step
     /// (minimum of 15 interleaved batches): 1×1 1.03 ms, 4×2 0.62, 3×3
     /// 0.58, 4×3 0.57, 4×4 0.55. Its kernels take seconds to compile
-    /// (once per process and variant; Mesa caches them on disk).
+    /// (once per process and variant; Mesa caches them on disk). Larger
+    /// blocks were measured on the implicit CG product (single-kernel
+    /// probes, min of three alternating rounds; `MAX` raised for it): 4 × 4
+    /// 0.56–0.59 ms, 8 columns × 4 rows 0.50–0.51 (2.6 stencil points per
+    /// particle instead of 3.25), 4 × 8 0.66, 8 × 8 0.70; but 8 × 4
+    /// kernels compile about three times as long (one process's implicit
+    /// kernels ~50 s against ~17 s with a cold Mesa cache), which every
+    /// scene variant and test process pays, so 4 × 4 stays.
     pub const CPU: GridBlock = GridBlock { cols: 4, rows: 4 };
     /// Largest side: a 4 × 4 block already keeps 52 particle states live.
     pub const MAX: u32 = 4;
