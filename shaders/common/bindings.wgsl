@@ -139,6 +139,7 @@ const W_DV_PREV: u32 = 13u;
 // to the step's end; W_S's from cg_init and cg_update), for the kernels
 // that load them anyway; W_R's, W_Q's and W_RHS's the particle's terms of
 // ρ, cᵀq and δ0, summed by the one-workgroup kernels (see sum_w).
+
 // The start-of-step positions of an implicit step on a grid with
 // colliders, from which implicit_finish computes the spring blocks of its
 // contact particles while x is being overwritten (the section of the

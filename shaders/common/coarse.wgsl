@@ -24,13 +24,19 @@ fn coarse_down(side: u32) -> u32 {
     return (params.coarse.y + side - 1u) / side;
 }
 
+// Index, among both levels', of the aggregate in aggregate row and column
+// `at` of the level whose aggregates have `side` particles a side.
+fn coarse_index(side: u32, at: vec2<u32>) -> u32 {
+    let offset = select(0u, params.coarse.z, side == LEVEL2_SIDE);
+    return offset + at.x * coarse_across(side) + at.y;
+}
+
 // Index of particle p's aggregate of side `side`, among both levels'
 // (twin: Aggregation::of).
 fn coarse_of(side: u32, p: u32) -> u32 {
     let row = p / params.coarse.x;
     let col = p % params.coarse.x;
-    let offset = select(0u, params.coarse.z, side == LEVEL2_SIDE);
-    return offset + (row / side) * coarse_across(side) + col / side;
+    return coarse_index(side, vec2<u32>(row / side, col / side));
 }
 
 // Particle k (0 ≤ k < LEVEL1_SIDE², row-major) of level-1 aggregate a,
@@ -126,8 +132,7 @@ var<private> near: Near;
 const GRID_REACH: i32 = 2;
 
 fn level2_correction(at: vec2<i32>) -> vec3<f32> {
-    let k = params.coarse.z + u32(at.x) * coarse_across(LEVEL2_SIDE) + u32(at.y);
-    return work[wi(W_COARSE_Z, k)].xyz;
+    return work[wi(W_COARSE_Z, coarse_index(LEVEL2_SIDE, vec2<u32>(at)))].xyz;
 }
 
 // Loads the corrections near the block whose first particle is at `o`
