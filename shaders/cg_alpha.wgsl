@@ -5,7 +5,7 @@
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
 
-@compute @workgroup_size(WORKGROUP)
+@compute @workgroup_size(SUM_GROUP)
 fn cg_alpha(@builtin(local_invocation_id) lid: vec3<u32>) {
     if (cg_stopped(lid.x)) {
         return;

@@ -6,7 +6,7 @@
 #include "common/cg.wgsl"
 #include "common/coarse.wgsl"
 
-@compute @workgroup_size(WORKGROUP)
+@compute @workgroup_size(SUM_GROUP)
 fn cg_beta(@builtin(local_invocation_id) lid: vec3<u32>) {
     if (cg_stopped(lid.x)) {
         return;

@@ -7,7 +7,7 @@
 #include "common/cg.wgsl"
 #include "common/coarse.wgsl"
 
-@compute @workgroup_size(WORKGROUP)
+@compute @workgroup_size(SUM_GROUP)
 fn cg_start(@builtin(local_invocation_id) lid: vec3<u32>) {
     let delta0 = sum_w(W_RHS, P_D0, lid.x);
     let rho = sum_w(W_R, P_RS, lid.x);

@@ -5,6 +5,10 @@
 
 // Workgroup size of every per-particle and per-spring kernel.
 override WORKGROUP: u32 = 64u;
+// Workgroup size of the one-workgroup CG scalar kernels (cg_start,
+// cg_alpha, cg_beta): 256, or what the device allows (src/gpu/pipelines.rs,
+// sum_group).
+override SUM_GROUP: u32 = 256u;
 // Scene features; a pipeline variant with a feature off has its code
 // removed by the compiler (constant-folded branch).
 override HAS_WIND: bool = true;

@@ -376,16 +376,55 @@ fn sum_partials(slot: u32) -> f32 {
     return total;
 }
 
-// Σ_p work[wi(sec, p)].w in block_sum's order, by one workgroup:
-// invocation l adds up blocks l, l + WORKGROUP, … into partials[slot],
-// then invocation 0 adds the block sums in sequence and returns the total
-// (the others return 0: they have nothing left to do, and on lavapipe a
-// load costs the same whether or not the address is the same for every
-// invocation). The per-particle kernels leave their dot-product terms in
-// the w of a vector they write anyway, so they need no workgroup barrier.
-// Call from uniform control flow.
+// Where sum_staged finds its values.
+const STAGED_PARTIALS: u32 = 0u;
+const STAGED_LEVEL2: u32 = 1u;
+
+// Value k of a staged sum: partial k of `slot`, or the term in the w of
+// level-2 aggregate k's W_COARSE_Z (see cg_coarse).
+fn staged_value(source: u32, slot: u32, k: u32) -> f32 {
+    if (source == STAGED_LEVEL2) {
+        return work[wi(W_COARSE_Z, params.coarse.z + k)].w;
+    }
+    return partials[slot * params.partial_count + k];
+}
+
+var<workgroup> stage: array<f32, SUM_GROUP>;
+
+// Σ of the `count` values of `source` in sequence (twin: the block loop of
+// block_sum; the level-2 loop of Coarse::level2): the workgroup copies
+// SUM_GROUP values at a time into workgroup memory, and invocation 0 adds
+// them from there. On a GPU, invocation 0 loading each value from storage
+// itself would wait out a memory latency every few values (a 257² cloth
+// has ~1000 block sums); on lavapipe the copy's two barriers cost about
+// what they save. The result is valid in invocation 0 only. Call from
+// uniform control flow, after a storageBarrier.
+fn sum_staged(source: u32, slot: u32, count: u32, lid: u32) -> f32 {
+    var total = 0.0;
+    for (var base = 0u; base < count; base += SUM_GROUP) {
+        if (base + lid < count) {
+            stage[lid] = staged_value(source, slot, base + lid);
+        }
+        workgroupBarrier();
+        if (lid == 0u) {
+            for (var k = 0u; k < min(SUM_GROUP, count - base); k++) {
+                total += stage[k];
+            }
+        }
+        workgroupBarrier();
+    }
+    return total;
+}
+
+// Σ_p work[wi(sec, p)].w in block_sum's order, by one workgroup of
+// SUM_GROUP invocations: invocation l adds up blocks l, l + SUM_GROUP, …
+// of WORKGROUP particles into partials[slot], then the block sums are
+// added in sequence (sum_staged); the total is valid in invocation 0
+// only. The per-particle kernels leave their dot-product terms in the w
+// of a vector they write anyway, so they need no workgroup barrier. Call
+// from uniform control flow.
 fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
-    for (var b = lid; b < params.partial_count; b += WORKGROUP) {
+    for (var b = lid; b < params.partial_count; b += SUM_GROUP) {
         let start = b * WORKGROUP;
         let end = min(start + WORKGROUP, params.particle_count);
         var block = 0.0;
@@ -395,10 +434,7 @@ fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
         partials[slot * params.partial_count + b] = block;
     }
     storageBarrier();
-    if (lid != 0u) {
-        return 0.0;
-    }
-    return sum_partials(slot);
+    return sum_staged(STAGED_PARTIALS, slot, params.partial_count, lid);
 }
 
 // CG scalars, after the partials: δ0, δ (current rᵀM⁻¹r: with the coarse

@@ -72,9 +72,9 @@ fn cg_delta(rho: f32, lid: u32) -> f32 {
 // left each level-1 aggregate's Πᵀr and term in W_COARSE_Z: each level-2
 // aggregate's Πᵀr summed from its level-1 aggregates', its correction
 // z = D⁻¹Πᵀr into its W_COARSE_Z (twin: Coarse::level2). Invocation l
-// takes level-2 aggregates l, l + WORKGROUP, … and leaves their terms
-// (level-1 ones first) in the w of their z; invocation 0 adds them in
-// sequence. `rho` and the result are valid in invocation 0 only (see
+// takes level-2 aggregates l, l + SUM_GROUP, … and leaves their terms
+// (level-1 ones first) in the w of their z, added in sequence by
+// sum_staged. `rho` and the result are valid in invocation 0 only (see
 // sum_w). Call from uniform control flow.
 fn cg_coarse(rho: f32, lid: u32) -> f32 {
     let n1 = params.coarse.z;
@@ -82,7 +82,7 @@ fn cg_coarse(rho: f32, lid: u32) -> f32 {
     let across1 = coarse_across(LEVEL1_SIDE);
     let down1 = coarse_down(LEVEL1_SIDE);
     let across2 = coarse_across(LEVEL2_SIDE);
-    for (var b = lid; b < n2; b += WORKGROUP) {
+    for (var b = lid; b < n2; b += SUM_GROUP) {
         let row2 = b / across2;
         let col2 = b % across2;
         var term = 0.0;
@@ -100,14 +100,7 @@ fn cg_coarse(rho: f32, lid: u32) -> f32 {
         work[wi(W_COARSE_Z, k)] = vec4<f32>(z, term);
     }
     storageBarrier();
-    if (lid != 0u) {
-        return 0.0;
-    }
-    var total = 0.0;
-    for (var b = 0u; b < n2; b++) {
-        total += work[wi(W_COARSE_Z, n1 + b)].w;
-    }
-    return rho + total;
+    return rho + sum_staged(STAGED_LEVEL2, 0u, n2, lid);
 }
 
 // The level-2 corrections z (W_COARSE_Z's xyz) within reach of one grid

@@ -41,6 +41,30 @@ pub struct Features {
     pub coarse: bool,
 }
 
+/// Invocations of the one-workgroup CG scalar kernels (cg_start, cg_alpha,
+/// cg_beta) on devices that allow it (see [`sum_group`]).
+pub const SUM_GROUP: u32 = 256;
+
+/// The scalar kernels' workgroup size on a device with `limits`:
+/// [`SUM_GROUP`], or the largest workgroup the device allows. Each scalar
+/// kernel sums a term per particle as the CPU mirror does — block sums of
+/// [`WORKGROUP`] particles, then the block sums in sequence — with its
+/// invocations sharing the blocks and the block sums staged through
+/// workgroup memory before invocation 0 adds them (`sum_w` in
+/// `shaders/common/cg.wgsl`). The same order, so the same bits, for every
+/// width. Wide because on a GPU a workgroup of [`WORKGROUP`] with
+/// invocation 0 loading a 257² cloth's ~1000 block sums one by one from
+/// storage is bound by memory latency — by arithmetic, not measured: no
+/// GPU has been lent to this project. On lavapipe 256 against 64
+/// invocations with the sums read from storage made α's and β's kernels
+/// ~10–25 % slower in single-kernel probes, ~0.03 ms per CG iteration, and
+/// the implicit step the same within the host's noise.
+pub fn sum_group(limits: &wgpu::Limits) -> u32 {
+    SUM_GROUP
+        .min(limits.max_compute_invocations_per_workgroup)
+        .min(limits.max_compute_workgroup_size_x)
+}
+
 /// One kernel variant: entry point, name suffix, extra constants.
 struct Variant {
     entry: &'static str,
@@ -260,6 +284,7 @@ impl Pipelines {
                     flag(integrator == Integrator::SemiImplicit),
                 ),
                 ("COARSE", flag(features.coarse)),
+                ("SUM_GROUP", f64::from(sum_group(&device.limits()))),
             ];
             constants.extend_from_slice(variant.constants);
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
