@@ -396,9 +396,10 @@ var<workgroup> stage: array<f32, SUM_GROUP>;
 // SUM_GROUP values at a time into workgroup memory, and invocation 0 adds
 // them from there. On a GPU, invocation 0 loading each value from storage
 // itself would wait out a memory latency every few values (a 257² cloth
-// has ~1000 block sums); on lavapipe the copy's two barriers cost about
-// what they save. The result is valid in invocation 0 only. Call from
-// uniform control flow, after a storageBarrier.
+// has ~1000 block sums); on lavapipe the copy's barriers make these
+// kernels slower and the step no slower within noise (see
+// gpu::pipelines::sum_group). The result is valid in invocation 0 only.
+// Call from uniform control flow, after a storageBarrier.
 fn sum_staged(source: u32, slot: u32, count: u32, lid: u32) -> f32 {
     var total = 0.0;
     for (var base = 0u; base < count; base += SUM_GROUP) {

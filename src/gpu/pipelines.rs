@@ -254,6 +254,7 @@ impl Pipelines {
         integrator: Integrator,
         features: Features,
     ) -> Result<()> {
+        let sum_threads = f64::from(sum_group(&device.limits()));
         for variant in variants(integrator) {
             let name = format!("{}{}", variant.entry, variant.suffix);
             if self.cache.contains_key(&(name.clone(), features)) {
@@ -284,7 +285,7 @@ impl Pipelines {
                     flag(integrator == Integrator::SemiImplicit),
                 ),
                 ("COARSE", flag(features.coarse)),
-                ("SUM_GROUP", f64::from(sum_group(&device.limits()))),
+                ("SUM_GROUP", sum_threads),
             ];
             constants.extend_from_slice(variant.constants);
             let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
