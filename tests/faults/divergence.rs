@@ -1,0 +1,1 @@
+//! Fault rows: divergence (filled in by its owner).

@@ -1,0 +1,9 @@
+//! The fault-injection suite: the `wgcloth` binary and the library driven
+//! the way a hostile user or a failing machine would drive them. One module
+//! per class of fault; each row asserts the exit status, the message and
+//! what is on disk afterwards.
+
+mod divergence;
+mod memory_device;
+mod messages;
+mod outputs;

@@ -1,0 +1,1 @@
+//! Fault rows: memory_device (filled in by its owner).

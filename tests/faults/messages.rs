@@ -1,0 +1,1 @@
+//! Fault rows: messages (filled in by its owner).

@@ -1,0 +1,1 @@
+//! Fault rows: outputs (filled in by its owner).
