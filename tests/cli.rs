@@ -6,23 +6,14 @@
 
 use std::ffi::OsStr;
 use std::fs;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Command;
 
 use wgcloth::cpu::CpuSolver;
 use wgcloth::{Real, Scene};
 
-const BIN: &str = env!("CARGO_BIN_EXE_wgcloth");
-
-/// The documented exit statuses.
-const EXIT_INVALID: i32 = 2;
-const EXIT_BLEW_UP: i32 = 3;
-const EXIT_NO_ADAPTER: i32 = 4;
-
-/// The software Vulkan adapter (Mesa's lavapipe) installed on the
-/// development machine and in CI: its name contains this. The GPU tests
-/// below fail, never skip, where it is missing.
-const LAVAPIPE: &str = "llvmpipe";
+mod cli_common;
+use cli_common::*;
 
 /// A 5 × 5 explicit cloth, 5 steps by default: fast enough for a debug build.
 const SMALL_SCENE: &str = r#"
@@ -62,77 +53,6 @@ stiffness = 1e9
 [fixup]
 iterations = 0
 "#;
-
-/// A fresh, empty directory for one test, removed afterwards.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(test: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("wgcloth-cli-{}-{test}", std::process::id()));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).expect("create the test directory");
-        TempDir(dir)
-    }
-
-    fn join(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-
-    /// Writes `text` to `name` in the directory and returns its path.
-    fn write(&self, name: &str, text: &str) -> PathBuf {
-        let path = self.join(name);
-        fs::write(&path, text).expect("write a test file");
-        path
-    }
-
-    /// Every file name in the directory, hidden temporaries included.
-    fn files(&self) -> Vec<String> {
-        let mut names: Vec<String> = fs::read_dir(&self.0)
-            .expect("list the test directory")
-            .map(|e| {
-                e.expect("directory entry")
-                    .file_name()
-                    .to_string_lossy()
-                    .into_owned()
-            })
-            .collect();
-        names.sort();
-        names
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
-    }
-}
-
-fn wgcloth<S: AsRef<OsStr>>(args: &[S]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .output()
-        .expect("run the wgcloth binary")
-}
-
-fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// Asserts the exit status, showing both streams when it is wrong.
-#[track_caller]
-fn assert_status(out: &Output, expected: i32) {
-    assert_eq!(
-        out.status.code(),
-        Some(expected),
-        "exit status\n--- stdout\n{}\n--- stderr\n{}",
-        stdout(out),
-        stderr(out)
-    );
-}
 
 /// The positions the library computes for `scene` after `steps` steps,
 /// widened to `f64`: what the binary must have written.

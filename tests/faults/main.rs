@@ -3,6 +3,8 @@
 //! per class of fault; each row asserts the exit status, the message and
 //! what is on disk afterwards.
 
+#[path = "../cli_common/mod.rs"]
+mod cli_common;
 mod divergence;
 mod memory_device;
 mod messages;
