@@ -31,3 +31,10 @@ pub use model::{ClothSpec, Model};
 pub use params::{Integrator, Params};
 pub use real::{Real, Vec3};
 pub use scene::Scene;
+
+/// The Rust examples of `README.md` and `docs/embedding.md`, compiled (and
+/// the CPU one run) by `cargo test --doc` so they stay true to the API.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+#[doc = include_str!("../docs/embedding.md")]
+pub struct DocExamples;

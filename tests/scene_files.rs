@@ -293,20 +293,6 @@ fn pins_can_be_emptied_and_fixup_switched_off() {
 }
 
 #[test]
-fn every_toml_block_in_the_format_reference_loads() {
-    let doc = std::fs::read_to_string(repo_path("README.md")).expect("doc exists");
-    let mut blocks = 0;
-    for (n, block) in doc.split("```toml\n").skip(1).enumerate() {
-        let text = block.split("```").next().expect("closed block");
-        if let Err(e) = Scene::from_toml(text, Path::new("doc.toml")) {
-            panic!("TOML block {n} of README.md: {e}\n--- block ---\n{text}");
-        }
-        blocks += 1;
-    }
-    assert!(blocks > 0, "README.md has no ```toml block");
-}
-
-#[test]
 fn resolve_prefers_files_then_builtins() {
     let path = repo_path("scenes/flag.toml");
     let by_path = Scene::resolve(path.to_str().expect("utf-8 path")).expect("file loads");
