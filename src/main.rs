@@ -1,5 +1,5 @@
 //! The `wgcloth` command-line tool: run a scene, print a summary, write the
-//! final positions and a per-step trace. See the README's "CLI reference".
+//! final positions and a per-step trace. See `docs/cli.md`.
 
 mod cli;
 

@@ -1,5 +1,5 @@
 //! The `wgcloth` binary, run as a user runs it: exit statuses, messages and
-//! output files (the CLI contract in the README's "CLI reference").
+//! output files (the CLI contract in `docs/cli.md`).
 //!
 //! Every test works in its own fresh directory under the system temp
 //! directory, so "no file was written" can be checked by listing it.
@@ -538,7 +538,7 @@ fn render_refuses_a_bad_size() {
 }
 
 /// `wgcloth` with no arguments renders `hanging` to `./out` (the README's
-/// first command), quickly.
+/// quick start, `cargo run --release`), quickly.
 #[test]
 fn no_arguments_render_the_default_job_to_out() {
     let dir = TempDir::new("default-job");

@@ -1,5 +1,5 @@
-//! Guards the measured accuracy and stability of the integrators (the
-//! README's "Accuracy and stability" section) against regressions: a small
+//! Guards the measured accuracy and stability of the integrators
+//! (`docs/integrators.md`) against regressions: a small
 //! version of `wgcloth bench accuracy` and `wgcloth bench stability`, CPU
 //! only.
 //!

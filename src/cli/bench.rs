@@ -16,7 +16,7 @@ use wgcloth::Scene;
 use super::{chart, BenchAccuracyArgs, BenchStabilityArgs};
 
 /// Stiffness range [N/m] the article reached with its semi-implicit
-/// integrator (see the README): 10⁵.
+/// integrator (see `docs/integrators.md`): 10⁵.
 const ARTICLE_STIFFNESS: f64 = 1e5;
 /// Stiffness range Desbrun et al. claimed: 10⁶.
 const DESBRUN_STIFFNESS: f64 = 1e6;

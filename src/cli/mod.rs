@@ -1,7 +1,7 @@
 //! Command-line parsing, dispatch and exit statuses.
 //!
-//! The options and exit statuses are a stable contract (documented in the
-//! README's "CLI reference"): scripts run parameter sweeps through them.
+//! The options and exit statuses are a stable contract (documented in
+//! `docs/cli.md`): scripts run parameter sweeps through them.
 
 mod backend;
 mod bench;

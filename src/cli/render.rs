@@ -1,5 +1,5 @@
 //! `wgcloth render`: simulate a scene on the GPU and write each frame as a
-//! PNG (see the README's "Rendering"). With no arguments at all, `wgcloth`
+//! PNG (see "Rendering" in `docs/cli.md`). With no arguments at all, `wgcloth`
 //! renders the `hanging` scene with these defaults.
 
 use std::io::Write as _;

@@ -37,8 +37,8 @@ use mat3::Sym3;
 /// `f64`). This is the GPU's crossover — there a dense product is one fully
 /// parallel pass and a triangular solve is sequential — and the CPU follows
 /// it so its `f32` mirror applies the filter as the GPU does. On the CPU
-/// alone the banded factor is faster at every size (README, "Dense or banded
-/// filter"). The article's sizes (15², 25², 33²) all stay dense.
+/// alone the banded factor is faster at every size (`docs/performance.md`,
+/// "Dense or banded filter"). The article's sizes (15², 25², 33²) all stay dense.
 pub const DENSE_FILTER_MAX_PARTICLES: usize = 1 << 11;
 
 /// Particles per block of a reduction (dot products in CG): the GPU's

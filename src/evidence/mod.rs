@@ -1,4 +1,4 @@
-//! Measured evidence for the README's claims: accuracy against a converged
+//! Measured evidence for `docs/integrators.md`: accuracy against a converged
 //! reference trajectory ([`mod@accuracy`]) and stability regions over stiffness
 //! and time step ([`mod@stability`]).
 //!

@@ -4,7 +4,7 @@
 //! succeeds completely or fails with an error that names the file, the key
 //! and what is allowed. Nothing partial is ever returned.
 //!
-//! The format is described key by key in `README.md`. The schema
+//! The format is described key by key in `docs/scene-format.md`. The schema
 //! lives in `file.rs`; ranges are checked by [`ClothSpec::validate`] and
 //! [`Params::validate`] only, so a file and the library API accept exactly
 //! the same values.
