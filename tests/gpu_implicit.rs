@@ -15,7 +15,7 @@ fn scene() -> (Model, Params) {
     (grid(17, 13, corners(), &params), params)
 }
 
-/// The GPU sums every dot product in the CPU's (tree) order, so the CG
+/// The GPU sums every dot product in the CPU's (block) order, so the CG
 /// iterates agree as closely as the explicit step: ulps from fused
 /// multiply-adds or lavapipe's rounding, amplified by CG's sensitivity to
 /// its inputs. One step: 1e-6 m.

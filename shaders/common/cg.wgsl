@@ -283,8 +283,8 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
 // scalar kernel enables the next one and clears the slot of the one
 // before — cg_start enables alpha 0, alpha k beta k, beta k alpha k + 1 —
 // so once CG stops, the rest of the recorded iterations dispatch no
-// workgroup at all (on lavapipe ~15 µs each instead of ~60 µs for a
-// workgroup that finds CG stopped). A kernel may not bind the buffer it
+// workgroup at all (an empty indirect dispatch costs far less than a
+// workgroup that runs only to find CG stopped). A kernel may not bind the buffer it
 // is dispatched from: cg_alpha binds only beta's slots, cg_beta only
 // alpha's, cg_start both.
 @group(1) @binding(1) var<storage, read_write> alpha_slots: array<u32>;
@@ -396,9 +396,8 @@ var<workgroup> stage: array<f32, SUM_GROUP>;
 // SUM_GROUP values at a time into workgroup memory, and invocation 0 adds
 // them from there. On a GPU, invocation 0 loading each value from storage
 // itself would wait out a memory latency every few values (a 257² cloth
-// has ~1000 block sums); on lavapipe the copy's barriers make these
-// kernels slower and the step no slower within noise (see
-// gpu::pipelines::sum_group). The result is valid in invocation 0 only.
+// has ~1000 block sums; see gpu::pipelines::sum_group for why every
+// adapter runs this form). The result is valid in invocation 0 only.
 // Call from uniform control flow, after a storageBarrier.
 fn sum_staged(source: u32, slot: u32, count: u32, lid: u32) -> f32 {
     var total = 0.0;

@@ -18,22 +18,19 @@
 //! aggregate's particles. Block Jacobi already handles the rigid motion of
 //! an aggregate whose springs are weak against its mass (`A ≈ M`): there
 //! an unweighted coarse term corrects the same error twice and *adds*
-//! iterations (the bench's hanging cloth over 0.4 s, 17² at dt = 1 ms: 3.8
-//! against block Jacobi's 2.6 per step; 128² at 4 ms: 4.8 against 4.7);
-//! `θ` is the share of the diagonal that the springs contribute, near 0 there and near 1 where
-//! the springs dominate, and with it those read 2.5 and 4.4 while the
-//! large steps keep their gains (128² at 20 ms: 21.4 against 34.4). Each
+//! iterations at small steps. `θ` is the share of the diagonal that the
+//! springs contribute, near 0 there and near 1 where the springs dominate,
+//! so the weighted term costs no iterations at small steps and keeps its
+//! gains at large ones (`tests/cpu_agreement.rs` checks both). Each
 //! term is symmetric positive semi-definite and the first is definite on
 //! the filtered subspace, so `M⁻¹` is a valid CG preconditioner; the
 //! filter `S` keeps the corrections off constrained directions.
 //!
-//! On the 128² benchmark cloth (pinned corners, dt = 0.02 s)
-//! the iterations to the same tolerance, from a zero guess, after 5 / 20 /
-//! 50 / 80 steps: block Jacobi 22 / 40 / 63 / 68, with both levels
-//! 13 / 22 / 31 / 34 (level 1 alone 17 / 27 / 40 / 43). An exact solve on
-//! the 16-particle level instead of its diagonal gained one to four more;
-//! a third level (64) none. (Measured before the weight θ, which moves
-//! these large-step counts by under 1 %.)
+//! Two levels about halve the iterations on a large, stiff cloth (level 1
+//! alone most of that; see `docs/integrators.md`). An
+//! exact solve on the 16-particle level instead of its diagonal gains only
+//! a few more iterations, and a third level (64) none, so the levels stop
+//! at two, each corrected through its diagonal block.
 //!
 //! Everything is summed in a fixed order that the GPU reproduces (twins:
 //! `coarse_setup.wgsl`; the per-aggregate `cg_update.wgsl` for level 1;

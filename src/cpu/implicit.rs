@@ -82,10 +82,12 @@ impl<R: Real> SpringBlock<R> {
 /// `out = S (A p)` over all particles.
 ///
 /// Unlike the force evaluation, this product *scatters* over the springs in
-/// one pass (each spring adds to both ends). It is CG's inner loop and this
-/// halves its memory traffic against a spring pass plus a gather; the only
-/// cost is a summation order that differs from the GPU's gather, a rounding
-/// difference far below the CG tolerance that bounds any GPU/CPU agreement.
+/// one pass (each spring adds to both ends): it is CG's inner loop, and one
+/// pass halves its memory traffic against a spring pass plus a gather. It
+/// still sums as the GPU's gather (`apply_a` in `shaders/common/cg.wgsl`)
+/// does, bit for bit: each particle starts from `m p` and receives its
+/// springs' terms in ascending spring index, the order of its adjacency
+/// list, which the GPU walks.
 pub fn apply_a<R: Real>(
     sys: &System<R>,
     blocks: &[SpringBlock<R>],
@@ -151,9 +153,9 @@ fn apply_a_unfiltered<R: Real>(
 /// `Σ terms(p)` over `n` particles in the GPU's reduction order: a running
 /// sum inside each block of [`REDUCTION_BLOCK`] particles, then the block
 /// sums in sequence. Summing in the GPU's order lets the `f32` mirror
-/// reproduce the GPU's CG iterates. (A tree inside each block was tried
-/// first; on lavapipe its six workgroup barriers per reduction cost half a
-/// millisecond at 129², more than the rest of a CG iteration's pass.)
+/// reproduce the GPU's CG iterates bit for bit. A running sum rather than a
+/// tree because on the GPU a tree needs a workgroup barrier per level, which
+/// on a CPU adapter costs more than the additions it saves.
 pub fn block_sum<R: Real>(n: usize, mut terms: impl FnMut(usize) -> R) -> R {
     let mut total = R::ZERO;
     for start in (0..n).step_by(REDUCTION_BLOCK) {
@@ -282,8 +284,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
 
     // MPCG, warm-started from the last two steps' Δv extrapolated
     // linearly (2 Δv₁ − Δv₂): on smooth motion a closer guess than the last
-    // Δv alone — on the 128² benchmark cloth 16 % fewer iterations, on the
-    // built-in scenes 4–10 % fewer — and CG corrects it either way.
+    // Δv alone, so fewer iterations, and CG corrects it either way.
     for p in 0..n {
         let guess = w.dv[p] * R::from_f64(2.0) - w.dv_prev[p];
         w.dv_prev[p] = w.dv[p];

@@ -10,9 +10,7 @@
 //! they are summed, from the neighbours' state, so the explicit and
 //! semi-implicit steps need no per-spring pass; the kernels that gather
 //! every step or CG iteration take a [`GridBlock`] of particles per
-//! invocation (lavapipe, 129²: the explicit step 2.4× faster than with
-//! the general kernels with one particle per invocation, 8× with 4 × 4
-//! blocks).
+//! invocation.
 //!
 //! The grid kernels visit a particle's springs in [`INCIDENT`] order, which
 //! is the order of the model's adjacency (ascending spring index), so they
@@ -185,7 +183,7 @@ impl GridLayout {
 /// Each particle of a grid cloth reads twelve neighbours, so a lone
 /// particle loads 13 states; a 4 × 2 block loads 36 for 8 particles. On
 /// lavapipe, where every storage load is a per-lane loop, that is most of
-/// a gather kernel's time (129², explicit step: see the README). On a real
+/// a gather kernel's time (see `docs/performance.md`). On a real
 /// GPU, neighbours come from cache and one particle per invocation keeps
 /// every lane busy, so [`GridBlock::for_adapter`] picks blocks for CPU
 /// adapters only. Results do not depend on the shape: every member sums
@@ -212,17 +210,13 @@ impl Default for GridBlock {
 impl GridBlock {
     /// One particle per invocation.
     pub const ONE: GridBlock = GridBlock { cols: 1, rows: 1 };
-    /// The shape for CPU adapters. lavapipe, 128² yardstick, explicit step
-    /// (minimum of 15 interleaved batches): 1×1 1.03 ms, 4×2 0.62, 3×3
-    /// 0.58, 4×3 0.57, 4×4 0.55. Its kernels take seconds to compile
-    /// (once per process and variant; Mesa caches them on disk). Larger
-    /// blocks were measured on the implicit CG product (single-kernel
-    /// probes, min of three alternating rounds; `MAX` raised for it): 4 × 4
-    /// 0.56–0.59 ms, 8 columns × 4 rows 0.50–0.51 (2.6 stencil points per
-    /// particle instead of 3.25), 4 × 8 0.66, 8 × 8 0.70; but 8 × 4
-    /// kernels compile about three times as long (one process's implicit
-    /// kernels ~50 s against ~17 s with a cold Mesa cache), which every
-    /// scene variant and test process pays, so 4 × 4 stays.
+    /// The shape for CPU adapters: up to 4 × 4, a larger block loads fewer
+    /// stencil points per particle and makes the step faster (about half
+    /// the time of one particle per invocation). Its kernels take seconds to
+    /// compile (once per process and variant; Mesa caches them on disk). A
+    /// larger block (8 × 4) speeds up CG's product a little more, but its
+    /// kernels compile about three times as long, which every scene variant
+    /// and test process pays with a cold cache.
     pub const CPU: GridBlock = GridBlock { cols: 4, rows: 4 };
     /// Largest side: a 4 × 4 block already keeps 52 particle states live.
     pub const MAX: u32 = 4;

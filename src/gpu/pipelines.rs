@@ -54,11 +54,10 @@ pub const SUM_GROUP: u32 = 256;
 /// `shaders/common/cg.wgsl`). The same order, so the same bits, for every
 /// width. Wide because on a GPU a workgroup of [`WORKGROUP`] with
 /// invocation 0 loading a 257² cloth's ~1000 block sums one by one from
-/// storage is bound by memory latency — by arithmetic, not measured: no
-/// GPU has been lent to this project. On lavapipe 256 against 64
-/// invocations with the sums read from storage made α's and β's kernels
-/// ~10–25 % slower in single-kernel probes, ~0.03 ms per CG iteration, and
-/// the implicit step the same within the host's noise.
+/// storage would be bound by memory latency (reasoned from the arithmetic).
+/// A CPU adapter gains nothing from the width and loses little (the staging
+/// barriers), so every adapter runs the same form: the code CI runs is the
+/// code a GPU runs.
 pub fn sum_group(limits: &wgpu::Limits) -> u32 {
     SUM_GROUP
         .min(limits.max_compute_invocations_per_workgroup)

@@ -50,7 +50,7 @@ enum Indirect {
 /// `alpha_slots` in `shaders/common/cg.wgsl`): on lavapipe a dispatch
 /// whose invocations all return at once still costs about a third of a
 /// working one — the masked-off code runs — while an indirect dispatch of
-/// zero workgroups costs ~15 µs.
+/// zero workgroups costs little more than its recording.
 const INDIRECT_CG: [(&str, Indirect); 5] = [
     ("cg_apply", Indirect::Args(0)),
     ("cg_update", Indirect::Args(12)),
@@ -536,9 +536,9 @@ impl GpuSolver {
     ///
     /// It also sets the CG iteration budget — how many iterations each
     /// recorded step contains — to twice the largest count any step needed
-    /// since the last check, plus 16 (at most the configured maximum). A
-    /// tighter margin (1.25× + 4 was tried) cut solves short on the test
-    /// scenes for a ~5 % gain. Iterations past convergence do no work, but on some devices
+    /// since the last check, plus 16 (at most the configured maximum): a
+    /// tighter margin cuts solves short as a cloth starts to move, for
+    /// little gain. Iterations past convergence do no work, but on some devices
     /// (lavapipe) even an empty dispatch costs tens of microseconds, so a
     /// budget of 200 for a solve that takes 30 would dominate the step. A
     /// window in which some step used the whole budget restores the full
