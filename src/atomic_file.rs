@@ -105,7 +105,7 @@ impl AtomicFile {
         if let Some(permissions) = existing_permissions(&self.path)? {
             self.out
                 .get_ref()
-                .set_permissions(permissions)
+                .set_permissions(kept(permissions))
                 .map_err(|source| io_error(&self.path, source))?;
         }
         Ok(())
@@ -256,6 +256,20 @@ pub fn existing_permissions(path: &Path) -> Result<Option<Permissions>> {
     }
 }
 
+/// The permissions a replacement takes over from the file it replaces:
+/// the read, write and execute bits; set-user-ID, set-group-ID and sticky
+/// are dropped, as data the replaced file never held must not run with
+/// its privileges.
+fn kept(permissions: Permissions) -> Permissions {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt as _;
+        Permissions::from_mode(permissions.mode() & 0o777)
+    }
+    #[cfg(not(unix))]
+    permissions
+}
+
 /// What a file that is not a regular file is, for a message.
 fn kind_of(file_type: &fs::FileType) -> &'static str {
     if file_type.is_symlink() {
@@ -292,7 +306,7 @@ fn create_temporary(path: &Path, permissions: Option<&Permissions>) -> Result<(P
     #[cfg(unix)]
     if let Some(permissions) = permissions {
         use std::os::unix::fs::{OpenOptionsExt as _, PermissionsExt as _};
-        options.mode(permissions.mode() & 0o7777);
+        options.mode(kept(permissions.clone()).mode());
     }
     #[cfg(not(unix))]
     let _ = permissions;
@@ -470,12 +484,12 @@ mod tests {
 
     #[cfg(unix)]
     #[test]
-    fn a_replaced_file_keeps_its_permissions() {
+    fn a_replaced_file_keeps_its_permissions_but_not_set_user_id() {
         use std::os::unix::fs::PermissionsExt as _;
         let dir = Dir::new("permissions");
         let path = dir.0.join("secret.txt");
         fs::write(&path, "old").expect("write the old file");
-        fs::set_permissions(&path, Permissions::from_mode(0o640)).expect("chmod");
+        fs::set_permissions(&path, Permissions::from_mode(0o4640)).expect("chmod");
         write(&path, "new").commit().expect("commit");
         let mode = fs::metadata(&path).expect("metadata").permissions().mode();
         assert_eq!(mode & 0o7777, 0o640);
