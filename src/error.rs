@@ -85,6 +85,28 @@ pub enum Error {
         /// The underlying error.
         source: std::io::Error,
     },
+
+    /// An output's destination exists and is not a regular file: outputs
+    /// never replace or write through a symbolic link, device, FIFO, socket
+    /// or directory.
+    #[error(
+        "{}: is {kind}, not a regular file; outputs are only written to regular files \
+         (never through a symbolic link, nor over a device, FIFO, socket or directory): \
+         choose another path",
+        path.display()
+    )]
+    NotAFile {
+        /// The destination.
+        path: PathBuf,
+        /// What is there (`a FIFO (named pipe)`, `a symbolic link`, …).
+        kind: &'static str,
+    },
+
+    /// The caller asked the work to stop (the CLI: Ctrl-C or SIGTERM)
+    /// before it was done. Files already complete stay; no partial file is
+    /// left.
+    #[error("interrupted before the work was done")]
+    Interrupted,
 }
 
 /// `Result` with the library's [`Error`].

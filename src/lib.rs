@@ -15,6 +15,7 @@
 //! Units are SI throughout (m, kg, s, N), y is up.
 #![deny(missing_docs)]
 
+pub mod atomic_file;
 pub mod cpu;
 pub mod diagnostics;
 pub mod error;

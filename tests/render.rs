@@ -5,6 +5,7 @@
 
 mod gpu_common;
 
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 use wgcloth::gpu::GpuSolver;
@@ -128,7 +129,8 @@ fn frames_show_the_cloth_where_its_particles_project() {
     };
     let mut seen = Vec::new();
     let written = render::render_frames(&ctx.device, &mut solver, &renderer, &options, |done| {
-        seen.push(done)
+        seen.push(done);
+        ControlFlow::Continue(())
     })
     .unwrap_or_else(|e| panic!("rendering: {e}"));
     assert_eq!(written, FRAMES);
@@ -181,8 +183,10 @@ fn a_size_beyond_the_device_is_refused() {
         dir: std::env::temp_dir(),
         strain: false,
     };
-    let err = render::render_scene(&ctx.device, &ctx.queue, &scene, &options, |_| {})
-        .expect_err("too wide");
+    let err = render::render_scene(&ctx.device, &ctx.queue, &scene, &options, |_| {
+        ControlFlow::Continue(())
+    })
+    .expect_err("too wide");
     assert!(matches!(err, wgcloth::Error::DeviceLimit { .. }), "{err}");
 }
 
@@ -202,8 +206,10 @@ fn strain_view_at_rest_is_blue() {
         dir: dir.clone(),
         strain: true,
     };
-    render::render_scene(&ctx.device, &ctx.queue, &scene, &options, |_| {})
-        .unwrap_or_else(|e| panic!("rendering: {e}"));
+    render::render_scene(&ctx.device, &ctx.queue, &scene, &options, |_| {
+        ControlFlow::Continue(())
+    })
+    .unwrap_or_else(|e| panic!("rendering: {e}"));
     let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
     let frame = dir.join(png_writer::frame_name(0));
     let (_, _, rgba) = decode(&frame);

@@ -1,6 +1,7 @@
 //! What `flag` and `drape` share: a built-in scene to PNG frames through the
 //! library API (the same calls `wgcloth render` makes).
 
+use std::ops::ControlFlow;
 use std::path::PathBuf;
 
 use wgcloth::gpu::GpuContext;
@@ -24,7 +25,9 @@ pub fn render_builtin(name: &str, seconds: f64) -> anyhow::Result<()> {
         strain: false,
     };
     let context = GpuContext::new(None)?;
-    let written = render::render_scene(&context.device, &context.queue, &scene, &options, |_| {})?;
+    let written = render::render_scene(&context.device, &context.queue, &scene, &options, |_| {
+        ControlFlow::Continue(())
+    })?;
     println!("wrote {written} frames of `{name}` to {}", dir.display());
     Ok(())
 }

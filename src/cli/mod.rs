@@ -6,6 +6,7 @@
 mod backend;
 mod bench;
 mod chart;
+mod interrupt;
 mod output;
 mod render;
 mod run;
@@ -31,6 +32,9 @@ const EXIT_BLEW_UP: u8 = 3;
 /// `--backend gpu` found no GPU adapter (or none matching `--adapter`), or
 /// could not open one; nothing ran.
 const EXIT_NO_ADAPTER: u8 = 4;
+/// Ctrl-C or SIGTERM stopped `run` or `render` (128 + SIGINT, the shell's
+/// convention): no partial file was left, no output of `run` was written.
+const EXIT_INTERRUPTED: u8 = 130;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -337,11 +341,13 @@ fn exit_status(err: &anyhow::Error) -> u8 {
             return match e {
                 wgcloth::Error::NonFinite { .. } => EXIT_BLEW_UP,
                 wgcloth::Error::NoAdapter { .. } => EXIT_NO_ADAPTER,
+                wgcloth::Error::Interrupted => EXIT_INTERRUPTED,
                 // A cloth too big for the device is the input's fault.
                 wgcloth::Error::InvalidParameter { .. }
                 | wgcloth::Error::Scene { .. }
                 | wgcloth::Error::UnknownScene { .. }
-                | wgcloth::Error::DeviceLimit { .. } => EXIT_INVALID,
+                | wgcloth::Error::DeviceLimit { .. }
+                | wgcloth::Error::NotAFile { .. } => EXIT_INVALID,
                 _ => EXIT_FAILURE,
             };
         }

@@ -1,104 +1,48 @@
 //! Output files and their formats.
 //!
-//! Every output goes to a temporary file beside its destination and is
-//! renamed into place only when the run succeeded, so a reader never sees a
-//! half-written file and a failed run leaves nothing behind: the temporary
-//! is removed when its [`AtomicFile`] is dropped uncommitted (an error, a
-//! blow-up, a panic). Only a killed process (Ctrl-C, SIGKILL) can leave one,
-//! named `.NAME.PID.tmp`.
+//! Every output is an [`AtomicFile`] (see [`wgcloth::atomic_file`]): written
+//! to an exclusive temporary beside its destination, and renamed into place
+//! only when the run succeeded, all of a run's outputs together
+//! ([`commit_all`]); a failed or interrupted run leaves nothing behind and
+//! replaces nothing.
 //!
 //! Numbers are written with Rust's `{}` for `f64`, the shortest decimal that
 //! parses back to the same `f64`. An `f32` solver's values are widened to
 //! `f64` first (exactly), so every file reads back exactly as `f64`s
 //! whatever the precision.
 
-use std::fs::{self, File, OpenOptions};
-use std::io::{self, BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::fs;
+use std::io::{self, Write};
+use std::path::Path;
 
+pub use wgcloth::atomic_file::{commit_all, AtomicFile};
 use wgcloth::{Real, Vec3};
 
-/// An output file written to a temporary and renamed into place on
-/// [`AtomicFile::commit`].
-pub struct AtomicFile {
-    path: PathBuf,
-    tmp: PathBuf,
-    out: BufWriter<File>,
-    committed: bool,
-}
-
-impl AtomicFile {
-    /// Creates the temporary for `path` (in the same directory, so the final
-    /// rename cannot cross file systems). Fails before anything runs if the
-    /// directory does not exist or is not writable, or `path` is a directory.
-    pub fn create(path: &Path) -> wgcloth::Result<Self> {
-        let io_err = |source| wgcloth::Error::Io {
-            path: path.to_path_buf(),
-            source,
+/// Whether `a` and `b` name the same file: the same name in the same
+/// directory (the directories' links resolved), or two names of one
+/// existing file.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    if a == b {
+        return true;
+    }
+    let resolved = |p: &Path| {
+        let dir = match p.parent() {
+            Some(dir) if !dir.as_os_str().is_empty() => dir,
+            _ => Path::new("."),
         };
-        if path.is_dir() {
-            return Err(io_err(io::Error::other("is a directory, not a file")));
-        }
-        let name = path
-            .file_name()
-            .ok_or_else(|| io_err(io::Error::other("not a file name")))?;
-        let tmp = path.with_file_name(format!(
-            ".{}.{}.tmp",
-            name.to_string_lossy(),
-            std::process::id()
-        ));
-        let file = OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)
-            .map_err(io_err)?;
-        Ok(AtomicFile {
-            path: path.to_path_buf(),
-            tmp,
-            out: BufWriter::new(file),
-            committed: false,
-        })
-    }
-
-    /// Runs `write` on the buffered temporary, naming the file on error.
-    pub fn write_with(
-        &mut self,
-        write: impl FnOnce(&mut BufWriter<File>) -> io::Result<()>,
-    ) -> wgcloth::Result<()> {
-        write(&mut self.out).map_err(|source| self.io_error(source))
-    }
-
-    /// Flushes the temporary to disk and renames it to its destination.
-    pub fn commit(mut self) -> wgcloth::Result<()> {
-        let done = self
-            .out
-            .flush()
-            .and_then(|()| self.out.get_ref().sync_all())
-            .and_then(|()| fs::rename(&self.tmp, &self.path));
-        match done {
-            Ok(()) => {
-                self.committed = true;
-                Ok(())
-            }
-            Err(source) => Err(self.io_error(source)),
+        Some((fs::canonicalize(dir).ok()?, p.file_name()?.to_owned()))
+    };
+    if let (Some(a), Some(b)) = (resolved(a), resolved(b)) {
+        if a == b {
+            return true;
         }
     }
-
-    fn io_error(&self, source: io::Error) -> wgcloth::Error {
-        wgcloth::Error::Io {
-            path: self.path.clone(),
-            source,
-        }
+    #[cfg(unix)]
+    if let (Ok(a), Ok(b)) = (fs::metadata(a), fs::metadata(b)) {
+        use std::os::unix::fs::MetadataExt as _;
+        return (a.dev(), a.ino()) == (b.dev(), b.ino());
     }
-}
-
-impl Drop for AtomicFile {
-    fn drop(&mut self) {
-        if !self.committed {
-            // Best effort: the run already failed and says why.
-            let _ = fs::remove_file(&self.tmp);
-        }
-    }
+    false
 }
 
 /// `--positions-out`: one line `x y z` per particle, in particle order.
@@ -152,19 +96,19 @@ impl Trace {
         Ok(())
     }
 
-    /// Records the final state unless it was just recorded, and renames the
-    /// trace into place.
+    /// Records the final state unless it was just recorded; returns the
+    /// file, for the caller to commit with the run's other outputs.
     pub fn finish<R: Real>(
         mut self,
         step: u64,
         time: f64,
         x: &[Vec3<R>],
         v: &[Vec3<R>],
-    ) -> wgcloth::Result<()> {
+    ) -> wgcloth::Result<AtomicFile> {
         if self.last_traced != Some(step) {
             self.record(step, time, x, v)?;
         }
-        self.file.commit()
+        Ok(self.file)
     }
 
     fn record<R: Real>(
@@ -189,6 +133,19 @@ impl Trace {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn same_file_sees_through_spellings_and_links() {
+        let dir = std::env::temp_dir().join(format!("wgcloth-same-{}", std::process::id()));
+        fs::create_dir_all(dir.join("sub")).expect("create the test directory");
+        let a = dir.join("a.txt");
+        assert!(same_file(&a, &dir.join("sub/../a.txt")));
+        assert!(!same_file(&a, &dir.join("b.txt")));
+        fs::write(&a, "a").expect("write a file");
+        fs::hard_link(&a, dir.join("sub/a2.txt")).expect("link it");
+        assert!(same_file(&a, &dir.join("sub/a2.txt")));
+        let _ = fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn positions_round_trip_exactly_in_both_precisions() {

@@ -3,19 +3,22 @@
 //! renders the `hanging` scene with these defaults.
 
 use std::io::Write as _;
+use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context as _;
+use wgcloth::atomic_file;
 use wgcloth::gpu::GpuContext;
 use wgcloth::render::{self, png_writer, FrameOptions};
 use wgcloth::Scene;
 
-use super::{RenderArgs, UsageError};
+use super::{interrupt, RenderArgs, UsageError};
 
 /// Runs `wgcloth render`.
 pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
+    interrupt::install();
     let mut scene = Scene::resolve(&args.scene)?;
     if let Some(integrator) = args.integrator {
         scene.params.integrator = integrator.into();
@@ -43,11 +46,29 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         context.describe(),
         args.frames,
     );
-    let written = render::render_scene(&context.device, &context.queue, &scene, &options, |done| {
-        progress(done, args.frames, started)
+    let mut done = 0;
+    let written = render::render_scene(&context.device, &context.queue, &scene, &options, |n| {
+        done = n;
+        progress(n, args.frames, started);
+        if interrupt::requested() {
+            ControlFlow::Break(())
+        } else {
+            ControlFlow::Continue(())
+        }
     });
     eprintln!();
-    let written = written?;
+    let written = match written {
+        Err(wgcloth::Error::Interrupted) => {
+            return Err(
+                anyhow::Error::new(wgcloth::Error::Interrupted).context(format!(
+                    "stopped after {done} of {} frames (every frame file in {} is whole)",
+                    args.frames,
+                    args.out.display()
+                )),
+            )
+        }
+        written => written?,
+    };
     println!(
         "wrote {written} frames to {} ({}…{}), {:.1} s simulated in {:.2} s",
         args.out.display(),
@@ -60,7 +81,9 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// Creates `dir` if needed. Frames of an earlier run are never mixed with
-/// new ones: they are refused, or removed first with `--overwrite`.
+/// new ones: they are refused, or removed first with `--overwrite`, once a
+/// file has been created in `dir` (so that a directory where no frame can
+/// be written keeps its old ones).
 fn prepare_dir(dir: &Path, overwrite: bool) -> anyhow::Result<()> {
     let old = png_writer::existing_frames(dir)?;
     if !old.is_empty() {
@@ -73,6 +96,7 @@ fn prepare_dir(dir: &Path, overwrite: bool) -> anyhow::Result<()> {
             ))
             .into());
         }
+        atomic_file::probe_dir(dir)?;
         let removed = png_writer::remove_frames(dir)?;
         eprintln!(
             "--overwrite: removed {removed} old frame file(s) from {}",

@@ -8,7 +8,8 @@ use anyhow::Context as _;
 use wgcloth::{diagnostics, Model, Params, Real, Scene};
 
 use super::backend::{Cpu, Gpu, Solver, MAX_BATCH};
-use super::output::{write_positions, AtomicFile, Trace};
+use super::interrupt;
+use super::output::{commit_all, same_file, write_positions, AtomicFile, Trace};
 use super::summary::{Outcome, Summary};
 use super::{Backend, Precision, RunArgs, UsageError};
 
@@ -24,6 +25,7 @@ const WHOLE_STEPS_TOLERANCE: f64 = 1e-9;
 /// Runs `wgcloth run`.
 pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     let started = Instant::now();
+    interrupt::install();
     let precision = precision_for_backend(args)?;
     let mut scene = Scene::resolve(&args.scene)?;
     if let Some(integrator) = args.integrator {
@@ -42,7 +44,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         (None, None) => steps_for(scene.duration, scene.params.dt, "the scene's duration")?,
     };
     if let (Some(a), Some(b)) = (&args.positions_out, &args.trace_out) {
-        if a == b {
+        if same_file(a, b) {
             return Err(UsageError(format!(
                 "--positions-out and --trace-out are the same file ({})",
                 a.display()
@@ -145,8 +147,8 @@ impl Run<'_> {
     /// the final state.
     fn simulate<S: Solver>(&self, mut solver: S) -> wgcloth::Result<Outcome> {
         // Opened before stepping so a bad path fails before a long run, not
-        // after it; dropped uncommitted on any error below, which removes
-        // them.
+        // after it; dropped uncommitted on any error or interruption below,
+        // which removes them.
         let positions = self.positions.map(AtomicFile::create).transpose()?;
         let mut trace = self
             .trace
@@ -170,6 +172,7 @@ impl Run<'_> {
             if trace.is_some() {
                 n = n.min(self.trace_every - done % self.trace_every);
             }
+            interrupt::check()?;
             let t0 = Instant::now();
             solver.advance(n)?;
             stepping += t0.elapsed();
@@ -179,13 +182,15 @@ impl Run<'_> {
         let passes = solver.passes();
         let stats = solver.stats(self.params);
         let s = solver.state()?;
+        let mut outputs = Vec::new();
         if let Some(mut file) = positions {
             file.write_with(|out| write_positions(out, &s.x))?;
-            file.commit()?;
+            outputs.push(file);
         }
         if let Some(trace) = trace {
-            trace.finish(steps, time, &s.x, &s.v)?;
+            outputs.push(trace.finish(steps, time, &s.x, &s.v)?);
         }
+        commit_all(outputs)?;
         Ok(Outcome {
             passes,
             backend: S::BACKEND,

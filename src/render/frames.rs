@@ -2,6 +2,7 @@
 //! normals, its render pass and the copy to a staging buffer), read back a
 //! few frames behind the device and written by [`PngWriter`]'s thread.
 
+use std::ops::ControlFlow;
 use std::path::PathBuf;
 
 use super::png_writer::{frame_name, Frame, PngWriter};
@@ -78,13 +79,16 @@ pub fn steps_per_frame(fps: f64, dt: f64) -> Result<u32> {
 /// is read back. The device's status is checked every
 /// [`STAGING_BUFFERS`] frames; a non-finite state stops the run with
 /// [`Error::NonFinite`] (naming the step) before the frames rendered since
-/// the last good check are written. Returns the frames written.
+/// the last good check are written. `progress` returning
+/// [`ControlFlow::Break`] stops the run with [`Error::Interrupted`]: the
+/// frames read back by then are written whole, no later one is started.
+/// Returns the frames written.
 pub fn render_frames(
     device: &wgpu::Device,
     solver: &mut GpuSolver,
     renderer: &Renderer,
     options: &FrameOptions,
-    mut progress: impl FnMut(u32),
+    mut progress: impl FnMut(u32) -> ControlFlow<()>,
 ) -> Result<u32> {
     let (width, height) = (options.width, options.height);
     let max = device.limits().max_texture_dimension_2d;
@@ -145,7 +149,10 @@ pub fn render_frames(
                 height,
                 rgba,
             })?;
-            progress(frame + 1);
+            if progress(frame + 1).is_break() {
+                // Dropping the writer writes the frames it was sent.
+                return Err(Error::Interrupted);
+            }
         }
     }
     writer.finish()
@@ -159,7 +166,7 @@ pub fn render_scene(
     queue: &wgpu::Queue,
     scene: &Scene,
     options: &FrameOptions,
-    progress: impl FnMut(u32),
+    progress: impl FnMut(u32) -> ControlFlow<()>,
 ) -> Result<u32> {
     let model = scene.model()?;
     let mut solver = GpuSolver::new(device, queue, &model, &scene.params)?;

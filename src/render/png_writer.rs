@@ -1,14 +1,16 @@
 //! PNG frames written by a thread of their own, so encoding one frame
 //! overlaps the device simulating and rendering the next.
 //!
-//! Each file is written whole: to a temporary beside it, renamed into place
-//! when complete, so a reader never sees half a frame.
+//! Each file is written whole by [`AtomicFile`]: to an exclusive temporary
+//! beside it, renamed into place when complete, so a reader never sees half
+//! a frame and nothing is written through a planted link.
 
 use std::fs;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::thread::JoinHandle;
 
+use crate::atomic_file::AtomicFile;
 use crate::error::{Error, Result};
 
 /// Frames queued for the writer at most; a slower disk holds the renderer
@@ -66,37 +68,29 @@ pub fn remove_frames(dir: &Path) -> Result<usize> {
     Ok(frames.len())
 }
 
-/// Writes `frame` as an 8-bit RGBA PNG: to `.NAME.PID.tmp` beside it, then
-/// renamed into place.
+/// Writes `frame` as an 8-bit RGBA PNG, whole: through an [`AtomicFile`].
 pub fn write_png(frame: &Frame) -> Result<()> {
-    let name = frame
-        .path
-        .file_name()
-        .ok_or_else(|| io_error(&frame.path, io::Error::other("not a file name")))?;
-    let tmp = frame.path.with_file_name(format!(
-        ".{}.{}.tmp",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    let written = encode(frame, &tmp).and_then(|()| fs::rename(&tmp, &frame.path));
-    written.map_err(|e| {
-        let _ = fs::remove_file(&tmp);
-        io_error(&frame.path, e)
-    })
+    let mut file = AtomicFile::create(&frame.path)?;
+    file.write_with(|out| encode(frame, out))?;
+    file.commit()
 }
 
-fn encode(frame: &Frame, tmp: &Path) -> io::Result<()> {
-    let mut out = BufWriter::new(fs::File::create(tmp)?);
-    let mut encoder = png::Encoder::new(&mut out, frame.width, frame.height);
+fn encode(frame: &Frame, out: &mut impl Write) -> io::Result<()> {
+    let mut encoder = png::Encoder::new(out, frame.width, frame.height);
     encoder.set_color(png::ColorType::Rgba);
     encoder.set_depth(png::BitDepth::Eight);
-    let mut writer = encoder.write_header().map_err(io::Error::other)?;
-    writer
-        .write_image_data(&frame.rgba)
-        .map_err(io::Error::other)?;
-    writer.finish().map_err(io::Error::other)?;
-    out.flush()?;
-    out.get_ref().sync_all()
+    let mut writer = encoder.write_header().map_err(png_io)?;
+    writer.write_image_data(&frame.rgba).map_err(png_io)?;
+    writer.finish().map_err(png_io)
+}
+
+/// The encoder's error as an I/O error, keeping the kind of one that came
+/// from the file (a full disk stays "no space left on device").
+fn png_io(e: png::EncodingError) -> io::Error {
+    match e {
+        png::EncodingError::IoError(e) => e,
+        e => io::Error::other(e),
+    }
 }
 
 fn io_error(path: &Path, source: io::Error) -> Error {
