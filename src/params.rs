@@ -297,8 +297,8 @@ const PLAIN_MAX: f64 = 1e7;
 
 /// A number as every message shows it: the shortest text that reads back
 /// as the same `f64`, with an exponent (`1e-300`, `2.5e9`) for magnitudes
-/// outside [`PLAIN_MIN`]`..`[`PLAIN_MAX`], plainly (`0.01`, `-9.81`)
-/// otherwise; `inf`, `-inf` and `NaN` as Rust spells them.
+/// outside `1e-4..1e7`, plainly (`0.01`, `-9.81`) otherwise; `inf`, `-inf`
+/// and `NaN` as Rust spells them.
 pub fn format_number(x: f64) -> String {
     let magnitude = x.abs();
     if x == 0.0 || !x.is_finite() || (PLAIN_MIN..PLAIN_MAX).contains(&magnitude) {
