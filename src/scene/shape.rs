@@ -114,10 +114,10 @@ impl<'de, T: Count> Deserialize<'de> for Whole<T> {
 /// fewer or more elements are refused, never padded or truncated.
 pub(super) struct Exactly<T, const N: usize>(pub(super) [T; N]);
 
-impl<'de, T: Form + Copy + Deserialize<'de>, const N: usize> Deserialize<'de> for Exactly<T, N> {
+impl<'de, T: Form + Deserialize<'de>, const N: usize> Deserialize<'de> for Exactly<T, N> {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         struct ExactlyVisitor<T, const N: usize>(PhantomData<T>);
-        impl<'de, T: Form + Copy + Deserialize<'de>, const N: usize> Visitor<'de> for ExactlyVisitor<T, N> {
+        impl<'de, T: Form + Deserialize<'de>, const N: usize> Visitor<'de> for ExactlyVisitor<T, N> {
             type Value = Exactly<T, N>;
             fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
                 write!(f, "an array of exactly {N} {}", T::MANY)

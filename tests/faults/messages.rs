@@ -357,3 +357,16 @@ fn a_valid_run_writes_its_outputs_where_the_rows_look() {
     assert_status(&out, 0);
     assert_eq!(dir.files(), ["positions.txt", "trace.csv"]);
 }
+
+#[test]
+fn a_folder_named_like_a_builtin_scene_does_not_hide_it() {
+    let dir = TempDir::new("messages-builtin-folder");
+    std::fs::create_dir(dir.join("flag")).expect("create the folder");
+    let out = wgcloth_in(&dir.0, &["run", "flag", "--steps", "0"]);
+    assert_status(&out, 0);
+    assert!(stdout(&out).contains("flag"), "{}", stdout(&out));
+    // Any other folder is refused as one.
+    let out = wgcloth_in(&dir.0, &["run", "./flag", "--steps", "0"]);
+    assert_status(&out, EXIT_INVALID);
+    assert!(stderr(&out).contains("is a directory"), "{}", stderr(&out));
+}
