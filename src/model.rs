@@ -18,7 +18,7 @@
 use std::ops::Range;
 
 use crate::error::{Error, Result};
-use crate::params::{SpringKind, SpringParams};
+use crate::params::{check, check_finite, SpringKind, SpringParams};
 
 /// Largest particle count a cloth may have. Far above what fits in a GPU
 /// storage buffer binding on common devices; the GPU solver checks the
@@ -159,22 +159,12 @@ impl ClothSpec {
             ("cloth.size[0]", self.size[0]),
             ("cloth.size[1]", self.size[1]),
         ] {
-            if !(s.is_finite() && s > 0.0) {
-                return Err(invalid(key, "> 0 (m)", s));
-            }
+            check(key, s, s > 0.0, "> 0 (m)")?;
         }
         for (c, v) in self.origin.iter().enumerate() {
-            if !v.is_finite() {
-                return Err(invalid(
-                    &format!("cloth.origin[{c}]"),
-                    "a finite number (m)",
-                    v,
-                ));
-            }
+            check_finite(&format!("cloth.origin[{c}]"), *v, "m")?;
         }
-        if !(self.mass.is_finite() && self.mass > 0.0) {
-            return Err(invalid("cloth.mass", "> 0 (kg, total)", self.mass));
-        }
+        check("cloth.mass", self.mass, self.mass > 0.0, "> 0 (kg, total)")?;
         for (k, pin) in self.pins.iter().enumerate() {
             if let Pin::Index(i) = *pin {
                 if i >= count {

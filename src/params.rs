@@ -287,22 +287,64 @@ impl Default for Params {
     }
 }
 
-/// Checks `value` against a predicate and builds the standard error.
-fn check(key: &str, value: f64, ok: bool, allowed: &str) -> Result<()> {
-    if ok && value.is_finite() {
-        Ok(())
+/// Below this magnitude a number in a message is written with an exponent:
+/// `0.0001` still reads at a glance, `1e-5` reads better than `0.00001`.
+const PLAIN_MIN: f64 = 1e-4;
+/// From this magnitude on a number in a message is written with an
+/// exponent: seven digits before the point still read at a glance, and a
+/// refusal of `1e300` must not print 301 digits.
+const PLAIN_MAX: f64 = 1e7;
+
+/// A number as every message shows it: the shortest text that reads back
+/// as the same `f64`, with an exponent (`1e-300`, `2.5e9`) for magnitudes
+/// outside `1e-4..1e7`, plainly (`0.01`, `-9.81`) otherwise; `inf`, `-inf`
+/// and `NaN` as Rust spells them.
+pub fn format_number(x: f64) -> String {
+    let magnitude = x.abs();
+    if x == 0.0 || !x.is_finite() || (PLAIN_MIN..PLAIN_MAX).contains(&magnitude) {
+        format!("{x}")
     } else {
-        Err(Error::InvalidParameter {
-            key: key.to_string(),
-            allowed: allowed.to_string(),
-            got: format!("{value}"),
-        })
+        format!("{x:e}")
     }
 }
 
-fn check_vec(key: &str, v: [f64; 3]) -> Result<()> {
+/// Checks that `value` is finite and `ok` holds, else the standard error:
+/// "must be finite and {allowed}" for a non-finite value, so that `inf`
+/// and `NaN` are told apart from a number out of range. Shared by every
+/// validation of the crate, so each says it the same way.
+pub(crate) fn check(key: &str, value: f64, ok: bool, allowed: &str) -> Result<()> {
+    if !value.is_finite() {
+        Err(invalid(key, &format!("finite and {allowed}"), value))
+    } else if !ok {
+        Err(invalid(key, allowed, value))
+    } else {
+        Ok(())
+    }
+}
+
+/// Checks that `value` is finite (any finite value is allowed); `unit` is
+/// the unit the message names.
+pub(crate) fn check_finite(key: &str, value: f64, unit: &str) -> Result<()> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(invalid(key, &format!("a finite number ({unit})"), value))
+    }
+}
+
+/// The standard error for `key`, with `got` formatted by [`format_number`].
+fn invalid(key: &str, allowed: &str, got: f64) -> Error {
+    Error::InvalidParameter {
+        key: key.to_string(),
+        allowed: allowed.to_string(),
+        got: format_number(got),
+    }
+}
+
+/// Checks the three components of a vector; `unit` is their unit.
+fn check_vec(key: &str, v: [f64; 3], unit: &str) -> Result<()> {
     for (c, value) in v.iter().enumerate() {
-        check(&format!("{key}[{c}]"), *value, true, "a finite number")?;
+        check_finite(&format!("{key}[{c}]"), *value, unit)?;
     }
     Ok(())
 }
@@ -319,7 +361,7 @@ impl Params {
             self.dt > 0.0 && self.dt <= 1.0,
             "0 < dt ≤ 1 (seconds)",
         )?;
-        check_vec("simulation.gravity", self.gravity)?;
+        check_vec("simulation.gravity", self.gravity, "m/s²")?;
         for kind in SpringKind::ALL {
             let s = &self.springs[kind.index()];
             let name = kind.as_str();
@@ -369,7 +411,7 @@ impl Params {
             "1 ≤ max_iterations ≤ 100000",
         )?;
         if let Some(g) = &self.ground {
-            check("ground.height", g.height, true, "a finite number (m)")?;
+            check_finite("ground.height", g.height, "m")?;
             check(
                 "ground.friction",
                 g.friction,
@@ -378,7 +420,7 @@ impl Params {
             )?;
         }
         for (n, s) in self.spheres.iter().enumerate() {
-            check_vec(&format!("sphere[{n}].center"), s.center)?;
+            check_vec(&format!("sphere[{n}].center"), s.center, "m")?;
             check(
                 &format!("sphere[{n}].radius"),
                 s.radius,
@@ -393,7 +435,7 @@ impl Params {
             )?;
         }
         if let Some(w) = &self.wind {
-            check_vec("wind.velocity", w.velocity)?;
+            check_vec("wind.velocity", w.velocity, "m/s")?;
             check("wind.drag", w.drag, w.drag >= 0.0, "drag ≥ 0 (kg/m³)")?;
             check("wind.lift", w.lift, w.lift >= 0.0, "lift ≥ 0 (kg/m³)")?;
         }
@@ -403,5 +445,59 @@ impl Params {
     /// The parameters of one spring kind.
     pub fn spring(&self, kind: SpringKind) -> &SpringParams {
         &self.springs[kind.index()]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn numbers_in_messages_are_short_and_read_back_exactly() {
+        for (x, text) in [
+            (0.0, "0"),
+            (-9.81, "-9.81"),
+            (0.0001, "0.0001"),
+            (1e-5, "1e-5"),
+            (1e-300, "1e-300"),
+            (-1e-300, "-1e-300"),
+            (1234567.5, "1234567.5"),
+            (1e7, "1e7"),
+            (1e300, "1e300"),
+            (f64::INFINITY, "inf"),
+        ] {
+            assert_eq!(format_number(x), text, "{x:e}");
+            assert_eq!(text.parse::<f64>().ok(), Some(x), "{text} reads back");
+        }
+        assert_eq!(format_number(f64::NAN), "NaN");
+        // The longest a finite f64 can print: 17 significant digits, a
+        // sign, a point and a three-digit exponent.
+        const LONGEST: usize = 24;
+        for x in [
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE / 3.0,
+            1.0 / 3.0,
+        ] {
+            assert!(format_number(x).len() <= LONGEST, "{}", format_number(x));
+        }
+    }
+
+    #[test]
+    fn a_non_finite_value_is_told_it_must_be_finite() {
+        let mut p = Params::default();
+        p.springs[0].stiffness = f64::INFINITY;
+        let message = p.validate().expect_err("inf stiffness").to_string();
+        assert!(
+            message.contains("must be finite and 0 ≤ stiffness") && message.contains("got inf"),
+            "{message}"
+        );
+        let p = Params {
+            dt: -1e-300,
+            ..Params::default()
+        };
+        let message = p.validate().expect_err("negative dt").to_string();
+        assert!(message.ends_with("got -1e-300"), "{message}");
+        assert!(!message.contains("finite"), "{message}");
     }
 }

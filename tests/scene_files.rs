@@ -8,6 +8,7 @@ use wgcloth::params::{
     FilterMethod, FixupMethod, FixupParams, Ground, ImplicitParams, Integrator, Params,
     SemiImplicitParams, Sphere, SpringKind, SpringParams, Wind,
 };
+use wgcloth::scene::MAX_SCENE_BYTES;
 use wgcloth::{Error, Scene};
 
 fn repo_path(relative: &str) -> PathBuf {
@@ -306,10 +307,13 @@ fn resolve_prefers_files_then_builtins() {
         "a missing .toml must be reported as a missing file, got: {message}"
     );
 
-    // A directory is not a scene file, so it is looked up as a name.
+    // A directory that is not a built-in name is refused as what it is.
     let scenes_dir = repo_path("scenes");
     let err = Scene::resolve(scenes_dir.to_str().expect("utf-8 path")).expect_err("a directory");
-    assert!(matches!(err, Error::UnknownScene { .. }), "{err}");
+    assert!(
+        matches!(err, Error::Scene { .. }) && err.to_string().contains("is a directory"),
+        "{err}"
+    );
 
     let err = Scene::resolve("no-such-scene").expect_err("unknown name");
     let message = err.to_string();
@@ -325,6 +329,10 @@ enum Source {
     Text(&'static str),
     /// A file that does not exist, read by `Scene::load`.
     MissingFile,
+    /// A directory named `bad_scene.toml`, given to `Scene::load`.
+    Directory,
+    /// A file one byte over `MAX_SCENE_BYTES`, given to `Scene::load`.
+    Oversized,
 }
 
 struct Row {
@@ -392,9 +400,127 @@ const BAD_SCENES: &[Row] = &[
         &["`semi_implicit.torque_compensation`", "true or false"],
     ),
     row(
-        "wrong array length",
+        "array too short",
         "[simulation]\ngravity = [0, -9.8]\n",
-        &["`simulation.gravity`", "length 2", "length 3", "m/s²"],
+        &[
+            "`simulation.gravity`",
+            "expected exactly 3 numbers, got 2",
+            "m/s²",
+        ],
+    ),
+    row(
+        "extra resolution",
+        "[cloth]\nresolution = [5, 5, 5]\n",
+        &[
+            "`cloth.resolution`",
+            "expected exactly 2 whole numbers, got 3",
+            "[nx, ny]",
+            "line 2",
+        ],
+    ),
+    row(
+        "extra gravity component",
+        "[simulation]\ngravity = [0, -9.8, 0, 0]\n",
+        &["`simulation.gravity`", "expected exactly 3 numbers, got 4"],
+    ),
+    row(
+        "extra sphere center component, of another type",
+        "[[sphere]]\nradius = 1\ncenter = [0, 0, 0, \"x\"]\n",
+        &["`sphere[0].center`", "expected exactly 3 numbers, got 4"],
+    ),
+    row(
+        "extra camera target component",
+        "[camera]\ntarget = [0, 0, 0, 1]\n",
+        &[
+            "`camera.target`",
+            "expected exactly 3 numbers, got 4",
+            "[x, y, z]",
+        ],
+    ),
+    row(
+        "extra cloth size",
+        "[cloth]\nsize = [1, 1, 1]\n",
+        &["`cloth.size`", "expected exactly 2 numbers, got 3"],
+    ),
+    row(
+        "a single [sphere] table",
+        "[sphere]\nradius = 1\n",
+        &[
+            "`sphere`",
+            "a table",
+            "array of tables",
+            "`[[sphere]]`",
+            "line 1",
+        ],
+    ),
+    row(
+        "a number for a table",
+        "springs = 5\n",
+        &["`springs`", "integer `5`", "`[springs.stretch]`", "table"],
+    ),
+    row(
+        "a number for a spring kind",
+        "[springs]\nstretch = 4\n",
+        &[
+            "`springs.stretch`",
+            "integer `4`",
+            "`[springs.<stretch|shear|bend>]`",
+        ],
+    ),
+    row(
+        "an array of tables for a table",
+        "[[cloth]]\nmass = 1\n",
+        &["`cloth`", "an array", "`[cloth]`"],
+    ),
+    row(
+        "a table's keys as an array",
+        "camera = [[0, 0, 0], 5]\n",
+        &["`camera`", "an array", "`[camera]`"],
+    ),
+    row(
+        "a number for the array of spheres",
+        "sphere = 1\n",
+        &["`sphere`", "`[[sphere]]`"],
+    ),
+    row(
+        "a fraction for a count",
+        "[fixup]\niterations = 2.5\n",
+        &["`fixup.iterations`", "2.5", "a whole number ≥ 0"],
+    ),
+    row(
+        "a count beyond what can be held",
+        "[implicit]\nmax_iterations = 99999999999\n",
+        &["`implicit.max_iterations`", "99999999999", "too large"],
+    ),
+    row(
+        "an array for a flag",
+        "[implicit]\ncoarse_levels = []\n",
+        &["`implicit.coarse_levels`", "an array", "true or false"],
+    ),
+    row(
+        "infinite mass",
+        "[cloth]\nmass = inf\n",
+        &["`cloth.mass`", "must be finite", "kg", "got inf"],
+    ),
+    row(
+        "NaN stiffness",
+        "[springs.shear]\nstiffness = nan\n",
+        &["`springs.shear.stiffness`", "must be finite", "got NaN"],
+    ),
+    row(
+        "a huge number is printed with an exponent",
+        "[springs.stretch]\nstiffness = 1e300\n",
+        &["`springs.stretch.stiffness`", "got 1e300"],
+    ),
+    row(
+        "a tiny number is printed with an exponent",
+        "[camera]\ndistance = -1e-300\n",
+        &["`camera.distance`", "got -1e-300"],
+    ),
+    row(
+        "infinite duration",
+        "[simulation]\nduration = inf\n",
+        &["`simulation.duration`", "must be finite", "got inf"],
     ),
     row(
         "unknown integrator name",
@@ -589,18 +715,73 @@ const BAD_SCENES: &[Row] = &[
         source: Source::MissingFile,
         expect: &["cannot read the file"],
     },
+    Row {
+        what: "a directory",
+        source: Source::Directory,
+        expect: &["is a directory, not a scene file"],
+    },
+    Row {
+        what: "a file over the size cap",
+        source: Source::Oversized,
+        expect: &["larger than 1 MiB"],
+    },
 ];
+
+/// A valid scene padded with comment lines to exactly `len` bytes.
+fn scene_of_length(len: u64) -> String {
+    let mut text = String::from("[simulation]\ndt = 0.01\n");
+    let line = format!("#{}\n", "-".repeat(62));
+    while text.len() as u64 + line.len() as u64 <= len {
+        text.push_str(&line);
+    }
+    let rest = usize::try_from(len).expect("small") - text.len();
+    if rest > 0 {
+        text.push('#');
+        text.push_str(&"-".repeat(rest - 1));
+    }
+    assert_eq!(text.len() as u64, len);
+    text
+}
+
+#[test]
+fn a_scene_file_of_exactly_the_cap_loads() {
+    let path = Path::new(env!("CARGO_TARGET_TMPDIR")).join("scene_at_the_cap.toml");
+    std::fs::write(&path, scene_of_length(MAX_SCENE_BYTES)).expect("write");
+    let loaded = Scene::load(&path);
+    let _ = std::fs::remove_file(&path);
+    assert_eq!(loaded.expect("a file of the cap loads").params.dt, 0.01);
+}
+
+#[cfg(unix)]
+#[test]
+fn a_device_or_fifo_is_refused_without_reading_it() {
+    // /dev/zero never ends: reading it would run until memory runs out.
+    let err = Scene::load(Path::new("/dev/zero")).expect_err("a device");
+    assert!(err.to_string().contains("not a regular file"), "{err}");
+}
 
 #[test]
 fn bad_scene_files_are_refused_with_a_message_naming_key_and_allowed_values() {
-    let missing = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_scene.toml");
+    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR")).join("bad_scenes");
+    let _ = std::fs::remove_dir_all(&tmp);
+    std::fs::create_dir_all(&tmp).expect("create the test directory");
+    let path = tmp.join("bad_scene.toml");
     let mut failures = Vec::new();
     for row in BAD_SCENES {
         let result = match row.source {
             Source::Text(text) => Scene::from_toml(text, Path::new("bad_scene.toml")),
-            Source::MissingFile => {
-                assert!(!missing.exists(), "{} must not exist", missing.display());
-                Scene::load(&missing)
+            Source::MissingFile => Scene::load(&path),
+            Source::Directory => {
+                std::fs::create_dir(&path).expect("create the directory");
+                let result = Scene::load(&path);
+                std::fs::remove_dir(&path).expect("remove the directory");
+                result
+            }
+            Source::Oversized => {
+                std::fs::write(&path, scene_of_length(MAX_SCENE_BYTES + 1)).expect("write");
+                let result = Scene::load(&path);
+                std::fs::remove_file(&path).expect("remove the file");
+                result
             }
         };
         let err = match result {
@@ -628,11 +809,143 @@ fn bad_scene_files_are_refused_with_a_message_naming_key_and_allowed_values() {
             ));
         }
     }
+    let _ = std::fs::remove_dir_all(&tmp);
     assert!(
         failures.is_empty(),
         "{} of {} rows failed:\n{}",
         failures.len(),
         BAD_SCENES.len(),
+        failures.join("\n")
+    );
+}
+
+/// Every key of the format, by table (`[[sphere]]` needs its radius).
+const KEYS: &[(&str, &[&str])] = &[
+    ("[simulation]", &["integrator", "dt", "gravity", "duration"]),
+    (
+        "[cloth]",
+        &[
+            "resolution",
+            "size",
+            "origin",
+            "orientation",
+            "mass",
+            "pins",
+        ],
+    ),
+    (
+        "[springs.stretch]",
+        &["stiffness", "damping", "max_stretch"],
+    ),
+    ("[fixup]", &["iterations", "method", "omega"]),
+    (
+        "[implicit]",
+        &["tolerance", "max_iterations", "coarse_levels"],
+    ),
+    ("[semi_implicit]", &["filter", "torque_compensation"]),
+    ("[ground]", &["height", "friction"]),
+    ("[[sphere]]\nradius = 1", &["center", "friction"]),
+    ("[wind]\nvelocity = [1, 0, 0]", &["drag", "lift"]),
+    (
+        "[camera]",
+        &["target", "distance", "elevation", "azimuth", "fov"],
+    ),
+];
+
+/// Values that no key accepts: a string no key takes, an inline table, a
+/// date, an array of arrays, and an array of four of mixed types.
+const WRONG_VALUES: &[&str] = &[
+    "\"text\"",
+    "{ a = 1 }",
+    "1979-05-27",
+    "[[1]]",
+    "[true, 1, 2, 3]",
+];
+
+/// The tables, each given every wrong shape a table can take.
+const TABLES: &[&str] = &[
+    "simulation",
+    "cloth",
+    "springs",
+    "fixup",
+    "implicit",
+    "semi_implicit",
+    "ground",
+    "sphere",
+    "wind",
+    "camera",
+];
+
+/// Words of serde's and Rust's vocabulary that a user of a TOML file does
+/// not speak: the TOML words are table, array, integer, string, boolean.
+const RUST_WORDS: &[&str] = &[
+    "sequence", "struct", "map", "f64", "f32", "u32", "u64", "usize", "i64", "Vec", "Option",
+    "Some", "None", "enum", "variant", "tuple",
+];
+
+/// A word with an upper-case letter after a lower-case one (`SpringsTable`,
+/// `PinEntry`): a Rust type name. `NaN` and `MiB` are how numbers and sizes
+/// are written.
+fn is_camel_case(word: &str) -> bool {
+    let chars: Vec<char> = word.chars().collect();
+    !["NaN", "MiB", "KiB"].contains(&word)
+        && chars
+            .windows(2)
+            .any(|w| w[0].is_lowercase() && w[1].is_uppercase())
+}
+
+#[test]
+fn no_message_for_a_wrong_shape_names_a_rust_type() {
+    let mut texts = Vec::new();
+    for (header, keys) in KEYS {
+        for key in *keys {
+            for value in WRONG_VALUES {
+                texts.push(format!("{header}\n{key} = {value}\n"));
+            }
+        }
+    }
+    for table in TABLES {
+        for shape in ["5", "\"text\"", "[]", "[1, 2]", "[[1]]", "true"] {
+            // No spheres at all is a valid `sphere`.
+            if !(*table == "sphere" && shape == "[]") {
+                texts.push(format!("{table} = {shape}\n"));
+            }
+        }
+        // The other bracket count: `[[cloth]]` for a table, `[sphere]` for
+        // the array of tables.
+        if *table == "sphere" {
+            texts.push("[sphere]\nradius = 1\n".to_string());
+        } else {
+            texts.push(format!("[[{table}]]\n"));
+        }
+    }
+    texts.push("[springs]\nstretch = 5\n".to_string());
+    texts.push("[cloth]\npins = [\"top\", [1]]\n".to_string());
+    texts.push("[cloth]\nresolution = [5, 5, 5]\n".to_string());
+    texts.push("[fixup]\niterations = -3\n".to_string());
+
+    let mut failures = Vec::new();
+    for text in &texts {
+        let message = match Scene::from_toml(text, Path::new("shape.toml")) {
+            Ok(_) => {
+                failures.push(format!("loaded, should have failed:\n{text}"));
+                continue;
+            }
+            Err(e) => e.to_string(),
+        };
+        let rust: Vec<&str> = message
+            .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+            .filter(|w| RUST_WORDS.contains(w) || is_camel_case(w))
+            .collect();
+        if !rust.is_empty() {
+            failures.push(format!("{rust:?} in: {message}\n--- text ---\n{text}"));
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} of {} wrong shapes:\n{}",
+        failures.len(),
+        texts.len(),
         failures.join("\n")
     );
 }

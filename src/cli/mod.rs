@@ -13,10 +13,12 @@ mod run;
 mod scenes;
 mod summary;
 
+use std::ops::RangeInclusive;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use wgcloth::params::format_number;
 use wgcloth::Integrator;
 
 /// Exit status of a run that succeeded.
@@ -121,17 +123,37 @@ struct RenderArgs {
     #[arg(value_name = "SCENE.toml | name")]
     scene: String,
 
-    /// Frames to write; frame k shows the cloth at t = k / FPS.
-    #[arg(long, value_name = "N", default_value_t = 60)]
+    /// Frames to write (N ≥ 1); frame k shows the cloth at t = k / FPS.
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 60,
+        value_parser = parse_frames,
+        allow_negative_numbers = true
+    )]
     frames: u32,
 
     /// Frames per second of simulated time: each frame advances
     /// ceil((1/FPS) / dt) steps.
-    #[arg(long, value_name = "F", default_value_t = 30.0, value_parser = render::parse_fps)]
+    #[arg(
+        long,
+        value_name = "F",
+        default_value_t = 30.0,
+        value_parser = render::parse_fps,
+        allow_hyphen_values = true
+    )]
     fps: f64,
 
     /// Image size in pixels.
-    #[arg(long, value_name = "WxH", default_value = "640x480", value_parser = render::parse_size)]
+    // Hyphen values reach the parser, so `-640x480` is told what is allowed
+    // rather than taken for an unknown option.
+    #[arg(
+        long,
+        value_name = "WxH",
+        default_value = "640x480",
+        value_parser = render::parse_size,
+        allow_hyphen_values = true
+    )]
     size: (u32, u32),
 
     /// The folder the frames go to (`frame_00000.png`, …); created if
@@ -201,9 +223,16 @@ struct RunArgs {
     #[arg(long, value_name = "NAME")]
     adapter: Option<String>,
 
-    /// Number of steps to run. Default: the scene's `[simulation] duration`,
-    /// converted like `--seconds`.
-    #[arg(long, value_name = "N", conflicts_with = "seconds")]
+    /// Number of steps to run (0 ≤ N ≤ 1e12, the cap `--seconds` has too).
+    /// Default: the scene's `[simulation] duration`, converted like
+    /// `--seconds`.
+    #[arg(
+        long,
+        value_name = "N",
+        conflicts_with = "seconds",
+        value_parser = parse_steps,
+        allow_negative_numbers = true
+    )]
     steps: Option<u64>,
 
     /// Simulated time to run [s]: `ceil(T / dt)` steps, so the run covers at
@@ -213,12 +242,12 @@ struct RunArgs {
         long,
         value_name = "T",
         value_parser = parse_seconds,
-        allow_negative_numbers = true
+        allow_hyphen_values = true
     )]
     seconds: Option<f64>,
 
     /// Time step in seconds, overriding the scene's `[simulation] dt` (0 < DT ≤ 1).
-    #[arg(long, value_name = "DT", allow_negative_numbers = true)]
+    #[arg(long, value_name = "DT", value_parser = parse_dt, allow_hyphen_values = true)]
     dt: Option<f64>,
 
     /// Write the final positions (metres) to FILE: one line `x y z` per particle,
@@ -237,7 +266,8 @@ struct RunArgs {
         value_name = "K",
         default_value_t = 1,
         requires = "trace_out",
-        value_parser = clap::value_parser!(u64).range(1..)
+        value_parser = parse_trace_every,
+        allow_negative_numbers = true
     )]
     trace_every: u64,
 
@@ -295,12 +325,60 @@ enum Precision {
 
 /// `--seconds`: a finite, non-negative number of seconds.
 fn parse_seconds(s: &str) -> Result<f64, String> {
-    let t: f64 = s.parse().map_err(|e| format!("{e}"))?;
+    let allowed = "must be a finite number ≥ 0 of seconds";
+    let t: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{allowed}, got `{s}`"))?;
     if t.is_finite() && t >= 0.0 {
         Ok(t)
     } else {
-        Err(format!("must be a finite number ≥ 0 of seconds, got {t}"))
+        Err(format!("{allowed}, got {}", format_number(t)))
     }
+}
+
+/// `--dt`: a number; its range is `Params::validate`'s, which says it with
+/// the scene's other parameters.
+fn parse_dt(s: &str) -> Result<f64, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| "must be a number of seconds, 0 < DT ≤ 1".to_string())
+}
+
+/// A whole number in `range`; else "must be {allowed}", for a negative
+/// number or a fraction as for a number out of range.
+fn parse_whole(s: &str, range: RangeInclusive<u64>, allowed: &str) -> Result<u64, String> {
+    match s.trim().parse::<u64>() {
+        Ok(n) if range.contains(&n) => Ok(n),
+        _ => Err(format!("must be {allowed}")),
+    }
+}
+
+/// `--steps`: at most [`run::MAX_STEPS`], the cap `--seconds` and the
+/// scene's duration are held to.
+fn parse_steps(s: &str) -> Result<u64, String> {
+    parse_whole(
+        s,
+        0..=run::MAX_STEPS,
+        &format!(
+            "a whole number of steps, 0 ≤ N ≤ {:e} (the cap --seconds has too)",
+            run::MAX_STEPS
+        ),
+    )
+}
+
+/// `--trace-every`: every K-th step, K ≥ 1.
+fn parse_trace_every(s: &str) -> Result<u64, String> {
+    parse_whole(s, 1..=u64::MAX, "a whole number of steps ≥ 1")
+}
+
+/// `--frames`: at least one frame (none would write nothing and still
+/// succeed).
+fn parse_frames(s: &str) -> Result<u32, String> {
+    let max = u32::MAX;
+    let allowed = format!("a whole number of frames, 1 ≤ N ≤ {max} (0 frames would write nothing)");
+    let n = parse_whole(s, 1..=u64::from(max), &allowed)?;
+    u32::try_from(n).map_err(|_| format!("must be {allowed}"))
 }
 
 /// A command-line value that clap's parser could not judge alone (it needs
@@ -384,11 +462,39 @@ mod tests {
     }
 
     #[test]
+    fn counts_say_what_is_allowed() {
+        assert_eq!(parse_steps("0"), Ok(0));
+        assert_eq!(parse_steps(&run::MAX_STEPS.to_string()), Ok(run::MAX_STEPS));
+        for bad in ["-5", "1.5", "abc", "", "1000000000001"] {
+            let e = parse_steps(bad).expect_err(bad);
+            assert!(
+                e.contains("whole number of steps") && e.contains("1e12"),
+                "{bad}: {e}"
+            );
+        }
+        assert_eq!(parse_trace_every("1"), Ok(1));
+        for bad in ["0", "-1"] {
+            let e = parse_trace_every(bad).expect_err(bad);
+            assert!(e.contains("≥ 1"), "{bad}: {e}");
+        }
+        assert_eq!(parse_frames("1"), Ok(1));
+        assert_eq!(parse_frames(&u32::MAX.to_string()), Ok(u32::MAX));
+        for bad in ["0", "-1", "4294967296"] {
+            let e = parse_frames(bad).expect_err(bad);
+            assert!(e.contains("1 ≤ N"), "{bad}: {e}");
+        }
+    }
+
+    #[test]
     fn seconds_must_be_finite_and_non_negative() {
         assert_eq!(parse_seconds("1.5"), Ok(1.5));
         assert_eq!(parse_seconds("0"), Ok(0.0));
         for bad in ["-1", "inf", "NaN", "abc"] {
             assert!(parse_seconds(bad).is_err(), "{bad} accepted");
         }
+        assert_eq!(
+            parse_seconds("-1e-300"),
+            Err("must be a finite number ≥ 0 of seconds, got -1e-300".to_string())
+        );
     }
 }

@@ -146,7 +146,8 @@ pub fn parse_fps(s: &str) -> Result<f64, String> {
         Ok(f)
     } else {
         Err(format!(
-            "must be a finite number > 0 of frames per second, got {f}"
+            "must be a finite number > 0 of frames per second, got {}",
+            wgcloth::params::format_number(f)
         ))
     }
 }

@@ -5,6 +5,7 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
+use wgcloth::params::format_number;
 use wgcloth::{diagnostics, Model, Params, Real, Scene};
 
 use super::backend::{Cpu, Gpu, Solver, MAX_BATCH};
@@ -15,7 +16,7 @@ use super::{Backend, Precision, RunArgs, UsageError};
 
 /// Most steps one run may take: far beyond any useful run, and small enough
 /// that the count is exact in an `f64` (the `--seconds` conversion).
-const MAX_STEPS: u64 = 1_000_000_000_000;
+pub(super) const MAX_STEPS: u64 = 1_000_000_000_000;
 
 /// A quotient `T / dt` within this relative distance of a whole number
 /// counts as that number, so a duration that is a whole number of steps
@@ -126,7 +127,9 @@ fn steps_for(seconds: f64, dt: f64, what: &str) -> Result<u64, UsageError> {
     };
     if n.is_nan() || n > MAX_STEPS as f64 {
         return Err(UsageError(format!(
-            "{what}: {seconds} s at dt = {dt} s is {q:e} steps; at most {MAX_STEPS:e} are allowed"
+            "{what}: {} s at dt = {} s is {q:e} steps; at most {MAX_STEPS:e} are allowed",
+            format_number(seconds),
+            format_number(dt)
         )));
     }
     Ok(n as u64)

@@ -56,7 +56,7 @@ pub fn steps_per_frame(fps: f64, dt: f64) -> Result<u32> {
     if !(fps.is_finite() && fps > 0.0) {
         return Err(invalid(
             "a finite number > 0 of frames per second",
-            fps.to_string(),
+            crate::params::format_number(fps),
         ));
     }
     let q = 1.0 / fps / dt;
@@ -68,7 +68,12 @@ pub fn steps_per_frame(fps: f64, dt: f64) -> Result<u32> {
     if steps > f64::from(MAX_STEPS_PER_FRAME) {
         return Err(invalid(
             &format!("at most {MAX_STEPS_PER_FRAME} steps per frame (1/fps ÷ dt)"),
-            format!("{fps} (dt = {dt} s: {steps} steps)"),
+            format!(
+                "{} (dt = {} s: {} steps)",
+                crate::params::format_number(fps),
+                crate::params::format_number(dt),
+                crate::params::format_number(steps)
+            ),
         ));
     }
     Ok((steps as u32).max(1))

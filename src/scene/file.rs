@@ -14,6 +14,7 @@ use std::marker::PhantomData;
 use serde::de::{self, Deserializer, Visitor};
 use serde::Deserialize;
 
+use super::shape::{Exactly, Form, List, Number, Table, Whole};
 use super::CameraSpec;
 use crate::model::{ClothSpec, Orientation, Pin};
 use crate::params::{
@@ -31,87 +32,93 @@ pub(super) const DEFAULT_WIND_DRAG: f64 = 0.6;
 
 /// The whole file.
 #[derive(Deserialize, Default)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a scene file: TOML tables such as `[simulation]`"
+)]
 pub(super) struct SceneFile {
     #[serde(default)]
-    simulation: SimulationTable,
+    simulation: Table<SimulationTable>,
     #[serde(default)]
-    cloth: ClothTable,
+    cloth: Table<ClothTable>,
     #[serde(default)]
-    springs: SpringsTable,
+    springs: Table<SpringsTable>,
     #[serde(default)]
-    fixup: FixupTable,
+    fixup: Table<FixupTable>,
     #[serde(default)]
-    implicit: ImplicitTable,
+    implicit: Table<ImplicitTable>,
     #[serde(default)]
-    semi_implicit: SemiImplicitTable,
-    ground: Option<GroundTable>,
+    semi_implicit: Table<SemiImplicitTable>,
+    ground: Option<Table<GroundTable>>,
     #[serde(default)]
-    sphere: Vec<SphereTable>,
-    wind: Option<WindTable>,
+    sphere: List<Table<SphereTable>>,
+    wind: Option<Table<WindTable>>,
     #[serde(default)]
-    camera: CameraTable,
+    camera: Table<CameraTable>,
 }
+
+/// Three numbers, `[x, y, z]`.
+type Vec3 = Exactly<Number, 3>;
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct CameraTable {
-    target: Option<[f64; 3]>,
-    distance: Option<f64>,
-    elevation: Option<f64>,
-    azimuth: Option<f64>,
-    fov: Option<f64>,
+    target: Option<Vec3>,
+    distance: Option<Number>,
+    elevation: Option<Number>,
+    azimuth: Option<Number>,
+    fov: Option<Number>,
 }
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct SimulationTable {
     integrator: Option<Choice<Integrator>>,
-    dt: Option<f64>,
-    gravity: Option<[f64; 3]>,
-    duration: Option<f64>,
+    dt: Option<Number>,
+    gravity: Option<Vec3>,
+    duration: Option<Number>,
 }
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct ClothTable {
-    resolution: Option<[usize; 2]>,
-    size: Option<[f64; 2]>,
-    origin: Option<[f64; 3]>,
+    resolution: Option<Exactly<Whole<usize>, 2>>,
+    size: Option<Exactly<Number, 2>>,
+    origin: Option<Vec3>,
     orientation: Option<Choice<Orientation>>,
-    mass: Option<f64>,
-    pins: Option<Vec<PinEntry>>,
+    mass: Option<Number>,
+    pins: Option<List<PinEntry>>,
 }
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct SpringsTable {
-    stretch: Option<SpringTable>,
-    shear: Option<SpringTable>,
-    bend: Option<SpringTable>,
+    stretch: Option<Table<SpringTable>>,
+    shear: Option<Table<SpringTable>>,
+    bend: Option<Table<SpringTable>>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SpringTable {
-    stiffness: Option<f64>,
-    damping: Option<f64>,
-    max_stretch: Option<f64>,
+    stiffness: Option<Number>,
+    damping: Option<Number>,
+    max_stretch: Option<Number>,
 }
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct FixupTable {
-    iterations: Option<u32>,
+    iterations: Option<Whole<u32>>,
     method: Option<Choice<FixupMethod>>,
-    omega: Option<f64>,
+    omega: Option<Number>,
 }
 
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct ImplicitTable {
-    tolerance: Option<f64>,
-    max_iterations: Option<u32>,
+    tolerance: Option<Number>,
+    max_iterations: Option<Whole<u32>>,
     coarse_levels: Option<bool>,
 }
 
@@ -125,17 +132,17 @@ struct SemiImplicitTable {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct GroundTable {
-    height: Option<f64>,
-    friction: Option<f64>,
+    height: Option<Number>,
+    friction: Option<Number>,
 }
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SphereTable {
-    center: Option<[f64; 3]>,
+    center: Option<Vec3>,
     /// Required: no radius is a sensible default.
-    radius: f64,
-    friction: Option<f64>,
+    radius: Number,
+    friction: Option<Number>,
 }
 
 #[derive(Deserialize)]
@@ -143,15 +150,76 @@ struct SphereTable {
 struct WindTable {
     /// Required: a `[wind]` table without a velocity is almost certainly a
     /// mistake; still air is written `velocity = [0, 0, 0]`.
-    velocity: [f64; 3],
-    drag: Option<f64>,
-    lift: Option<f64>,
+    velocity: Vec3,
+    drag: Option<Number>,
+    lift: Option<Number>,
+}
+
+/// How a table written `[header]` looks, for "expected …".
+macro_rules! table_form {
+    ($table:ty, $header:literal) => {
+        impl Form for $table {
+            const ONE: &'static str = concat!(
+                "a table: a `[",
+                $header,
+                "]` line with its keys on the lines below"
+            );
+            const MANY: &'static str = concat!("`[", $header, "]` tables");
+        }
+    };
+}
+
+table_form!(SimulationTable, "simulation");
+table_form!(ClothTable, "cloth");
+table_form!(SpringTable, "springs.<stretch|shear|bend>");
+table_form!(FixupTable, "fixup");
+table_form!(ImplicitTable, "implicit");
+table_form!(SemiImplicitTable, "semi_implicit");
+table_form!(GroundTable, "ground");
+table_form!(WindTable, "wind");
+table_form!(CameraTable, "camera");
+
+impl Form for SpringsTable {
+    const ONE: &'static str = "a table of spring kinds: `[springs.stretch]`, \
+                               `[springs.shear]` and `[springs.bend]` lines, each with its keys \
+                               on the lines below";
+    const MANY: &'static str = "`[springs]` tables";
+}
+
+/// The one array of tables: `[[sphere]]`, once per sphere.
+impl Form for SphereTable {
+    const ONE: &'static str = "a table: a `[[sphere]]` line with its keys on the lines below";
+    const MANY: &'static str =
+        "tables, each a `[[sphere]]` line (double brackets) with its keys on the lines below";
+}
+
+impl Form for PinEntry {
+    const ONE: &'static str = "a pin name or a particle index";
+    const MANY: &'static str = "pin names and particle indices";
 }
 
 /// Overwrites `slot` when the file gave a value.
-fn set<T>(slot: &mut T, value: Option<T>) {
+fn set<T, V: Into<T>>(slot: &mut T, value: Option<V>) {
     if let Some(v) = value {
-        *slot = v;
+        *slot = v.into();
+    }
+}
+
+impl From<Number> for f64 {
+    fn from(n: Number) -> f64 {
+        n.0
+    }
+}
+
+impl From<Whole<u32>> for u32 {
+    fn from(n: Whole<u32>) -> u32 {
+        n.0
+    }
+}
+
+impl<const N: usize> From<Exactly<Number, N>> for [f64; N] {
+    fn from(a: Exactly<Number, N>) -> [f64; N] {
+        a.0.map(f64::from)
     }
 }
 
@@ -160,15 +228,15 @@ impl SceneFile {
     /// describes, not yet validated.
     pub(super) fn into_parts(self) -> (ClothSpec, Params, f64, CameraSpec) {
         let mut p = Params::default();
-        let s = self.simulation;
+        let s = self.simulation.0;
         set(&mut p.integrator, s.integrator.map(|c| c.0));
         set(&mut p.dt, s.dt);
         set(&mut p.gravity, s.gravity);
 
         let mut cloth = ClothSpec::default();
-        let c = self.cloth;
-        if let Some([nx, ny]) = c.resolution {
-            (cloth.nx, cloth.ny) = (nx, ny);
+        let c = self.cloth.0;
+        if let Some(Exactly([nx, ny])) = c.resolution {
+            (cloth.nx, cloth.ny) = (nx.0, ny.0);
         }
         set(&mut cloth.size, c.size);
         set(&mut cloth.origin, c.origin);
@@ -176,64 +244,69 @@ impl SceneFile {
         set(&mut cloth.mass, c.mass);
         set(
             &mut cloth.pins,
-            c.pins.map(|v| v.into_iter().map(|e| e.0).collect()),
+            c.pins
+                .map(|v| v.0.into_iter().map(|e| e.0).collect::<Vec<_>>()),
         );
 
+        let springs = self.springs.0;
         for kind in SpringKind::ALL {
             let table = match kind {
-                SpringKind::Stretch => &self.springs.stretch,
-                SpringKind::Shear => &self.springs.shear,
-                SpringKind::Bend => &self.springs.bend,
+                SpringKind::Stretch => &springs.stretch,
+                SpringKind::Shear => &springs.shear,
+                SpringKind::Bend => &springs.bend,
             };
-            if let Some(t) = table {
+            if let Some(Table(t)) = table {
                 // Missing keys keep the default of *this* kind.
                 let spring = &mut p.springs[kind.index()];
                 set(&mut spring.stiffness, t.stiffness);
                 set(&mut spring.damping, t.damping);
-                set(&mut spring.max_stretch, t.max_stretch.map(Some));
+                set(&mut spring.max_stretch, t.max_stretch.map(|m| Some(m.0)));
             }
         }
 
-        set(&mut p.fixup.iterations, self.fixup.iterations);
-        set(&mut p.fixup.method, self.fixup.method.map(|c| c.0));
-        set(&mut p.fixup.omega, self.fixup.omega);
-        set(&mut p.implicit.tolerance, self.implicit.tolerance);
-        set(&mut p.implicit.max_iterations, self.implicit.max_iterations);
-        set(&mut p.implicit.coarse_levels, self.implicit.coarse_levels);
-        let si = self.semi_implicit;
+        let (fixup, implicit) = (self.fixup.0, self.implicit.0);
+        set(&mut p.fixup.iterations, fixup.iterations);
+        set(&mut p.fixup.method, fixup.method.map(|c| c.0));
+        set(&mut p.fixup.omega, fixup.omega);
+        set(&mut p.implicit.tolerance, implicit.tolerance);
+        set(&mut p.implicit.max_iterations, implicit.max_iterations);
+        set(&mut p.implicit.coarse_levels, implicit.coarse_levels);
+        let si = self.semi_implicit.0;
         set(&mut p.semi_implicit.filter, si.filter.map(|c| c.0));
         set(
             &mut p.semi_implicit.torque_compensation,
             si.torque_compensation,
         );
 
-        p.ground = self.ground.map(|g| Ground {
-            height: g.height.unwrap_or(0.0),
-            friction: g.friction.unwrap_or(DEFAULT_FRICTION),
+        p.ground = self.ground.map(|Table(g)| Ground {
+            height: g.height.map_or(0.0, f64::from),
+            friction: g.friction.map_or(DEFAULT_FRICTION, f64::from),
         });
         p.spheres = self
             .sphere
+            .0
             .into_iter()
-            .map(|s| Sphere {
-                center: s.center.unwrap_or([0.0; 3]),
-                radius: s.radius,
-                friction: s.friction.unwrap_or(DEFAULT_FRICTION),
+            .map(|Table(s)| Sphere {
+                center: s.center.map_or([0.0; 3], <[f64; 3]>::from),
+                radius: s.radius.0,
+                friction: s.friction.map_or(DEFAULT_FRICTION, f64::from),
             })
             .collect();
-        p.wind = self.wind.map(|w| Wind {
-            velocity: w.velocity,
-            drag: w.drag.unwrap_or(DEFAULT_WIND_DRAG),
-            lift: w.lift.unwrap_or(0.0),
+        p.wind = self.wind.map(|Table(w)| Wind {
+            velocity: w.velocity.into(),
+            drag: w.drag.map_or(DEFAULT_WIND_DRAG, f64::from),
+            lift: w.lift.map_or(0.0, f64::from),
         });
-        let c = self.camera;
+        let c = self.camera.0;
         let camera = CameraSpec {
-            target: c.target,
-            distance: c.distance,
-            elevation: c.elevation,
-            azimuth: c.azimuth,
-            fov: c.fov,
+            target: c.target.map(<[f64; 3]>::from),
+            distance: c.distance.map(f64::from),
+            elevation: c.elevation.map(f64::from),
+            azimuth: c.azimuth.map(f64::from),
+            fov: c.fov.map(f64::from),
         };
-        (cloth, p, s.duration.unwrap_or(DEFAULT_DURATION), camera)
+        let duration = s.duration.map_or(DEFAULT_DURATION, f64::from);
+        (cloth, p, duration, camera)
     }
 }
 

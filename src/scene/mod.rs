@@ -10,13 +10,15 @@
 //! the same values.
 
 mod file;
+mod shape;
 
 use std::fmt::Write as _;
+use std::io::Read as _;
 use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::model::{ClothSpec, Model};
-use crate::params::Params;
+use crate::params::{check, check_finite, Params};
 
 /// A complete, validated scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -56,40 +58,28 @@ impl CameraSpec {
     /// Refuses a distance that is not positive, an elevation beyond ±89°,
     /// a field of view outside 5°–150°, and anything non-finite.
     pub fn validate(&self) -> Result<()> {
-        let check = |key: &str, v: Option<f64>, ok: fn(f64) -> bool, allowed: &str| match v {
-            Some(x) if !(x.is_finite() && ok(x)) => Err(Error::InvalidParameter {
-                key: format!("camera.{key}"),
-                allowed: allowed.into(),
-                got: x.to_string(),
-            }),
-            _ => Ok(()),
+        let optional = |key: &str, v: Option<f64>, ok: fn(f64) -> bool, allowed: &str| match v {
+            Some(x) => check(&format!("camera.{key}"), x, ok(x), allowed),
+            None => Ok(()),
         };
-        check("distance", self.distance, |x| x > 0.0, "> 0 (m)")?;
-        check(
+        optional("distance", self.distance, |x| x > 0.0, "> 0 (m)")?;
+        optional(
             "elevation",
             self.elevation,
             |x| x.abs() <= 89.0,
             "−89 ≤ elevation ≤ 89 (degrees)",
         )?;
-        check(
-            "azimuth",
-            self.azimuth,
-            |_| true,
-            "a finite number (degrees)",
-        )?;
-        check(
+        if let Some(azimuth) = self.azimuth {
+            check_finite("camera.azimuth", azimuth, "degrees")?;
+        }
+        optional(
             "fov",
             self.fov,
             |x| (5.0..=150.0).contains(&x),
             "5 ≤ fov ≤ 150 (degrees)",
         )?;
         for (k, c) in self.target.iter().flatten().enumerate() {
-            check(
-                &format!("target[{k}]"),
-                Some(*c),
-                |_| true,
-                "a finite number (m)",
-            )?;
+            check_finite(&format!("camera.target[{k}]"), *c, "m")?;
         }
         Ok(())
     }
@@ -133,11 +123,14 @@ impl Scene {
         })
     }
 
-    /// Reads, parses and validates a scene file.
+    /// Reads, parses and validates a scene file. A directory, anything
+    /// that is not a regular file (a FIFO, a device such as `/dev/zero`
+    /// behind a symlink) and a file over [`MAX_SCENE_BYTES`] are refused
+    /// without being read.
     pub fn load(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Scene {
+        let text = read_scene_text(path).map_err(|message| Error::Scene {
             path: path.to_path_buf(),
-            message: format!("cannot read the file: {e}"),
+            message,
         })?;
         Scene::from_toml(&text, path)
     }
@@ -167,13 +160,19 @@ impl Scene {
 
     /// A path to a scene file if one exists there, else a built-in name.
     ///
-    /// A name ending in `.toml` is always taken as a path, so a mistyped
-    /// file name reports the missing file rather than an unknown built-in.
+    /// A regular file wins over a built-in name; a built-in name wins over
+    /// a directory of that name (a folder called `flag` must not hide the
+    /// built-in scene). Anything else that exists (a directory, a FIFO) or
+    /// any name ending in `.toml` is taken as a path, so it is refused as
+    /// what it is, and a mistyped file name reports the missing file rather
+    /// than an unknown built-in.
     pub fn resolve(name_or_path: &str) -> Result<Scene> {
         let path = Path::new(name_or_path);
-        // `is_file`, not `exists`: a directory that happens to be called
-        // `flag` must not hide the built-in scene.
-        if path.is_file() || name_or_path.ends_with(".toml") {
+        if path.is_file() {
+            Scene::load(path)
+        } else if Scene::builtin_names().contains(&name_or_path) {
+            Scene::builtin(name_or_path)
+        } else if path.symlink_metadata().is_ok() || name_or_path.ends_with(".toml") {
             Scene::load(path)
         } else {
             Scene::builtin(name_or_path)
@@ -186,18 +185,67 @@ impl Scene {
     }
 }
 
+/// Largest scene file read \[bytes\]: the built-in scenes are about 1 KiB
+/// and a hand-written scene a few KiB, so 1 MiB leaves room for any scene
+/// (long comments, many spheres) while a wrong path (a log, a disk image,
+/// `/dev/zero` behind a symlink) is refused at once instead of read until
+/// memory runs out.
+pub const MAX_SCENE_BYTES: u64 = 1 << 20;
+
+/// The text of a scene file, or what is wrong with the path: checked
+/// before it is opened (opening a FIFO would block), and read through
+/// [`Read::take`] so that a file growing after the check is still cut off
+/// at [`MAX_SCENE_BYTES`] + 1 bytes.
+fn read_scene_text(path: &Path) -> std::result::Result<String, String> {
+    let cannot = |e: std::io::Error| format!("cannot read the file: {e}");
+    let meta = std::fs::metadata(path).map_err(cannot)?;
+    if meta.is_dir() {
+        return Err(
+            "is a directory, not a scene file (give a `.toml` file or a \
+                    built-in scene name)"
+                .to_string(),
+        );
+    }
+    if !meta.is_file() {
+        return Err(
+            "is not a regular file (a device, FIFO or socket), not a scene file".to_string(),
+        );
+    }
+    let too_large = || {
+        format!(
+            "is larger than {} MiB, the most a scene file may hold; a scene is a few KiB \
+             of TOML, so this is probably not one",
+            MAX_SCENE_BYTES >> 20
+        )
+    };
+    if meta.len() > MAX_SCENE_BYTES {
+        return Err(too_large());
+    }
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_SCENE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > MAX_SCENE_BYTES {
+        return Err(too_large());
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        format!(
+            "is not UTF-8 text (byte {} is not valid), so not a TOML scene file",
+            e.utf8_error().valid_up_to()
+        )
+    })
+}
+
 /// `[simulation] duration` is the one key `Params` does not hold, so the
 /// scene checks it, with the error `validate` would give.
 fn check_duration(duration: f64) -> Result<()> {
-    if duration.is_finite() && duration > 0.0 && duration <= 1e6 {
-        Ok(())
-    } else {
-        Err(Error::InvalidParameter {
-            key: "simulation.duration".to_string(),
-            allowed: "0 < duration ≤ 1e6 (seconds)".to_string(),
-            got: duration.to_string(),
-        })
-    }
+    check(
+        "simulation.duration",
+        duration,
+        duration > 0.0 && duration <= 1e6,
+        "0 < duration ≤ 1e6 (seconds)",
+    )
 }
 
 /// `line L, column C: ` for an error toml could place, else nothing.
@@ -220,12 +268,15 @@ fn describe(text: &str, err: &serde_path_to_error::Error<toml::de::Error>) -> St
     if key != "." {
         let _ = write!(out, "`{key}`: ");
     }
-    // serde speaks of fields; a scene file has keys.
+    // serde speaks of fields, maps and sequences; a scene file has keys,
+    // tables and arrays.
     let message = err
         .inner()
         .message()
         .replace("unknown field", "unknown key")
-        .replace("missing field", "missing key");
+        .replace("missing field", "missing key")
+        .replace("invalid type: map,", "invalid type: a table,")
+        .replace("invalid type: sequence,", "invalid type: an array,");
     out.push_str(&message);
     if let Some(shape) = expected_shape(&key) {
         let _ = write!(out, "; write {shape}");
@@ -268,11 +319,14 @@ fn expected_shape(key: &str) -> Option<&'static str> {
         "springs.max_stretch" => "a number, a multiple of the rest length",
         "fixup.iterations" | "implicit.max_iterations" => "a whole number",
         "fixup.omega" | "implicit.tolerance" => "a number",
-        "semi_implicit.torque_compensation" => "true or false",
+        "semi_implicit.torque_compensation" | "implicit.coarse_levels" => "true or false",
         "ground.height" | "sphere.radius" => "a number in m",
         "ground.friction" | "sphere.friction" => "a number (friction coefficient)",
         "wind.velocity" => "[x, y, z], three numbers in m/s",
         "wind.drag" | "wind.lift" => "a number in kg/m³",
+        "camera.target" => "[x, y, z], three numbers in m",
+        "camera.distance" => "a number in m",
+        "camera.elevation" | "camera.azimuth" | "camera.fov" => "a number of degrees",
         _ => return None,
     })
 }
