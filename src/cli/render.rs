@@ -26,9 +26,12 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         .context("the command-line options make the scene invalid")?;
     let steps_per_frame = render::steps_per_frame(args.fps, scene.params.dt)
         .map_err(|e| UsageError(format!("--fps: {e}")))?;
-    prepare_dir(&args.out, args.overwrite)?;
     let context = GpuContext::new(args.adapter.as_deref())?;
     let (width, height) = args.size;
+    // Before the output folder is touched.
+    render::check_image(&context.device, width, height)
+        .with_context(|| format!("--size {width}x{height}"))?;
+    prepare_dir(&args.out, args.overwrite)?;
     let options = FrameOptions {
         width,
         height,
@@ -47,7 +50,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         progress(done, args.frames, started)
     });
     eprintln!();
-    let written = written?;
+    let written = written.and_then(|n| context.check().map(|()| n))?;
     println!(
         "wrote {written} frames to {} ({}…{}), {:.1} s simulated in {:.2} s",
         args.out.display(),
