@@ -62,14 +62,18 @@ pub enum Error {
         message: String,
     },
 
-    /// The device cannot hold this cloth or lacks a needed capability.
-    #[error("the GPU device's limit `{limit}` is {available}, but this cloth needs {needed}")]
+    /// The device cannot hold this cloth or image, or lacks a needed
+    /// capability.
+    #[error("the GPU device's limit `{limit}` is {available}, but {what} needs {needed}")]
     DeviceLimit {
+        /// What needs the limit (`the cloth's largest buffer [bytes]`,
+        /// `the image's width [pixels]`).
+        what: String,
         /// The wgpu limit's name.
         limit: &'static str,
         /// What the device offers.
         available: u64,
-        /// What the cloth needs.
+        /// What it needs.
         needed: u64,
     },
 
@@ -107,6 +111,22 @@ pub enum Error {
     /// left.
     #[error("interrupted before the work was done")]
     Interrupted,
+
+    /// A scene, its solver or its image needs more memory than the host or
+    /// the GPU device can give; refused before it is allocated (see
+    /// [`crate::budget`]).
+    #[error("{what} needs {}, but {limit}", crate::budget::Bytes::of(.needed))]
+    OutOfMemory {
+        /// What needs the memory.
+        what: String,
+        /// What it needs \[bytes\].
+        needed: u64,
+        /// What the limit allows \[bytes\], when known.
+        available: Option<u64>,
+        /// The limit, as a clause (`the host has 2.0 GiB available
+        /// (MemAvailable in /proc/meminfo)`).
+        limit: String,
+    },
 }
 
 /// `Result` with the library's [`Error`].

@@ -10,12 +10,14 @@
 //! - [`params`]: every other parameter, validated in one place;
 //! - [`scene`]: TOML scene files and the built-in scenes;
 //! - [`cpu`]: the reference solver and its state;
-//! - [`diagnostics`]: energy and strain, shared by every backend.
+//! - [`diagnostics`]: energy and strain, shared by every backend;
+//! - [`budget`]: the memory a scene needs, checked before it is allocated.
 //!
 //! Units are SI throughout (m, kg, s, N), y is up.
 #![deny(missing_docs)]
 
 pub mod atomic_file;
+pub mod budget;
 pub mod cpu;
 pub mod diagnostics;
 pub mod error;

@@ -17,8 +17,12 @@
 
 use std::ops::Range;
 
+use crate::budget::{self, try_collect, try_vec, try_with_capacity};
 use crate::error::{Error, Result};
 use crate::params::{check, check_finite, SpringKind, SpringParams};
+
+/// What a model's allocations are named in a memory error.
+const MODEL: &str = "the cloth's model";
 
 /// Largest particle count a cloth may have. Far above what fits in a GPU
 /// storage buffer binding on common devices; the GPU solver checks the
@@ -184,6 +188,26 @@ impl ClothSpec {
         self.nx * self.ny
     }
 
+    /// Springs [`Model::new`] makes with `materials` (none of a kind whose
+    /// stiffness is zero).
+    pub fn spring_count(&self, materials: &[SpringParams; 3]) -> usize {
+        let (nx, ny) = (self.nx, self.ny);
+        SpringKind::ALL
+            .iter()
+            .filter(|kind| materials[kind.index()].stiffness > 0.0)
+            .map(|kind| match kind {
+                SpringKind::Stretch => (nx - 1) * ny + nx * (ny - 1),
+                SpringKind::Shear => 2 * (nx - 1) * (ny - 1),
+                SpringKind::Bend => nx.saturating_sub(2) * ny + nx * ny.saturating_sub(2),
+            })
+            .sum()
+    }
+
+    /// Triangles [`Model::new`] makes: two per grid cell.
+    pub fn triangle_count(&self) -> usize {
+        2 * (self.nx - 1) * (self.ny - 1)
+    }
+
     /// The particle indices a pin selects.
     pub fn pin_indices(&self, pin: Pin) -> Vec<usize> {
         let (nx, ny) = (self.nx, self.ny);
@@ -234,16 +258,16 @@ impl Adjacency {
     /// Builds the list from `(particle, entry)` pairs, keeping each
     /// particle's entries in ascending order so every consumer (CPU twin and
     /// GPU kernel) sums in the same, fixed order.
-    fn build(particles: usize, pairs: impl Iterator<Item = (usize, u32)> + Clone) -> Self {
-        let mut counts = vec![0u32; particles + 1];
+    fn build(particles: usize, pairs: impl Iterator<Item = (usize, u32)> + Clone) -> Result<Self> {
+        let mut counts = try_vec(particles + 1, 0u32, MODEL)?;
         for (p, _) in pairs.clone() {
             counts[p + 1] += 1;
         }
         for p in 0..particles {
             counts[p + 1] += counts[p];
         }
-        let offsets = counts.clone();
-        let mut entries = vec![0u32; offsets[particles] as usize];
+        let offsets = try_collect(counts.iter().copied(), MODEL)?;
+        let mut entries = try_vec(offsets[particles] as usize, 0u32, MODEL)?;
         let mut cursor = counts;
         for (p, e) in pairs {
             entries[cursor[p] as usize] = e;
@@ -252,7 +276,7 @@ impl Adjacency {
         for p in 0..particles {
             entries[offsets[p] as usize..offsets[p + 1] as usize].sort_unstable();
         }
-        Adjacency { offsets, entries }
+        Ok(Adjacency { offsets, entries })
     }
 }
 
@@ -297,6 +321,11 @@ impl Model {
         spec.validate()?;
         let (nx, ny) = (spec.nx, spec.ny);
         let n = nx * ny;
+        let (springs, triangles) = (spec.spring_count(materials), spec.triangle_count());
+        budget::check_host(
+            budget::model_bytes(n as u64, springs as u64, triangles as u64),
+            || format!("the {nx} × {ny} cloth's model ({n} particles, {springs} springs)"),
+        )?;
         let dw = spec.size[0] / (nx - 1) as f64;
         let dh = spec.size[1] / (ny - 1) as f64;
         let (u, v) = match spec.orientation {
@@ -304,7 +333,7 @@ impl Model {
             Orientation::Vertical => ([1.0, 0.0, 0.0], [0.0, -1.0, 0.0]),
         };
         let o = spec.origin;
-        let mut rest_positions = Vec::with_capacity(n);
+        let mut rest_positions = try_with_capacity(n, MODEL)?;
         for row in 0..ny {
             for col in 0..nx {
                 let (a, b) = (col as f64 * dw, row as f64 * dh);
@@ -316,7 +345,7 @@ impl Model {
             }
         }
         let idx = |row: usize, col: usize| (row * nx + col) as u32;
-        let mut springs = Vec::new();
+        let mut springs = try_with_capacity(springs, MODEL)?;
         for kind in SpringKind::ALL {
             if materials[kind.index()].stiffness > 0.0 {
                 let mut pairs = Vec::new();
@@ -357,7 +386,7 @@ impl Model {
                 }
             }
         }
-        let mut triangles = Vec::with_capacity(2 * (nx - 1) * (ny - 1));
+        let mut triangles = try_with_capacity(triangles, MODEL)?;
         for row in 0..ny - 1 {
             for col in 0..nx - 1 {
                 let (a, b) = (idx(row, col), idx(row, col + 1));
@@ -366,7 +395,7 @@ impl Model {
                 triangles.push([b, c, d]);
             }
         }
-        let mut pinned = vec![false; n];
+        let mut pinned = try_vec(n, false, MODEL)?;
         for &pin in &spec.pins {
             for p in spec.pin_indices(pin) {
                 pinned[p] = true;
@@ -374,7 +403,7 @@ impl Model {
         }
         let mut model = Model::from_parts(
             rest_positions,
-            vec![spec.mass / n as f64; n],
+            try_vec(n, spec.mass / n as f64, MODEL)?,
             pinned,
             springs,
             triangles,
@@ -434,14 +463,14 @@ impl Model {
                     (sp.j as usize, (s as u32) << 1 | 1),
                 ]
             }),
-        );
+        )?;
         let particle_triangles = Adjacency::build(
             n,
             triangles
                 .iter()
                 .enumerate()
                 .flat_map(|(t, tri)| tri.map(|p| (p as usize, t as u32))),
-        );
+        )?;
         Ok(Model {
             grid: None,
             rest_positions,
@@ -452,6 +481,29 @@ impl Model {
             triangles,
             particle_springs,
             particle_triangles,
+        })
+    }
+
+    /// A copy, failing with [`Error::OutOfMemory`] instead of aborting
+    /// when the memory is not there.
+    pub fn try_clone(&self) -> Result<Model> {
+        let copy = |v: &[u32]| try_collect(v.iter().copied(), MODEL);
+        let adjacency = |a: &Adjacency| -> Result<Adjacency> {
+            Ok(Adjacency {
+                offsets: copy(&a.offsets)?,
+                entries: copy(&a.entries)?,
+            })
+        };
+        Ok(Model {
+            grid: self.grid.clone(),
+            rest_positions: try_collect(self.rest_positions.iter().copied(), MODEL)?,
+            mass: try_collect(self.mass.iter().copied(), MODEL)?,
+            pinned: try_collect(self.pinned.iter().copied(), MODEL)?,
+            springs: try_collect(self.springs.iter().copied(), MODEL)?,
+            kind_ranges: self.kind_ranges.clone(),
+            triangles: try_collect(self.triangles.iter().copied(), MODEL)?,
+            particle_springs: adjacency(&self.particle_springs)?,
+            particle_triangles: adjacency(&self.particle_triangles)?,
         })
     }
 

@@ -220,6 +220,7 @@ impl Solver for Gpu {
             let batch = n.min(MAX_BATCH);
             // MAX_BATCH fits a u32.
             let status = self.solver.step(batch as u32)?;
+            self.context.check()?;
             self.cg_max = self.cg_max.max(status.cg_max_iterations);
             self.status = Some(status);
             n -= batch;
@@ -238,6 +239,7 @@ impl Solver for Gpu {
 
     fn state(&mut self) -> wgcloth::Result<State<'_, f32>> {
         let state = self.solver.read_state()?;
+        self.context.check()?;
         Ok(State {
             x: Cow::Owned(state.x),
             v: Cow::Owned(state.v),

@@ -26,7 +26,8 @@ const EXIT_OK: u8 = 0;
 /// An output file could not be created or written, or another failure that
 /// is neither the input's fault nor the simulation's.
 const EXIT_FAILURE: u8 = 1;
-/// The command line, the scene or a parameter was rejected; nothing ran.
+/// The command line, the scene or a parameter was rejected, or the scene
+/// or image needs more memory than the host or device has; nothing ran.
 /// (clap uses the same status for its own usage errors.)
 const EXIT_INVALID: u8 = 2;
 /// The simulation became non-finite (blew up); no output file was written.
@@ -420,12 +421,14 @@ fn exit_status(err: &anyhow::Error) -> u8 {
                 wgcloth::Error::NonFinite { .. } => EXIT_BLEW_UP,
                 wgcloth::Error::NoAdapter { .. } => EXIT_NO_ADAPTER,
                 wgcloth::Error::Interrupted => EXIT_INTERRUPTED,
-                // A cloth too big for the device is the input's fault.
+                // A cloth or image too big for the device or the host's
+                // memory is the input's fault.
                 wgcloth::Error::InvalidParameter { .. }
                 | wgcloth::Error::Scene { .. }
                 | wgcloth::Error::UnknownScene { .. }
                 | wgcloth::Error::DeviceLimit { .. }
-                | wgcloth::Error::NotAFile { .. } => EXIT_INVALID,
+                | wgcloth::Error::NotAFile { .. }
+                | wgcloth::Error::OutOfMemory { .. } => EXIT_INVALID,
                 _ => EXIT_FAILURE,
             };
         }

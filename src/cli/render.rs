@@ -29,9 +29,12 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         .context("the command-line options make the scene invalid")?;
     let steps_per_frame = render::steps_per_frame(args.fps, scene.params.dt)
         .map_err(|e| UsageError(format!("--fps: {e}")))?;
-    prepare_dir(&args.out, args.overwrite)?;
     let context = GpuContext::new(args.adapter.as_deref())?;
     let (width, height) = args.size;
+    // Before the output folder is touched.
+    render::check_image(&context.device, width, height)
+        .with_context(|| format!("--size {width}x{height}"))?;
+    prepare_dir(&args.out, args.overwrite)?;
     let options = FrameOptions {
         width,
         height,
@@ -57,7 +60,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         }
     });
     eprintln!();
-    let written = match written {
+    let written = match written.and_then(|n| context.check().map(|()| n)) {
         Err(wgcloth::Error::Interrupted) => {
             return Err(
                 anyhow::Error::new(wgcloth::Error::Interrupted).context(format!(

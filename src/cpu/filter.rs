@@ -21,7 +21,10 @@
 //! host would build them before uploading — and applied in the solver's
 //! precision.
 
-use super::System;
+use super::{System, DENSE_FILTER_MAX_PARTICLES};
+use crate::budget::{try_collect, try_vec};
+use crate::error::{Error, Result};
+use crate::params::FilterMethod;
 use crate::real::{Real, Vec3};
 
 /// The free particles in filter order and the matrix `A` in sparse form.
@@ -43,11 +46,7 @@ impl FilterSystem {
     pub fn new<R: Real>(sys: &System<R>, grid: Option<(usize, usize)>) -> FilterSystem {
         let n = sys.mass.len();
         let mut particles: Vec<u32> = (0..n as u32).collect();
-        if let Some((nx, ny)) = grid {
-            if nx > ny {
-                particles.sort_by_key(|&p| ((p as usize) % nx, (p as usize) / nx));
-            }
-        }
+        particles.sort_by_key(|&p| FilterSystem::rank(p as usize, grid));
         let order: Vec<u32> = particles
             .into_iter()
             .filter(|&p| sys.inv_mass[p as usize] > R::ZERO)
@@ -78,6 +77,26 @@ impl FilterSystem {
         FilterSystem { order, diag, off }
     }
 
+    /// Particle `p`'s place in filter order before pinned particles are
+    /// left out: row-major, or column-major when the grid is wider than
+    /// tall.
+    pub fn rank(p: usize, grid: Option<(usize, usize)>) -> usize {
+        match grid {
+            Some((nx, ny)) if nx > ny => (p % nx) * ny + p / nx,
+            _ => p,
+        }
+    }
+
+    /// Whether `method` means the dense filter for this many free
+    /// particles (`Auto`: up to [`DENSE_FILTER_MAX_PARTICLES`]).
+    pub fn dense(method: FilterMethod, free: usize) -> bool {
+        match method {
+            FilterMethod::Dense => true,
+            FilterMethod::Banded => false,
+            FilterMethod::Auto => free <= DENSE_FILTER_MAX_PARTICLES,
+        }
+    }
+
     /// Number of free particles.
     pub fn len(&self) -> usize {
         self.order.len()
@@ -106,16 +125,26 @@ pub struct BandedFilter<R> {
     band: Vec<R>,
 }
 
-/// Failure to factor: `A` was not positive definite (cannot happen for
-/// positive masses and non-negative stiffness, but a NaN can).
-#[derive(Clone, Copy, Debug)]
-pub struct NotPositiveDefinite;
+/// The error of a failed factorisation: `A` was not positive definite
+/// (cannot happen for positive masses and non-negative stiffness, but a
+/// NaN can).
+fn not_positive_definite() -> Error {
+    Error::InvalidParameter {
+        key: "semi_implicit".into(),
+        allowed: "a filter matrix M − dt²H that is positive definite".into(),
+        got: "a matrix that is not (non-finite stiffness or mass?)".into(),
+    }
+}
 
-fn banded_cholesky(sys: &FilterSystem) -> Result<(usize, Vec<f64>), NotPositiveDefinite> {
+fn banded_cholesky(sys: &FilterSystem) -> Result<(usize, Vec<f64>)> {
     let n = sys.len();
     let bw = sys.bandwidth();
     let w = bw + 1;
-    let mut band = vec![0.0f64; n * w];
+    let mut band = try_vec(
+        n.saturating_mul(w),
+        0.0f64,
+        "the semi-implicit filter's banded factor",
+    )?;
     for (i, &d) in sys.diag.iter().enumerate() {
         band[i * w + bw] = d;
     }
@@ -137,7 +166,7 @@ fn banded_cholesky(sys: &FilterSystem) -> Result<(usize, Vec<f64>), NotPositiveD
             }
             if j == i {
                 if !(s.is_finite() && s > 0.0) {
-                    return Err(NotPositiveDefinite);
+                    return Err(not_positive_definite());
                 }
                 band[i * w + bw] = s.sqrt();
             } else {
@@ -149,13 +178,17 @@ fn banded_cholesky(sys: &FilterSystem) -> Result<(usize, Vec<f64>), NotPositiveD
 }
 
 impl<R: Real> BandedFilter<R> {
-    /// Factors `A`.
-    pub fn new(sys: &FilterSystem) -> Result<Self, NotPositiveDefinite> {
+    /// Factors `A`; an `A` that is not positive definite is an invalid
+    /// parameter.
+    pub fn new(sys: &FilterSystem) -> Result<Self> {
         let (bw, band) = banded_cholesky(sys)?;
         Ok(BandedFilter {
             order: sys.order.clone(),
             bw,
-            band: band.into_iter().map(R::from_f64).collect(),
+            band: try_collect(
+                band.into_iter().map(R::from_f64),
+                "the semi-implicit filter's banded factor",
+            )?,
         })
     }
 
@@ -208,10 +241,14 @@ pub struct DenseFilter<R> {
 impl<R: Real> DenseFilter<R> {
     /// Inverts `A` through its (banded) Cholesky factor, one column at a
     /// time; `W` is symmetric so column `j` is also row `j`.
-    pub fn new(sys: &FilterSystem) -> Result<Self, NotPositiveDefinite> {
+    pub fn new(sys: &FilterSystem) -> Result<Self> {
         let factor = BandedFilter::<f64>::new(sys)?;
         let n = sys.len();
-        let mut w = vec![R::ZERO; n * n];
+        let mut w = try_vec(
+            n.saturating_mul(n),
+            R::ZERO,
+            "the semi-implicit dense filter",
+        )?;
         let mut e = vec![Vec3::<f64>::ZERO; n];
         let mut col = vec![Vec3::<f64>::ZERO; n];
         let mut scratch = Vec::new();

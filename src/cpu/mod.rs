@@ -23,6 +23,7 @@ pub mod semi_implicit;
 
 use std::ops::Range;
 
+use crate::budget::{self, try_collect, try_vec, Counts};
 use crate::error::{Error, Result};
 use crate::model::{Adjacency, Model};
 use crate::params::{FilterMethod, FixupMethod, Integrator, Params};
@@ -315,30 +316,31 @@ impl<R: Real> Workspace<R> {
         );
     }
 
-    fn new(particles: usize, springs: usize, triangles: usize) -> Self {
-        let pv = || vec![Vec3::ZERO; particles];
-        Workspace {
-            per_spring: vec![Vec3::ZERO; springs],
-            active: vec![false; springs],
-            per_triangle: vec![Vec3::ZERO; triangles],
-            force: pv(),
-            rhs: pv(),
-            dv: pv(),
-            dv_prev: pv(),
-            x_old: pv(),
-            r: pv(),
-            c: pv(),
-            q: pv(),
-            s: pv(),
-            t: pv(),
-            z: pv(),
-            filter: vec![Filter::Free; particles],
-            precond: vec![Sym3::default(); particles],
-            blocks: vec![SpringBlock::default(); springs],
+    fn new(particles: usize, springs: usize, triangles: usize) -> Result<Self> {
+        const WHAT: &str = "the CPU solver's workspace";
+        let pv = || try_vec(particles, Vec3::ZERO, WHAT);
+        Ok(Workspace {
+            per_spring: try_vec(springs, Vec3::ZERO, WHAT)?,
+            active: try_vec(springs, false, WHAT)?,
+            per_triangle: try_vec(triangles, Vec3::ZERO, WHAT)?,
+            force: pv()?,
+            rhs: pv()?,
+            dv: pv()?,
+            dv_prev: pv()?,
+            x_old: pv()?,
+            r: pv()?,
+            c: pv()?,
+            q: pv()?,
+            s: pv()?,
+            t: pv()?,
+            z: pv()?,
+            filter: try_vec(particles, Filter::Free, WHAT)?,
+            precond: try_vec(particles, Sym3::default(), WHAT)?,
+            blocks: try_vec(springs, SpringBlock::default(), WHAT)?,
             constant_filter: None,
             scratch: Vec::new(),
             coarse: None,
-        }
+        })
     }
 }
 
@@ -386,6 +388,19 @@ pub(crate) fn finish_with_fixup<R: Real>(
     }
 }
 
+/// The semi-implicit filter in a memory error: the dense one's size and
+/// the way out.
+fn filter_name(dense: bool, free: u64) -> String {
+    if dense {
+        format!(
+            "the dense semi-implicit filter ({free} × {free} entries; \
+             `filter = \"banded\"` needs far less)"
+        )
+    } else {
+        "the banded semi-implicit filter".into()
+    }
+}
+
 /// The CPU reference solver for one cloth.
 #[derive(Clone, Debug)]
 pub struct CpuSolver<R: Real> {
@@ -404,17 +419,39 @@ impl<R: Real> CpuSolver<R> {
     /// rest positions. Refuses invalid parameters before anything runs.
     pub fn new(model: &Model, params: &Params) -> Result<Self> {
         params.validate()?;
+        let counts = Counts::of_model(model);
+        let semi = params.integrator == Integrator::SemiImplicit;
+        let dense = FilterSystem::dense(params.semi_implicit.filter, counts.free as usize);
+        let filter = if semi {
+            budget::filter_bytes::<R>(counts, budget::filter_bandwidth(model), dense)
+        } else {
+            0
+        };
+        budget::check_host(
+            budget::cpu_solver_bytes::<R>(counts).saturating_add(filter),
+            || {
+                let with = if semi {
+                    format!(" with {}", filter_name(dense, counts.free))
+                } else {
+                    String::new()
+                };
+                format!(
+                    "the {} CPU solver for {} particles{with}",
+                    R::NAME,
+                    counts.particles
+                )
+            },
+        )?;
         let sys = System::new(model, params);
         let n = model.particle_count();
         let state = State {
-            x: model
-                .rest_positions
-                .iter()
-                .map(|&p| Vec3::from_f64(p))
-                .collect(),
-            v: vec![Vec3::ZERO; n],
+            x: try_collect(
+                model.rest_positions.iter().map(|&p| Vec3::from_f64(p)),
+                "the CPU solver's state",
+            )?,
+            v: try_vec(n, Vec3::ZERO, "the CPU solver's state")?,
         };
-        let mut work = Workspace::new(n, model.springs.len(), model.triangles.len());
+        let mut work = Workspace::new(n, model.springs.len(), model.triangles.len())?;
         work.coarse = Aggregation::for_scene(model, params).map(Coarse::new);
         let mut solver = CpuSolver {
             integrator: params.integrator,
@@ -437,20 +474,21 @@ impl<R: Real> CpuSolver<R> {
     /// changes one of those — never per step.
     fn build_filter(&mut self) -> Result<()> {
         let fs = FilterSystem::new(&self.sys, self.sys.grid);
-        let dense = match self.filter_method {
-            FilterMethod::Dense => true,
-            FilterMethod::Banded => false,
-            FilterMethod::Auto => fs.len() <= DENSE_FILTER_MAX_PARTICLES,
+        let dense = FilterSystem::dense(self.filter_method, fs.len());
+        let counts = Counts {
+            particles: self.sys.mass.len() as u64,
+            springs: self.sys.springs.len() as u64,
+            triangles: self.sys.triangles.len() as u64,
+            free: fs.len() as u64,
         };
-        let not_spd = |_| Error::InvalidParameter {
-            key: "semi_implicit".into(),
-            allowed: "a filter matrix M − dt²H that is positive definite".into(),
-            got: "a matrix that is not (non-finite stiffness or mass?)".into(),
-        };
+        budget::check_host(
+            budget::filter_bytes::<R>(counts, fs.bandwidth() as u64, dense),
+            || filter_name(dense, counts.free),
+        )?;
         self.work.constant_filter = Some(if dense {
-            ConstantFilter::Dense(DenseFilter::new(&fs).map_err(not_spd)?)
+            ConstantFilter::Dense(DenseFilter::new(&fs)?)
         } else {
-            ConstantFilter::Banded(BandedFilter::new(&fs).map_err(not_spd)?)
+            ConstantFilter::Banded(BandedFilter::new(&fs)?)
         });
         Ok(())
     }

@@ -8,10 +8,14 @@ use super::layout::{self, section, GpuParams, GpuSpring};
 use super::pipelines::Pipelines;
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 use super::solver::{gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND, WORKGROUP};
+use crate::budget::{try_collect, try_vec, try_with_capacity};
 use crate::cpu::coarse::Aggregation;
 use crate::error::Result;
 use crate::model::Model;
 use crate::params::Params;
+
+/// What the arrays built for upload are named in a memory error.
+const UPLOAD: &str = "the GPU solver's buffers (their host copies)";
 
 impl GpuSolver {
     /// Allocates the buffers, the bind group and the pipelines (the limits
@@ -42,7 +46,13 @@ impl GpuSolver {
         // Topology: spring CSR (offsets, entries — with slots for spring
         // indices — then each entry's other particle), triangle CSR,
         // triangles, one u32 array.
-        let mut topo: Vec<u32> = model.particle_springs.offsets.clone();
+        let words = 2 * model.particle_springs.entries.len()
+            + model.particle_springs.offsets.len()
+            + model.particle_triangles.offsets.len()
+            + model.particle_triangles.entries.len()
+            + 3 * model.triangles.len();
+        let mut topo: Vec<u32> = try_with_capacity(words, UPLOAD)?;
+        topo.extend(&model.particle_springs.offsets);
         let spring_adj_entries = topo.len() as u32;
         topo.extend(
             model
@@ -69,13 +79,14 @@ impl GpuSolver {
         // Unused grid slots: a spring of zero stiffness from the owner to
         // itself (no kernel reaches them; see `super::grid`).
         let owner = |slot: usize| (slot % model.particle_count().max(1)) as u32;
-        let mut gpu_springs: Vec<GpuSpring> = (0..slots)
-            .map(|slot| GpuSpring {
+        let mut gpu_springs: Vec<GpuSpring> = try_collect(
+            (0..slots).map(|slot| GpuSpring {
                 i: owner(slot),
                 j: owner(slot),
                 ..GpuSpring::default()
-            })
-            .collect();
+            }),
+            UPLOAD,
+        )?;
         let placed = model.springs.iter().map(|sp| {
             let m = params.spring(sp.kind);
             let max_len = fixup_limit(sp, params);
@@ -151,20 +162,21 @@ impl GpuSolver {
             spheres,
         };
 
-        let x0: Vec<[f32; 4]> = model
-            .rest_positions
-            .iter()
-            .zip(model.mass.iter().zip(&model.pinned))
-            .map(|(p, (&m, &pinned))| {
-                let w = if pinned { 0.0 } else { (1.0 / m) as f32 };
-                [p[0] as f32, p[1] as f32, p[2] as f32, w]
-            })
-            .collect();
-        let v0: Vec<[f32; 4]> = model
-            .mass
-            .iter()
-            .map(|&m| [0.0, 0.0, 0.0, m as f32])
-            .collect();
+        let x0: Vec<[f32; 4]> = try_collect(
+            model
+                .rest_positions
+                .iter()
+                .zip(model.mass.iter().zip(&model.pinned))
+                .map(|(p, (&m, &pinned))| {
+                    let w = if pinned { 0.0 } else { (1.0 / m) as f32 };
+                    [p[0] as f32, p[1] as f32, p[2] as f32, w]
+                }),
+            UPLOAD,
+        )?;
+        let v0: Vec<[f32; 4]> = try_collect(
+            model.mass.iter().map(|&m| [0.0, 0.0, 0.0, m as f32]),
+            UPLOAD,
+        )?;
 
         let storage = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_DST
@@ -208,7 +220,11 @@ impl GpuSolver {
         );
         // The CG filter's constant blocks (m = 0, a = dt² k); the implicit
         // integrator overwrites this buffer every step.
-        let mut blocks = vec![[0f32; 4]; layout::SPRING_SECTIONS as usize * gpu_springs.len()];
+        let mut blocks = try_vec(
+            layout::SPRING_SECTIONS as usize * gpu_springs.len(),
+            [0f32; 4],
+            UPLOAD,
+        )?;
         if semi_cg {
             let dt2 = (params.dt * params.dt) as f32;
             for (b, s) in blocks.iter_mut().zip(&gpu_springs) {
@@ -427,7 +443,7 @@ impl GpuSolver {
             features,
             steps_recorded: 0,
             dt: params.dt,
-            model: model.clone(),
+            model: model.try_clone()?,
             recorded: std::cell::Cell::new((0, 0)),
             specialised: true,
             host_params: params.clone(),

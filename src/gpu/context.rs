@@ -1,7 +1,15 @@
 //! Opening a device: a convenience for the CLI, examples and tests. The
 //! solver never calls this; it borrows whatever device its host made.
 
+use std::sync::{Arc, Mutex, PoisonError};
+
+use super::errors::one_line;
 use crate::error::{Error, Result};
+
+/// The backend names `WGPU_BACKEND` may list (comma-separated), as wgpu
+/// spells them; `vk`, `mtl`, `d3d12`, `opengl` and `gles` are accepted
+/// too.
+pub const BACKEND_NAMES: &str = "vulkan, metal, dx12, gl, webgpu, noop";
 
 /// An adapter with its device and queue.
 #[derive(Debug)]
@@ -12,6 +20,39 @@ pub struct GpuContext {
     pub device: wgpu::Device,
     /// Its queue.
     pub queue: wgpu::Queue,
+    /// The first device error no error scope captured, or the device's
+    /// loss (see [`GpuContext::check`]).
+    fault: Arc<Mutex<Option<String>>>,
+}
+
+/// The backends `WGPU_BACKEND` names, or `None` when it is not set. Unlike
+/// wgpu's own reading, which skips a name it does not know (and with no
+/// name left finds no adapter), an unknown name is an error naming the
+/// variable and the names allowed.
+pub fn backends_from_env() -> Result<Option<wgpu::Backends>> {
+    let Some(value) = std::env::var_os("WGPU_BACKEND") else {
+        return Ok(None);
+    };
+    let invalid = |got: String| Error::InvalidParameter {
+        key: "WGPU_BACKEND (environment variable)".into(),
+        allowed: format!("a comma-separated list of {BACKEND_NAMES}"),
+        got,
+    };
+    let text = value
+        .into_string()
+        .map_err(|v| invalid(format!("{v:?} (not UTF-8)")))?;
+    let mut backends = wgpu::Backends::empty();
+    for name in text.split(',') {
+        let one = wgpu::Backends::from_comma_list(name);
+        if one.is_empty() {
+            return Err(invalid(format!(
+                "`{text}` (`{}` is not a backend)",
+                name.trim()
+            )));
+        }
+        backends |= one;
+    }
+    Ok(Some(backends))
 }
 
 impl GpuContext {
@@ -19,12 +60,15 @@ impl GpuContext {
     /// (case-insensitive) if given, else the one named by the
     /// `WGPU_ADAPTER_NAME` environment variable, else the default
     /// high-performance adapter. Backends come from `WGPU_BACKEND` (default:
-    /// Vulkan, Metal, DX12). The device gets the adapter's own limits. The
+    /// Vulkan, Metal, DX12; a name not in [`BACKEND_NAMES`] is an
+    /// [`Error::InvalidParameter`]). A device error no error scope captures
+    /// is recorded rather than panicking, and so is the device's loss:
+    /// [`GpuContext::check`] reports them. The device gets the adapter's own limits. The
     /// instance skips wgpu's validation of indirect dispatches (see the
     /// comment inside; a host that embeds the solver may do the same).
     pub fn new(name: Option<&str>) -> Result<GpuContext> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        desc.backends = backends_from_env()?.unwrap_or(wgpu::Backends::PRIMARY);
         // wgpu validates each indirect dispatch with a compute pass of its
         // own (on by default, release builds too). The solver's only
         // indirect dispatches are its CG kernels', whose arguments its own
@@ -83,11 +127,44 @@ impl GpuContext {
         .map_err(|e| Error::NoAdapter {
             message: format!("{}: {e}", adapter.get_info().name),
         })?;
+        // wgpu's default handlers panic; this context records the first
+        // error instead, for `check` to report.
+        let fault = Arc::new(Mutex::new(None));
+        let record = |fault: &Arc<Mutex<Option<String>>>, message: String| {
+            let mut slot = fault.lock().unwrap_or_else(PoisonError::into_inner);
+            slot.get_or_insert(message);
+        };
+        let sink = Arc::clone(&fault);
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| record(&sink, one_line(&e))));
+        let sink = Arc::clone(&fault);
+        device.set_device_lost_callback(move |reason, message| {
+            record(
+                &sink,
+                format!("the GPU device was lost ({reason:?}): {message}"),
+            );
+        });
         Ok(GpuContext {
             adapter,
             device,
             queue,
+            fault,
         })
+    }
+
+    /// The first device error that no error scope captured (the library
+    /// captures its own; this catches anything else done with the device),
+    /// or the device's loss, as [`Error::Gpu`]. Polls the device first,
+    /// without waiting, so that a pending loss is seen.
+    pub fn check(&self) -> Result<()> {
+        // Without waiting: lets a pending loss reach its callback.
+        if let Err(e) = self.device.poll(wgpu::PollType::Poll) {
+            return Err(Error::Gpu(format!("polling the GPU device: {e}")));
+        }
+        let fault = self.fault.lock().unwrap_or_else(PoisonError::into_inner);
+        match fault.as_ref() {
+            Some(message) => Err(Error::Gpu(message.clone())),
+            None => Ok(()),
+        }
     }
 
     /// `"NAME (BACKEND, TYPE)"`, for reports.

@@ -2,6 +2,7 @@
 //! spheres, pins, pinned positions and the kernel variants. Nothing is
 //! rebuilt but what the change invalidates.
 
+use super::errors::guarded;
 use super::grid::GridBlock;
 use super::layout::MAX_SPHERES;
 use super::pipelines::Features;
@@ -178,8 +179,10 @@ impl GpuSolver {
                 coarse: self.features.coarse,
             }
         };
-        self.pipelines
-            .ensure(&self.device, self.integrator, features)?;
+        guarded(&self.device, "compiling the kernels", None, || {
+            self.pipelines
+                .ensure(&self.device, self.integrator, features)
+        })?;
         self.features = features;
         self.upload_params();
         Ok(())

@@ -12,6 +12,7 @@
 mod build;
 pub mod context;
 mod control;
+mod errors;
 pub mod grid;
 pub mod layout;
 pub mod pipelines;
@@ -21,6 +22,7 @@ pub mod shaders;
 mod solver;
 
 pub use context::GpuContext;
+pub(crate) use errors::guarded;
 pub use grid::GridBlock;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 pub use solver::{GpuSolver, GpuState, GpuStatus, SINGLE_PASS, WORKGROUP};

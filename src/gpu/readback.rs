@@ -2,35 +2,40 @@
 //! channel, `poll`, copy out, drop the view, `unmap`. Never on the stepping
 //! path: only tests, the CLI and explicit status checks call it.
 
+use super::errors::guarded;
 use crate::error::{Error, Result};
 
 /// Copies `size` bytes of each `(buffer, offset)` into one staging buffer,
-/// waits, and returns their bytes in order.
+/// waits, and returns their bytes in order. A device error (a lost
+/// device, out of memory) is an [`Error`], never a panic.
 pub fn read_buffers(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     parts: &[(&wgpu::Buffer, u64, u64)],
 ) -> Result<Vec<Vec<u8>>> {
     let total: u64 = parts.iter().map(|p| p.2).sum();
-    let staging = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("wgcloth.readback"),
-        size: total.max(4),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("wgcloth.readback"),
-    });
-    let mut at = 0;
-    for &(buffer, offset, size) in parts {
-        encoder.copy_buffer_to_buffer(buffer, offset, &staging, at, size);
-        at += size;
-    }
-    queue.submit([encoder.finish()]);
-    let (tx, rx) = flume::bounded(1);
-    staging.map_async(wgpu::MapMode::Read, .., move |r| {
-        let _ = tx.send(r);
-    });
+    let (staging, rx) = guarded(device, "a read-back", Some(total), || {
+        let staging = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("wgcloth.readback"),
+            size: total.max(4),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("wgcloth.readback"),
+        });
+        let mut at = 0;
+        for &(buffer, offset, size) in parts {
+            encoder.copy_buffer_to_buffer(buffer, offset, &staging, at, size);
+            at += size;
+        }
+        queue.submit([encoder.finish()]);
+        let (tx, rx) = flume::bounded(1);
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        Ok((staging, rx))
+    })?;
     device
         .poll(wgpu::PollType::wait_indefinitely())
         .map_err(|e| Error::Gpu(format!("waiting for the read-back: {e}")))?;

@@ -1,8 +1,10 @@
 //! The semi-implicit filter as the GPU applies it, built on the host.
 
-use crate::error::{Error, Result};
+use crate::budget::try_with_capacity;
+use crate::cpu::filter::{DenseFilter, FilterSystem};
+use crate::error::Result;
 use crate::model::Model;
-use crate::params::{FilterMethod, Params};
+use crate::params::Params;
 
 /// The semi-implicit filter as the GPU applies it: `Wᵀ` followed by the
 /// filter order (`u32` bits), built on the host by the CPU reference's own
@@ -32,28 +34,17 @@ impl SemiFilter {
     pub(super) fn new(model: &Model, params: &Params) -> Result<SemiFilter> {
         let sys = crate::cpu::System::<f32>::new(model, params);
         let grid = model.grid.as_ref().map(|g| (g.nx, g.ny));
-        let fs = crate::cpu::filter::FilterSystem::new(&sys, grid);
-        let dense = match params.semi_implicit.filter {
-            FilterMethod::Dense => true,
-            FilterMethod::Banded => false,
-            FilterMethod::Auto => fs.len() <= crate::cpu::DENSE_FILTER_MAX_PARTICLES,
-        };
-        if !dense {
+        let fs = FilterSystem::new(&sys, grid);
+        if !FilterSystem::dense(params.semi_implicit.filter, fs.len()) {
             return Ok(SemiFilter {
                 count: 0,
                 words: Vec::new(),
             });
         }
-        let w = crate::cpu::filter::DenseFilter::<f32>::new(&fs).map_err(|_| {
-            Error::InvalidParameter {
-                key: "semi_implicit".into(),
-                allowed: "a positive-definite filter matrix M − dt²H".into(),
-                got: "a matrix that is not".into(),
-            }
-        })?;
+        let w = DenseFilter::<f32>::new(&fs)?;
         let n = fs.len();
         let m = w.matrix();
-        let mut words = Vec::with_capacity(n * n + n);
+        let mut words = try_with_capacity(n * n + n, "the semi-implicit dense filter's upload")?;
         for q in 0..n {
             for k in 0..n {
                 words.push(m[k * n + q]);

@@ -1,11 +1,14 @@
 //! The GPU solver: buffers, pipelines and the recording of steps.
 
+use super::errors::guarded;
 use super::grid::{GridBlock, GridLayout};
-use super::layout::{self, section, GpuParams, GpuSphere, MAX_SPHERES};
+use super::layout::{self, GpuParams, GpuSphere, MAX_SPHERES};
 use super::pipelines::{fixup_variant, Features, Pipelines, ARGS_WRITERS};
 use super::readback;
 use super::semi_filter::SemiFilter;
+use crate::budget::{self, Counts};
 use crate::cpu::coarse::Aggregation;
+use crate::cpu::filter::FilterSystem;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::params::{Ground, Integrator, Params, Sphere, Wind};
@@ -205,9 +208,12 @@ pub(super) fn gpu_spheres(spheres: &[Sphere]) -> [GpuSphere; MAX_SPHERES] {
     out
 }
 
-pub(super) fn limit(name: &'static str, available: u64, needed: u64) -> Result<()> {
+/// Refuses `needed` when the device's limit `name` is only `available`;
+/// `what` is what needs it.
+pub(super) fn limit(name: &'static str, what: &str, available: u64, needed: u64) -> Result<()> {
     if needed > available {
         Err(Error::DeviceLimit {
+            what: what.to_string(),
             limit: name,
             available,
             needed,
@@ -228,45 +234,52 @@ impl GpuSolver {
         params: &Params,
     ) -> Result<GpuSolver> {
         params.validate()?;
-        let filter = match params.integrator {
-            Integrator::SemiImplicit => Some(SemiFilter::new(model, params)?),
-            _ => None,
-        };
+        let counts = Counts::of_model(model);
+        let dense = params.integrator == Integrator::SemiImplicit
+            && FilterSystem::dense(params.semi_implicit.filter, counts.free as usize);
         let grid = GridLayout::of(model, params);
-        let n = model.particle_count() as u64;
+        let n = counts.particles;
         let s = grid.as_ref().map_or(model.springs.len(), GridLayout::slots) as u64;
         let limits = device.limits();
-        limit("max_bind_groups", limits.max_bind_groups.into(), 2)?;
+        let solver = "the solver";
+        limit("max_bind_groups", solver, limits.max_bind_groups.into(), 2)?;
         limit(
             "max_storage_buffers_per_shader_stage",
+            solver,
             limits.max_storage_buffers_per_shader_stage.into(),
             STORAGE_BUFFERS.into(),
         )?;
-        let work_bytes = u64::from(section::COUNT) * n * 16;
-        let dense_bytes = filter
-            .as_ref()
-            .filter(|f| !f.words.is_empty())
-            .map_or(0, |_| (n * n + n) * 4);
-        let biggest = work_bytes
-            .max(s * 32)
-            .max(s * 16 * u64::from(layout::SPRING_SECTIONS))
-            .max(dense_bytes);
+        limit(
+            "max_compute_workgroup_size_x",
+            solver,
+            limits.max_compute_workgroup_size_x.into(),
+            WORKGROUP.into(),
+        )?;
+        let bandwidth = if dense {
+            budget::filter_bandwidth(model)
+        } else {
+            0
+        };
+        let need = budget::gpu_bytes(counts, s, params, dense, bandwidth);
+        let buffer = "the cloth's largest buffer (bytes)";
         limit(
             "max_storage_buffer_binding_size",
+            buffer,
             limits.max_storage_buffer_binding_size,
-            biggest,
+            need.largest,
         )?;
-        limit("max_buffer_size", limits.max_buffer_size, biggest)?;
+        limit(
+            "max_buffer_size",
+            buffer,
+            limits.max_buffer_size,
+            need.largest,
+        )?;
         let groups = n.max(s).div_ceil(u64::from(WORKGROUP));
         limit(
             "max_compute_workgroups_per_dimension",
+            "the cloth's particles or springs (workgroups)",
             limits.max_compute_workgroups_per_dimension.into(),
             groups,
-        )?;
-        limit(
-            "max_compute_workgroup_size_x",
-            limits.max_compute_workgroup_size_x.into(),
-            WORKGROUP.into(),
         )?;
         if params.spheres.len() > MAX_SPHERES {
             return Err(Error::InvalidParameter {
@@ -275,13 +288,26 @@ impl GpuSolver {
                 got: params.spheres.len().to_string(),
             });
         }
+        let what = if dense {
+            format!(
+                "the GPU solver for {n} particles with the dense semi-implicit filter \
+                 ({n} × {n} entries on the device; `filter = \"banded\"` solves it by CG)"
+            )
+        } else {
+            format!("the GPU solver for {n} particles")
+        };
+        budget::check_host(budget::host_need(device, need.host, need.device), || {
+            what.clone()
+        })?;
 
-        let scope = device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
-        let solver = Self::build(device, queue, model, params, filter, grid);
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Gpu(e.to_string()));
-        }
-        solver
+        let filter = if params.integrator == Integrator::SemiImplicit {
+            Some(SemiFilter::new(model, params)?)
+        } else {
+            None
+        };
+        guarded(device, &what, Some(need.device), || {
+            Self::build(device, queue, model, params, filter, grid)
+        })
     }
 
     /// Dispatches `name` over `items` invocations, in workgroups of
@@ -520,14 +546,18 @@ impl GpuSolver {
 
     /// Records and submits `n` steps in one encoder, then checks the
     /// device's status word (one small read-back per call, none per step).
+    /// A device error (a lost device, out of memory) is an
+    /// [`Error::Gpu`], never a panic.
     pub fn step(&mut self, n: u32) -> Result<GpuStatus> {
-        let mut encoder = self
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        let device = self.device.clone();
+        guarded(&device, "stepping", None, || {
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("wgcloth.step"),
             });
-        self.encode_steps(&mut encoder, n);
-        self.queue.submit([encoder.finish()]);
+            self.encode_steps(&mut encoder, n);
+            self.queue.submit([encoder.finish()]);
+            Ok(())
+        })?;
         self.check()
     }
 

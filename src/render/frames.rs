@@ -5,10 +5,11 @@
 use std::ops::ControlFlow;
 use std::path::PathBuf;
 
-use super::png_writer::{frame_name, Frame, PngWriter};
-use super::{Camera, FrameTarget, Renderer};
+use super::png_writer::{self, frame_name, Frame, PngWriter};
+use super::{Camera, FrameTarget, Renderer, COLOR_FORMAT, DEPTH_FORMAT};
+use crate::budget;
 use crate::error::{Error, Result};
-use crate::gpu::{readback, GpuSolver};
+use crate::gpu::{guarded, readback, GpuSolver};
 use crate::scene::Scene;
 
 /// Staging buffers in rotation, and so frames in flight between two status
@@ -96,42 +97,35 @@ pub fn render_frames(
     mut progress: impl FnMut(u32) -> ControlFlow<()>,
 ) -> Result<u32> {
     let (width, height) = (options.width, options.height);
-    let max = device.limits().max_texture_dimension_2d;
-    for (side, limit) in [
-        (width, "max_texture_dimension_2d"),
-        (height, "max_texture_dimension_2d"),
-    ] {
-        if side == 0 || side > max {
-            return Err(Error::DeviceLimit {
-                limit,
-                available: max.into(),
-                needed: side.into(),
-            });
-        }
-    }
-    let target = FrameTarget::new(device, width, height);
+    let need = check_image(device, width, height)?;
     let row = padded_row(width);
-    let staging: Vec<wgpu::Buffer> = (0..STAGING_BUFFERS)
-        .map(|i| staging_buffer(device, &format!("wgcloth.render.staging{i}"), row, height))
-        .collect();
+    let (target, staging) = guarded(device, &image(width, height), Some(need), || {
+        let staging: Vec<wgpu::Buffer> = (0..STAGING_BUFFERS)
+            .map(|i| staging_buffer(device, &format!("wgcloth.render.staging{i}"), row, height))
+            .collect();
+        Ok((FrameTarget::new(device, width, height), staging))
+    })?;
     let mut writer = PngWriter::spawn()?;
     let mut in_flight = Vec::with_capacity(STAGING_BUFFERS);
     for frame in 0..options.frames {
         let slot = frame as usize % STAGING_BUFFERS;
-        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("wgcloth.render.frame"),
-        });
-        if frame > 0 {
-            solver.encode_steps(&mut encoder, options.steps_per_frame);
-        }
-        solver.encode_normals(&mut encoder);
-        renderer.encode_frame(&mut encoder, solver, &target);
-        copy_to_staging(&mut encoder, &target.color, &staging[slot], row);
-        renderer.queue.submit([encoder.finish()]);
-        let (tx, rx) = flume::bounded(1);
-        staging[slot].map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
-        });
+        let rx = guarded(device, &format!("rendering frame {frame}"), None, || {
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("wgcloth.render.frame"),
+            });
+            if frame > 0 {
+                solver.encode_steps(&mut encoder, options.steps_per_frame);
+            }
+            solver.encode_normals(&mut encoder);
+            renderer.encode_frame(&mut encoder, solver, &target);
+            copy_to_staging(&mut encoder, &target.color, &staging[slot], row);
+            renderer.queue.submit([encoder.finish()]);
+            let (tx, rx) = flume::bounded(1);
+            staging[slot].map_async(wgpu::MapMode::Read, .., move |r| {
+                let _ = tx.send(r);
+            });
+            Ok(rx)
+        })?;
         in_flight.push((frame, slot, rx));
         if in_flight.len() < STAGING_BUFFERS && frame + 1 < options.frames {
             continue;
@@ -163,9 +157,58 @@ pub fn render_frames(
     writer.finish()
 }
 
+/// `the W×H image`, as errors name it.
+fn image(width: u32, height: u32) -> String {
+    format!("the {width}×{height} image")
+}
+
+/// Refuses, before anything is allocated, an image `device` cannot render
+/// or the host cannot hold: a side beyond `max_texture_dimension_2d`, a
+/// staging buffer beyond `max_buffer_size`, or more memory than the host
+/// has (counting, on a CPU adapter, the device's: see
+/// [`budget::host_need`]). Returns the device
+/// bytes the image needs \[bytes\]: its colour and depth textures and
+/// [`STAGING_BUFFERS`] staging buffers. The host holds, besides, the
+/// frames queued for the PNG writer, the one it encodes and the one being
+/// read back, `width × height × 4` bytes each.
+pub fn check_image(device: &wgpu::Device, width: u32, height: u32) -> Result<u64> {
+    let limits = device.limits();
+    let max = limits.max_texture_dimension_2d;
+    for (side, what) in [(width, "width"), (height, "height")] {
+        if side == 0 || side > max {
+            return Err(Error::DeviceLimit {
+                what: format!("the image's {what} (pixels)"),
+                limit: "max_texture_dimension_2d",
+                available: max.into(),
+                needed: side.into(),
+            });
+        }
+    }
+    let pixels = u64::from(width) * u64::from(height);
+    let staging = u64::from(padded_row(width)) * u64::from(height);
+    if staging > limits.max_buffer_size {
+        return Err(Error::DeviceLimit {
+            what: "a read-back of the image (bytes)".into(),
+            limit: "max_buffer_size",
+            available: limits.max_buffer_size,
+            needed: staging,
+        });
+    }
+    let texel = |format: wgpu::TextureFormat| u64::from(format.block_copy_size(None).unwrap_or(4));
+    let device_bytes =
+        pixels * (texel(COLOR_FORMAT) + texel(DEPTH_FORMAT)) + STAGING_BUFFERS as u64 * staging;
+    let frames_on_host = (png_writer::QUEUE + 2) as u64;
+    budget::check_host(
+        budget::host_need(device, frames_on_host * pixels * 4, device_bytes),
+        || image(width, height),
+    )?;
+    Ok(device_bytes)
+}
+
 /// Renders `scene` from its start: builds its model, a solver, a camera
 /// that frames it and a renderer on the host's device, then runs
-/// [`render_frames`].
+/// [`render_frames`]. The image is checked ([`check_image`]) before the
+/// scene is built.
 pub fn render_scene(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
@@ -173,6 +216,7 @@ pub fn render_scene(
     options: &FrameOptions,
     progress: impl FnMut(u32) -> ControlFlow<()>,
 ) -> Result<u32> {
+    check_image(device, options.width, options.height)?;
     let model = scene.model()?;
     let mut solver = GpuSolver::new(device, queue, &model, &scene.params)?;
     let aspect = options.width as f32 / options.height as f32;

@@ -21,7 +21,9 @@ pub mod strain;
 use wgpu::util::DeviceExt;
 
 pub use camera::Camera;
-pub use frames::{read_rgba, render_frames, render_scene, steps_per_frame, FrameOptions};
+pub use frames::{
+    check_image, read_rgba, render_frames, render_scene, steps_per_frame, FrameOptions,
+};
 
 use crate::gpu::GpuSolver;
 use crate::model::Model;

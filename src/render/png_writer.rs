@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 
 /// Frames queued for the writer at most; a slower disk holds the renderer
 /// back instead of filling memory.
-const QUEUE: usize = 4;
+pub(super) const QUEUE: usize = 4;
 
 /// One frame's pixels: tightly packed RGBA8 rows, top row first.
 #[derive(Debug)]
