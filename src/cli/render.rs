@@ -84,9 +84,9 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
 }
 
 /// Creates `dir` if needed. Frames of an earlier run are never mixed with
-/// new ones: they are refused, or removed first with `--overwrite`, once a
-/// file has been created in `dir` (so that a directory where no frame can
-/// be written keeps its old ones).
+/// new ones: they are refused, or removed first with `--overwrite`, once
+/// [`atomic_file::probe_dir`] has written in `dir` (so that a folder where
+/// no frame can be written keeps its old ones).
 fn prepare_dir(dir: &Path, overwrite: bool) -> anyhow::Result<()> {
     let old = png_writer::existing_frames(dir)?;
     if !old.is_empty() {
