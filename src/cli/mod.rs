@@ -26,7 +26,9 @@ const EXIT_FAILURE: u8 = 1;
 /// The command line, the scene or a parameter was rejected; nothing ran.
 /// (clap uses the same status for its own usage errors.)
 const EXIT_INVALID: u8 = 2;
-/// The simulation became non-finite (blew up); no output file was written.
+/// The simulation blew up: it became non-finite or crossed a bound of the
+/// divergence rule (`wgcloth::diagnostics::Divergence`); no output file was
+/// written.
 const EXIT_BLEW_UP: u8 = 3;
 /// `--backend gpu` found no GPU adapter (or none matching `--adapter`), or
 /// could not open one; nothing ran.
@@ -335,7 +337,7 @@ fn exit_status(err: &anyhow::Error) -> u8 {
         }
         if let Some(e) = cause.downcast_ref::<wgcloth::Error>() {
             return match e {
-                wgcloth::Error::NonFinite { .. } => EXIT_BLEW_UP,
+                wgcloth::Error::NonFinite { .. } | wgcloth::Error::Diverged { .. } => EXIT_BLEW_UP,
                 wgcloth::Error::NoAdapter { .. } => EXIT_NO_ADAPTER,
                 // A cloth too big for the device is the input's fault.
                 wgcloth::Error::InvalidParameter { .. }

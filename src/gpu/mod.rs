@@ -12,6 +12,7 @@
 mod build;
 pub mod context;
 mod control;
+mod divergence;
 pub mod grid;
 pub mod layout;
 pub mod pipelines;
