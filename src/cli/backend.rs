@@ -247,6 +247,10 @@ impl Solver for Gpu {
         self.solver.time()
     }
 
+    fn check(&mut self, rule: &Divergence) -> wgcloth::Result<()> {
+        self.solver.check_divergence(rule).map(drop)
+    }
+
     fn state(&mut self) -> wgcloth::Result<State<'_, f32>> {
         let state = self.solver.read_state()?;
         Ok(State {

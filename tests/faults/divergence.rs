@@ -310,3 +310,47 @@ fn windless_limit() -> f64 {
     assert!(limit > rule.initial_energy() + ENERGY_MARGIN * 0.25 * 9.81);
     limit
 }
+
+#[test]
+fn render_stops_at_a_finite_blow_up_before_writing_its_frames() {
+    let dir = TempDir::new("render-finite-blow-up");
+    let scene = dir.write("scene.toml", &hanging(17, 0.01));
+    let out = dir.join("frames");
+    let frames = 30;
+    let args = [
+        "render",
+        scene.to_str().expect("a UTF-8 temp path"),
+        "--out",
+        out.to_str().expect("a UTF-8 temp path"),
+        "--size",
+        "32x24",
+        "--frames",
+        &frames.to_string(),
+        "--adapter",
+        LAVAPIPE,
+    ];
+    let run = wgcloth(&args);
+    assert_status(&run, EXIT_BLEW_UP);
+    let err = stderr(&run);
+    assert!(
+        err.contains("blew up at step ") && err.contains("energy bound"),
+        "{err}"
+    );
+    // Only frames from before the last good check stay, numbered from 0
+    // without a gap.
+    let mut written: Vec<String> = std::fs::read_dir(&out)
+        .expect("the frame folder")
+        .map(|e| {
+            e.expect("an entry")
+                .file_name()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    written.sort();
+    assert!(written.len() < frames, "{written:?}");
+    let expected: Vec<String> = (0..written.len() as u32)
+        .map(wgcloth::render::png_writer::frame_name)
+        .collect();
+    assert_eq!(written, expected);
+}
