@@ -127,6 +127,21 @@ pub enum Error {
         /// (MemAvailable in /proc/meminfo)`).
         limit: String,
     },
+
+    /// The simulation state is finite but has diverged: it crossed a bound
+    /// of [`crate::diagnostics::Divergence`].
+    #[error(
+        "simulation blew up at step {step} (t = {time:.6} s): {crossed}; \
+         try a smaller dt, softer springs or another integrator"
+    )]
+    Diverged {
+        /// The step (1-based) after which the bound was found crossed.
+        step: u64,
+        /// Simulated time at that step \[s\].
+        time: f64,
+        /// The bound crossed, with the numbers.
+        crossed: crate::diagnostics::Crossed,
+    },
 }
 
 /// `Result` with the library's [`Error`].

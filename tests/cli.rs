@@ -35,8 +35,10 @@ fn small_jacobi_scene() -> String {
 }
 
 /// Explicit integration far beyond its stability limit (ω·dt ≈ 10⁴ with
-/// k = 10⁹ N/m, m ≈ 0.03 kg, dt = 0.1 s). The fix-up is off because it
-/// could otherwise hold the lengths and delay the blow-up indefinitely.
+/// k = 10⁹ N/m, m ≈ 0.03 kg, dt = 0.1 s). The fix-up is off so that the
+/// state overflows `f32` before the first divergence check; in `f64` the
+/// energy bound catches it at that check (the finite blow-ups are in
+/// `tests/faults/divergence.rs`).
 const BLOW_UP_SCENE: &str = r#"
 [simulation]
 integrator = "explicit"

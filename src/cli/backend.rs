@@ -8,15 +8,15 @@
 use std::borrow::Cow;
 
 use wgcloth::cpu::{CpuSolver, StepStats};
+use wgcloth::diagnostics::Divergence;
 use wgcloth::gpu::{GpuContext, GpuSolver, GpuStatus};
 use wgcloth::{Integrator, Model, Params, Real, Vec3};
 
 use super::summary::{CgDetail, CgSummary, FixupSummary, SolverStats};
 
 /// Most steps one GPU submission records. Bounds the command buffer (the
-/// steps are recorded, not looped on the device) and how long a blow-up
-/// goes unnoticed; 256 steps of a 33 × 33 cloth are a few milliseconds on a
-/// GPU, so the status read-back after each batch costs little.
+/// steps are recorded, not looped on the device); `wgcloth run` asks for
+/// fewer, up to its next divergence check.
 pub const MAX_BATCH: u64 = 256;
 
 /// Positions and velocities, borrowed from a CPU solver or read back from a
@@ -45,6 +45,20 @@ pub trait Solver {
     fn time(&self) -> f64;
     /// The current state (a read-back on the GPU).
     fn state(&mut self) -> wgcloth::Result<State<'_, Self::Real>>;
+    /// Applies the divergence rule to the current state (a read-back on the
+    /// GPU): an error names the step and the bound crossed.
+    fn check(&mut self, rule: &Divergence) -> wgcloth::Result<()> {
+        let (step, time) = (self.steps(), self.time());
+        let s = self.state()?;
+        rule.check(step, time, &s.x, &s.v)
+    }
+    /// The divergence rule for `model` and `params`, starting from the
+    /// current state.
+    fn divergence_rule(&mut self, model: &Model, params: &Params) -> wgcloth::Result<Divergence> {
+        let time = self.time();
+        let s = self.state()?;
+        Ok(Divergence::new(model, params, time, &s.x, &s.v))
+    }
     /// The solver's statistics of the run so far, given its parameters.
     fn stats(&self, params: &Params) -> SolverStats;
     /// The passes one step records: (kernel, dispatches, invocations each);
@@ -177,7 +191,6 @@ impl Totals {
 pub struct Gpu {
     context: GpuContext,
     solver: GpuSolver,
-    dt: f64,
     /// What the device reported after the last batch (`None` before the
     /// first).
     status: Option<GpuStatus>,
@@ -196,7 +209,6 @@ impl Gpu {
         Ok(Gpu {
             context,
             solver,
-            dt: params.dt,
             status: None,
             cg_max: 0,
         })
@@ -232,9 +244,12 @@ impl Solver for Gpu {
         self.solver.steps_recorded()
     }
 
-    /// `steps × dt`, as the library's blow-up message counts it.
     fn time(&self) -> f64 {
-        self.steps() as f64 * self.dt
+        self.solver.time()
+    }
+
+    fn check(&mut self, rule: &Divergence) -> wgcloth::Result<()> {
+        self.solver.check_divergence(rule).map(drop)
     }
 
     fn state(&mut self) -> wgcloth::Result<State<'_, f32>> {

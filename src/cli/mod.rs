@@ -30,7 +30,9 @@ const EXIT_FAILURE: u8 = 1;
 /// or image needs more memory than the host or device has; nothing ran.
 /// (clap uses the same status for its own usage errors.)
 const EXIT_INVALID: u8 = 2;
-/// The simulation became non-finite (blew up); no output file was written.
+/// The simulation blew up: it became non-finite or crossed a bound of the
+/// divergence rule (`wgcloth::diagnostics::Divergence`); no output file was
+/// written.
 const EXIT_BLEW_UP: u8 = 3;
 /// `--backend gpu` found no GPU adapter (or none matching `--adapter`), or
 /// could not open one; nothing ran.
@@ -418,7 +420,7 @@ fn exit_status(err: &anyhow::Error) -> u8 {
         }
         if let Some(e) = cause.downcast_ref::<wgcloth::Error>() {
             return match e {
-                wgcloth::Error::NonFinite { .. } => EXIT_BLEW_UP,
+                wgcloth::Error::NonFinite { .. } | wgcloth::Error::Diverged { .. } => EXIT_BLEW_UP,
                 wgcloth::Error::NoAdapter { .. } => EXIT_NO_ADAPTER,
                 wgcloth::Error::Interrupted => EXIT_INTERRUPTED,
                 // A cloth or image too big for the device or the host's

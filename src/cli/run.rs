@@ -5,10 +5,11 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
+use wgcloth::diagnostics::{self, CHECK_EVERY};
 use wgcloth::params::format_number;
-use wgcloth::{diagnostics, Model, Params, Real, Scene};
+use wgcloth::{Model, Params, Real, Scene};
 
-use super::backend::{Cpu, Gpu, Solver, MAX_BATCH};
+use super::backend::{Cpu, Gpu, Solver};
 use super::interrupt;
 use super::output::{commit_all, same_file, write_positions, AtomicFile, Trace};
 use super::summary::{Outcome, Summary};
@@ -158,9 +159,13 @@ impl Run<'_> {
             .map(|path| Trace::create(path, self.trace_every))
             .transpose()?;
 
+        let rule = solver.divergence_rule(self.model, self.params)?;
         let mut stepping = Duration::ZERO;
         loop {
             let done = solver.steps();
+            if done.is_multiple_of(CHECK_EVERY) || done == self.steps {
+                solver.check(&rule)?;
+            }
             if let Some(trace) = trace.as_mut().filter(|t| t.wants(done)) {
                 let time = solver.time();
                 let s = solver.state()?;
@@ -169,9 +174,10 @@ impl Run<'_> {
             if done == self.steps {
                 break;
             }
-            // Up to the next traced step, so that the state is at hand then;
-            // in batches, so that a GPU blow-up is noticed soon.
-            let mut n = (self.steps - done).min(MAX_BATCH);
+            // Up to the next divergence check, so that every backend checks
+            // at the same steps, and to the next traced step, so that the
+            // state is at hand then.
+            let mut n = (self.steps - done).min(CHECK_EVERY - done % CHECK_EVERY);
             if trace.is_some() {
                 n = n.min(self.trace_every - done % self.trace_every);
             }

@@ -2,11 +2,16 @@
 //! ([`f64`] is the ground truth, [`f32`] mirrors the GPU's arithmetic).
 //!
 //! ```
+//! use wgcloth::diagnostics::{Divergence, CHECK_EVERY};
 //! use wgcloth::{cpu::CpuSolver, Scene};
 //! # fn main() -> wgcloth::Result<()> {
 //! let scene = Scene::builtin("hanging")?;
-//! let mut solver = CpuSolver::<f64>::new(&scene.model()?, &scene.params)?;
-//! solver.step_n(10)?;
+//! let model = scene.model()?;
+//! let mut solver = CpuSolver::<f64>::new(&model, &scene.params)?;
+//! // The blow-up rule every command applies, from the initial state.
+//! let rule = Divergence::new(&model, &scene.params, 0.0, solver.positions(), solver.velocities());
+//! solver.step_n(CHECK_EVERY)?; // an error at once if the state stops being finite
+//! solver.check_divergence(&rule)?; // an error if it is finite but past a bound
 //! assert_eq!(solver.steps(), 10);
 //! # Ok(()) }
 //! ```
@@ -24,6 +29,7 @@ pub mod semi_implicit;
 use std::ops::Range;
 
 use crate::budget::{self, try_collect, try_vec, Counts};
+use crate::diagnostics;
 use crate::error::{Error, Result};
 use crate::model::{Adjacency, Model};
 use crate::params::{FilterMethod, FixupMethod, Integrator, Params};
@@ -506,7 +512,7 @@ impl<R: Real> CpuSolver<R> {
         self.steps += 1;
         self.time += self.sys.dt.to_f64();
         self.last = stats;
-        if let Some(p) = self.first_non_finite() {
+        if let Some(p) = diagnostics::first_non_finite(&self.state.x, &self.state.v) {
             return Err(Error::NonFinite {
                 step: self.steps,
                 time: self.time,
@@ -524,9 +530,13 @@ impl<R: Real> CpuSolver<R> {
         Ok(self.last)
     }
 
-    fn first_non_finite(&self) -> Option<usize> {
-        (0..self.state.x.len())
-            .find(|&p| !(self.state.x[p].is_finite() && self.state.v[p].is_finite()))
+    /// Applies `rule` to the current state (see
+    /// [`Divergence`](diagnostics::Divergence)): an embedder calls this
+    /// every [`CHECK_EVERY`](diagnostics::CHECK_EVERY) steps and at its last
+    /// step, after [`CpuSolver::step`] (which reports a non-finite state at
+    /// once by itself).
+    pub fn check_divergence(&self, rule: &diagnostics::Divergence) -> Result<()> {
+        rule.check(self.steps, self.time, &self.state.x, &self.state.v)
     }
 
     /// The current state.

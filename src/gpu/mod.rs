@@ -12,6 +12,7 @@
 mod build;
 pub mod context;
 mod control;
+mod divergence;
 mod errors;
 pub mod grid;
 pub mod layout;

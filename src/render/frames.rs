@@ -82,10 +82,11 @@ pub fn steps_per_frame(fps: f64, dt: f64) -> Result<u32> {
 
 /// Renders `options.frames` frames of `solver` (which it steps) with
 /// `renderer` into `options.dir`, calling `progress(done)` as each frame
-/// is read back. The device's status is checked every
-/// [`STAGING_BUFFERS`] frames; a non-finite state stops the run with
-/// [`Error::NonFinite`] (naming the step) before the frames rendered since
-/// the last good check are written. `progress` returning
+/// is read back. The device's status and the divergence rule
+/// ([`crate::diagnostics::Divergence`]) are checked every
+/// [`STAGING_BUFFERS`] frames and at the last; a blow-up stops the run with
+/// [`Error::NonFinite`] or [`Error::Diverged`] (naming the step) before the
+/// frames rendered since the last good check are written. `progress` returning
 /// [`ControlFlow::Break`] stops the run with [`Error::Interrupted`]: the
 /// frames read back by then are written whole, no later one is started.
 /// Returns the frames written.
@@ -105,6 +106,7 @@ pub fn render_frames(
             .collect();
         Ok((FrameTarget::new(device, width, height), staging))
     })?;
+    let rule = solver.divergence_rule()?;
     let mut writer = PngWriter::spawn()?;
     let mut in_flight = Vec::with_capacity(STAGING_BUFFERS);
     for frame in 0..options.frames {
@@ -130,9 +132,11 @@ pub fn render_frames(
         if in_flight.len() < STAGING_BUFFERS && frame + 1 < options.frames {
             continue;
         }
-        // Waits for the device; a blow-up ends the run here, before the
+        // Waits for the device; a blow-up (non-finite, or finite but past
+        // a bound of the divergence rule) ends the run here, before the
         // frames in flight are written.
         solver.check()?;
+        solver.check_divergence(&rule)?;
         for (frame, slot, rx) in in_flight.drain(..) {
             device
                 .poll(wgpu::PollType::wait_indefinitely())

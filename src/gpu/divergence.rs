@@ -1,0 +1,39 @@
+//! The divergence rule ([`Divergence`]) applied to a GPU solver's state:
+//! the device catches a non-finite state at the exact step by itself (see
+//! [`GpuSolver::check`]); the finite bounds need the state on the host.
+
+use super::solver::{GpuSolver, GpuState};
+use crate::diagnostics::Divergence;
+use crate::error::Result;
+
+impl GpuSolver {
+    /// The divergence rule for this solver's model and current parameters,
+    /// starting from its current state (one read-back).
+    pub fn divergence_rule(&self) -> Result<Divergence> {
+        let state = self.read_state()?;
+        Ok(Divergence::new(
+            &self.model,
+            &self.host_params,
+            self.time(),
+            &state.x,
+            &state.v,
+        ))
+    }
+
+    /// Reads the state back (blocking) and applies `rule` to it at the last
+    /// recorded step: [`crate::Error::NonFinite`] with the exact step the
+    /// device recorded, or [`crate::Error::Diverged`]. An embedder calls
+    /// this every [`crate::diagnostics::CHECK_EVERY`] steps and at its last
+    /// step; it returns the state it judged.
+    pub fn check_divergence(&self, rule: &Divergence) -> Result<GpuState> {
+        let state = self.read_state()?;
+        rule.check(self.steps_recorded, self.time(), &state.x, &state.v)?;
+        Ok(state)
+    }
+
+    /// Simulated time of the recorded steps, `steps × dt` \[s\] (as the
+    /// device's blow-up report counts it).
+    pub fn time(&self) -> f64 {
+        self.steps_recorded as f64 * self.dt
+    }
+}
