@@ -49,19 +49,32 @@ resolution = [600, 600]
 /// particle cloth's solver (1.1 GiB) does not fit.
 const CPU_ADDRESS_SPACE_KIB: u64 = 1_000_000;
 
-/// `ulimit -v` for the GPU rows \[KiB\]: about 1.8 GB. Lavapipe maps about
-/// 0.9 GB of address space once a device is open; `hanging` runs in what
-/// is left (the control row), a 600 × 600 cloth or an 8192 × 8192 image
-/// does not.
-const GPU_ADDRESS_SPACE_KIB: u64 = 1_800_000;
+/// `ulimit -v` for the GPU rows \[KiB\]: about 1.4 GB. Lavapipe maps about
+/// 0.5 GB of address space once a device is open (with
+/// [`MALLOC_ARENAS`] and [`LAVAPIPE_THREADS`]); `hanging` runs in what is
+/// left (the control row), a 600 × 600 cloth or an 8192 × 8192 image,
+/// with the kernel compiler's reserve, does not.
+const GPU_ADDRESS_SPACE_KIB: u64 = 1_400_000;
 
-/// Runs the binary with `args` under `ulimit -v kib`, in `dir`.
+/// `MALLOC_ARENA_MAX` of the limited runs: glibc reserves 64 MiB of
+/// address space per malloc arena, up to eight per core, so without a cap
+/// what `ulimit -v` leaves would depend on the machine's core count.
+const MALLOC_ARENAS: &str = "2";
+
+/// `LP_NUM_THREADS` of the limited runs: lavapipe's worker threads (one
+/// per core by default), each with its stack, fixed for the same reason.
+const LAVAPIPE_THREADS: &str = "2";
+
+/// Runs the binary with `args` under `ulimit -v kib`, in `dir`, with the
+/// address space it maps made independent of the machine's core count.
 fn wgcloth_limited(kib: u64, dir: &TempDir, args: &[&str]) -> Output {
     Command::new("sh")
         .arg("-c")
         .arg(format!("ulimit -v {kib} && exec \"$0\" \"$@\""))
         .arg(BIN)
         .args(args)
+        .env("MALLOC_ARENA_MAX", MALLOC_ARENAS)
+        .env("LP_NUM_THREADS", LAVAPIPE_THREADS)
         .current_dir(&dir.0)
         .output()
         .expect("run the wgcloth binary under sh")
