@@ -2,8 +2,9 @@
 //! computed from its sizes alone before anything is allocated; what the
 //! host can give; and fallible allocation for what a scene's size decides.
 //!
-//! Every constructor whose allocations grow with the input — [`Model::new`]
-//! (crate::model::Model::new), [`CpuSolver::new`](crate::cpu::CpuSolver::new),
+//! Every constructor whose allocations grow with the input —
+//! [`Model::new`](crate::model::Model::new),
+//! [`CpuSolver::new`](crate::cpu::CpuSolver::new),
 //! [`GpuSolver::new`](crate::gpu::GpuSolver::new) and
 //! [`render_scene`](crate::render::render_scene) — first adds up what it
 //! will hold and refuses with [`Error::OutOfMemory`] (the amount, the limit

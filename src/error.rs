@@ -113,8 +113,9 @@ pub enum Error {
     Interrupted,
 
     /// A scene, its solver or its image needs more memory than the host or
-    /// the GPU device can give; refused before it is allocated (see
-    /// [`crate::budget`]).
+    /// the GPU device can give: refused before it is allocated (see
+    /// [`crate::budget`]), or refused by the allocator or the device when
+    /// an allocation the estimate allowed still failed.
     #[error("{what} needs {}, but {limit}", crate::budget::Bytes::of(.needed))]
     OutOfMemory {
         /// What needs the memory.

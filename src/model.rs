@@ -316,7 +316,8 @@ pub struct Model {
 
 impl Model {
     /// Builds the cloth. A spring kind whose stiffness is zero gets no
-    /// springs.
+    /// springs. A cloth whose model needs more memory than the host has is
+    /// refused before it is built ([`Error::OutOfMemory`]).
     pub fn new(spec: &ClothSpec, materials: &[SpringParams; 3]) -> Result<Model> {
         spec.validate()?;
         let (nx, ny) = (spec.nx, spec.ny);

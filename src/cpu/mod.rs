@@ -422,7 +422,9 @@ pub struct CpuSolver<R: Real> {
 
 impl<R: Real> CpuSolver<R> {
     /// A solver for `model` with `params`, starting at rest in the model's
-    /// rest positions. Refuses invalid parameters before anything runs.
+    /// rest positions. Refuses invalid parameters, and a solver that needs
+    /// more memory than the host has ([`Error::OutOfMemory`]; see
+    /// [`crate::budget`]), before anything runs.
     pub fn new(model: &Model, params: &Params) -> Result<Self> {
         params.validate()?;
         let counts = Counts::of_model(model);

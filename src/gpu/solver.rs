@@ -225,8 +225,11 @@ pub(super) fn limit(name: &'static str, what: &str, available: u64, needed: u64)
 
 impl GpuSolver {
     /// Builds the solver on the host's `device` and `queue`. Refuses, before
-    /// allocating anything, invalid parameters and a cloth that exceeds the
-    /// device's limits (the error names the limit and the size asked for).
+    /// allocating anything, invalid parameters, a cloth that exceeds the
+    /// device's limits (the error names the limit and the size asked for)
+    /// and one that needs more memory than the host has
+    /// ([`Error::OutOfMemory`]; see [`crate::budget`]). A device error while
+    /// building (out of device memory, validation) is an error too.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,

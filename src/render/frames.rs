@@ -225,10 +225,13 @@ pub fn render_scene(
     let mut solver = GpuSolver::new(device, queue, &model, &scene.params)?;
     let aspect = options.width as f32 / options.height as f32;
     let camera = Camera::for_scene(scene, &model, aspect);
-    let mut renderer = Renderer::new(device, queue, &scene.params, &camera);
-    if options.strain {
-        renderer.show_strain(device, &model, &solver);
-    }
+    let renderer = guarded(device, "building the renderer", None, || {
+        let mut renderer = Renderer::new(device, queue, &scene.params, &camera);
+        if options.strain {
+            renderer.show_strain(device, &model, &solver);
+        }
+        Ok(renderer)
+    })?;
     render_frames(device, &mut solver, &renderer, options, progress)
 }
 
@@ -243,17 +246,21 @@ pub fn read_rgba(
 ) -> Result<Vec<u8>> {
     let (width, height) = (texture.width(), texture.height());
     let row = padded_row(width);
-    let rows = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("wgcloth.render.read_rgba"),
-        size: u64::from(row) * u64::from(height),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
-        mapped_at_creation: false,
-    });
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("wgcloth.render.read_rgba"),
-    });
-    copy_to_staging(&mut encoder, texture, &rows, row);
-    queue.submit([encoder.finish()]);
+    let size = u64::from(row) * u64::from(height);
+    let rows = guarded(device, "a read-back of the image", Some(size), || {
+        let rows = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("wgcloth.render.read_rgba"),
+            size,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("wgcloth.render.read_rgba"),
+        });
+        copy_to_staging(&mut encoder, texture, &rows, row);
+        queue.submit([encoder.finish()]);
+        Ok(rows)
+    })?;
     let padded = readback::read_buffers(device, queue, &[(&rows, 0, rows.size())])?;
     Ok(strip_padding(&padded[0], row, width))
 }

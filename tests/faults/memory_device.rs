@@ -49,22 +49,58 @@ resolution = [600, 600]
 /// particle cloth's solver (1.1 GiB) does not fit.
 const CPU_ADDRESS_SPACE_KIB: u64 = 1_000_000;
 
-/// `ulimit -v` for the GPU rows \[KiB\]: about 1.8 GB. Lavapipe maps about
-/// 0.9 GB of address space once a device is open; `hanging` runs in what
-/// is left (the control row), a 600 × 600 cloth or an 8192 × 8192 image
-/// does not.
-const GPU_ADDRESS_SPACE_KIB: u64 = 1_800_000;
+/// `ulimit -v` for the GPU rows \[KiB\]: about 1.4 GB. Lavapipe maps about
+/// 0.5 GB of address space once a device is open (with
+/// [`MALLOC_ARENAS`] and [`LAVAPIPE_THREADS`]); `hanging` runs in what is
+/// left (the control row), a 600 × 600 cloth or an 8192 × 8192 image,
+/// with the kernel compiler's reserve, does not.
+const GPU_ADDRESS_SPACE_KIB: u64 = 1_400_000;
 
-/// Runs the binary with `args` under `ulimit -v kib`, in `dir`.
+/// `MALLOC_ARENA_MAX` of the limited runs: glibc reserves 64 MiB of
+/// address space per malloc arena, up to eight per core, so without a cap
+/// what `ulimit -v` leaves would depend on the machine's core count.
+const MALLOC_ARENAS: &str = "2";
+
+/// `LP_NUM_THREADS` of the limited runs: lavapipe's worker threads (one
+/// per core by default), each with its stack, fixed for the same reason.
+const LAVAPIPE_THREADS: &str = "2";
+
+/// Runs the binary with `args` under `ulimit -v kib`, in `dir`, with the
+/// address space it maps made independent of the machine's core count.
 fn wgcloth_limited(kib: u64, dir: &TempDir, args: &[&str]) -> Output {
     Command::new("sh")
         .arg("-c")
         .arg(format!("ulimit -v {kib} && exec \"$0\" \"$@\""))
         .arg(BIN)
         .args(args)
+        .env("MALLOC_ARENA_MAX", MALLOC_ARENAS)
+        .env("LP_NUM_THREADS", LAVAPIPE_THREADS)
         .current_dir(&dir.0)
         .output()
         .expect("run the wgcloth binary under sh")
+}
+
+/// Where [`run_limited`] runs a scene.
+#[derive(Clone, Copy)]
+enum Backend {
+    /// The CPU, under [`CPU_ADDRESS_SPACE_KIB`].
+    Cpu,
+    /// Lavapipe, under [`GPU_ADDRESS_SPACE_KIB`].
+    Lavapipe,
+}
+
+/// Runs `wgcloth run SCENE --steps 1 --positions-out p.txt` in `dir` on
+/// `backend`, under its address-space limit.
+fn run_limited(dir: &TempDir, scene: &str, backend: Backend) -> Output {
+    let mut args = vec!["run", scene, "--steps", "1", "--positions-out", "p.txt"];
+    let kib = match backend {
+        Backend::Cpu => CPU_ADDRESS_SPACE_KIB,
+        Backend::Lavapipe => {
+            args.extend(["--backend", "gpu", "--adapter", LAVAPIPE]);
+            GPU_ADDRESS_SPACE_KIB
+        }
+    };
+    wgcloth_limited(kib, dir, &args)
 }
 
 /// The exact byte count a memory error gives in parentheses after the
@@ -130,18 +166,7 @@ fn a_dense_filter_of_a_million_particles_is_refused_with_the_amount() {
 #[test]
 fn control_a_small_scene_runs_under_the_cpu_rows_limit() {
     let dir = TempDir::new("memdev-cpu-control");
-    let out = wgcloth_limited(
-        CPU_ADDRESS_SPACE_KIB,
-        &dir,
-        &[
-            "run",
-            "hanging",
-            "--steps",
-            "10",
-            "--positions-out",
-            "p.txt",
-        ],
-    );
+    let out = run_limited(&dir, "hanging", Backend::Cpu);
     assert_status(&out, 0);
     assert_eq!(dir.files(), ["p.txt"]);
 }
@@ -150,18 +175,7 @@ fn control_a_small_scene_runs_under_the_cpu_rows_limit() {
 fn a_million_particles_under_an_address_space_limit_are_refused_on_the_cpu() {
     let dir = TempDir::new("memdev-cpu-million");
     dir.write("million.toml", MILLION);
-    let out = wgcloth_limited(
-        CPU_ADDRESS_SPACE_KIB,
-        &dir,
-        &[
-            "run",
-            "million.toml",
-            "--steps",
-            "1",
-            "--positions-out",
-            "p.txt",
-        ],
-    );
+    let out = run_limited(&dir, "million.toml", Backend::Cpu);
     let err = assert_refused(&out, &["1000000 particles", "ulimit -v"]);
     assert!(
         bytes_needed(&err) > CPU_ADDRESS_SPACE_KIB * 1024 / 4,
@@ -173,43 +187,16 @@ fn a_million_particles_under_an_address_space_limit_are_refused_on_the_cpu() {
 #[test]
 fn control_a_small_scene_runs_on_lavapipe_under_the_gpu_rows_limit() {
     let dir = TempDir::new("memdev-gpu-control");
-    let out = wgcloth_limited(
-        GPU_ADDRESS_SPACE_KIB,
-        &dir,
-        &[
-            "run",
-            "hanging",
-            "--steps",
-            "10",
-            "--backend",
-            "gpu",
-            "--adapter",
-            LAVAPIPE,
-        ],
-    );
+    let out = run_limited(&dir, "hanging", Backend::Lavapipe);
     assert_status(&out, 0);
+    assert_eq!(dir.files(), ["p.txt"]);
 }
 
 #[test]
 fn a_million_particles_on_lavapipe_under_an_address_space_limit_are_refused() {
     let dir = TempDir::new("memdev-gpu-million");
     dir.write("million.toml", MILLION);
-    let out = wgcloth_limited(
-        GPU_ADDRESS_SPACE_KIB,
-        &dir,
-        &[
-            "run",
-            "million.toml",
-            "--steps",
-            "1",
-            "--backend",
-            "gpu",
-            "--adapter",
-            LAVAPIPE,
-            "--positions-out",
-            "p.txt",
-        ],
-    );
+    let out = run_limited(&dir, "million.toml", Backend::Lavapipe);
     // Lavapipe's 128 MiB storage-binding limit refuses it before its
     // memory is counted; a device with larger limits would be refused by
     // the memory check. Either way the message says what needs what.
@@ -221,22 +208,7 @@ fn a_million_particles_on_lavapipe_under_an_address_space_limit_are_refused() {
 fn a_cloth_beyond_lavapipes_memory_under_a_limit_is_refused_naming_the_gpu_solver() {
     let dir = TempDir::new("memdev-gpu-six");
     dir.write("six.toml", SIX_HUNDRED);
-    let out = wgcloth_limited(
-        GPU_ADDRESS_SPACE_KIB,
-        &dir,
-        &[
-            "run",
-            "six.toml",
-            "--steps",
-            "1",
-            "--backend",
-            "gpu",
-            "--adapter",
-            LAVAPIPE,
-            "--positions-out",
-            "p.txt",
-        ],
-    );
+    let out = run_limited(&dir, "six.toml", Backend::Lavapipe);
     assert_refused(&out, &["GPU solver for 360000 particles", "ulimit -v"]);
     assert_eq!(dir.files(), ["six.toml"], "nothing else on disk");
 }
