@@ -11,7 +11,9 @@
 //! - [`scene`]: TOML scene files and the built-in scenes;
 //! - [`cpu`]: the reference solver and its state;
 //! - [`diagnostics`]: energy and strain, shared by every backend;
-//! - [`budget`]: the memory a scene needs, checked before it is allocated.
+//! - [`budget`]: the memory a scene needs, checked before it is allocated;
+//! - `evidence` (feature `cli`, on by default): the accuracy and stability
+//!   sweeps behind `wgcloth bench`.
 //!
 //! Units are SI throughout (m, kg, s, N), y is up.
 #![deny(missing_docs)]
@@ -21,6 +23,7 @@ pub mod budget;
 pub mod cpu;
 pub mod diagnostics;
 pub mod error;
+#[cfg(feature = "cli")]
 pub mod evidence;
 pub mod gpu;
 pub mod model;
