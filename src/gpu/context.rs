@@ -34,8 +34,11 @@ pub fn backends_from_env() -> Result<Option<wgpu::Backends>> {
         return Ok(None);
     };
     let invalid = |got: String| Error::InvalidParameter {
-        key: "WGPU_BACKEND (environment variable)".into(),
-        allowed: format!("a comma-separated list of {BACKEND_NAMES}"),
+        key: "WGPU_BACKEND".into(),
+        allowed: format!(
+            "a comma-separated list of {BACKEND_NAMES} \
+             (the environment variable picks the graphics APIs searched)"
+        ),
         got,
     };
     let text = value
