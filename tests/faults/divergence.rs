@@ -11,7 +11,9 @@ use wgcloth::cpu::CpuSolver;
 use wgcloth::diagnostics::{self, Divergence, CHECK_EVERY, DIVERGED_STRAIN, ENERGY_MARGIN};
 use wgcloth::{Integrator, Scene};
 
-use crate::cli_common::{assert_status, stderr, stdout, wgcloth, TempDir, EXIT_BLEW_UP, LAVAPIPE};
+use crate::cli_common::{
+    assert_status, names_in, stderr, stdout, wgcloth, TempDir, EXIT_BLEW_UP, LAVAPIPE,
+};
 
 /// The `hanging` scene at `resolution`² particles and `dt` \[s\], with the
 /// GPU's Jacobi fix-up so that the CPU's `f32` mirror performs the GPU's
@@ -338,16 +340,7 @@ fn render_stops_at_a_finite_blow_up_before_writing_its_frames() {
     );
     // Only frames from before the last good check stay, numbered from 0
     // without a gap.
-    let mut written: Vec<String> = std::fs::read_dir(&out)
-        .expect("the frame folder")
-        .map(|e| {
-            e.expect("an entry")
-                .file_name()
-                .to_string_lossy()
-                .into_owned()
-        })
-        .collect();
-    written.sort();
+    let written = names_in(&out);
     assert!(written.len() < frames, "{written:?}");
     let expected: Vec<String> = (0..written.len() as u32)
         .map(wgcloth::render::png_writer::frame_name)

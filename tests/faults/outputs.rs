@@ -62,21 +62,6 @@ fn bash(dir: &TempDir, script: &str) -> Output {
         .expect("run bash")
 }
 
-/// The names in `dir`, sorted.
-fn names_in(dir: &Path) -> Vec<String> {
-    let mut names: Vec<String> = fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| {
-            e.expect("an entry")
-                .file_name()
-                .to_string_lossy()
-                .into_owned()
-        })
-        .collect();
-    names.sort();
-    names
-}
-
 /// The hidden files (temporaries, backups) in `dir`, sorted.
 fn hidden(dir: &Path) -> Vec<String> {
     names_in(dir)
