@@ -10,9 +10,8 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use wgcloth::gpu::{GpuContext, GpuSolver};
-use wgcloth::render::{self, png_writer, Camera, FrameTarget, Renderer};
-use wgcloth::Scene;
+use wgcloth::render::{self, png_writer, Camera, FrameTarget, Renderer, RendererFormats};
+use wgcloth::{GpuContext, GpuSolver, Scene};
 
 /// Frames the host renders.
 const FRAMES: u32 = 30;
@@ -53,11 +52,15 @@ pub fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Re
     // A camera that frames the cloth (a game has its own).
     let (width, height) = SIZE;
     let camera = Camera::framing(&model, &scene.params, width as f32 / height as f32);
-    // The pipelines and the collider meshes, built once.
-    let renderer = Renderer::new(device, queue, &scene.params, &camera);
+    // The formats of the host's targets: a game passes its swap chain's
+    // colour format (often `Bgra8UnormSrgb`) and its depth buffer's. Here
+    // the offscreen default, read back into a PNG below.
+    let formats = RendererFormats::default();
+    // The pipelines and the collider meshes, built once for those formats.
+    let renderer = Renderer::with_formats(device, queue, &scene.params, &camera, formats)?;
     // The host's own offscreen target (a game's would be the swap-chain
     // texture and its depth buffer).
-    let target = FrameTarget::new(device, width, height);
+    let target = FrameTarget::with_formats(device, width, height, formats);
 
     for _ in 0..FRAMES {
         // One encoder per frame...
@@ -73,7 +76,8 @@ pub fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Re
             // ...then the host's own render pass on its own target's views
             // (cleared to the background; a game clears to its own sky and
             // draws its own objects in the same pass)...
-            let mut pass = render::begin_pass(&mut encoder, &target.color_view, &target.depth_view);
+            let mut pass =
+                renderer.begin_pass(&mut encoder, &target.color_view, &target.depth_view);
             // ...in which the cloth is drawn from the solver's position,
             // normal and index buffers.
             renderer.draw(&mut pass, &solver);

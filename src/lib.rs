@@ -15,6 +15,11 @@
 //! - `evidence` (feature `cli`, on by default): the accuracy and stability
 //!   sweeps behind `wgcloth bench`.
 //!
+//! The types an embedder holds are at the crate root: [`Scene`], [`Model`],
+//! [`Params`], the solvers [`CpuSolver`] (its steps report [`StepStats`])
+//! and [`GpuSolver`] (its checks report [`GpuStatus`]), [`GpuContext`] to
+//! open a device, and [`Error`]; [`render`] draws the GPU solver's cloth.
+//!
 //! Units are SI throughout (m, kg, s, N), y is up.
 #![deny(missing_docs)]
 
@@ -32,7 +37,9 @@ pub mod real;
 pub mod render;
 pub mod scene;
 
+pub use cpu::{CpuSolver, StepStats};
 pub use error::{Error, Result};
+pub use gpu::{GpuContext, GpuSolver, GpuStatus};
 pub use model::{ClothSpec, Model};
 pub use params::{Integrator, Params};
 pub use real::{Real, Vec3};

@@ -1,7 +1,8 @@
 //! Offscreen rendering on the test adapter (lavapipe in CI): frames decode
 //! at the asked size and count, the cloth lands where the camera projects
 //! its particles, and the sky stays the background colour. No golden
-//! images: the checks follow from the camera and the colours.
+//! images: the checks follow from the camera and the colours, and the
+//! same frame on two colour formats.
 
 mod gpu_common;
 
@@ -9,7 +10,9 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 use wgcloth::gpu::GpuSolver;
-use wgcloth::render::{self, png_writer, Camera, FrameOptions, Renderer};
+use wgcloth::render::{
+    self, png_writer, Camera, FrameOptions, FrameTarget, Renderer, RendererFormats,
+};
 use wgcloth::Scene;
 
 /// A 9 × 9 cloth held by two corners above the ground, beside a ball:
@@ -228,4 +231,88 @@ fn strain_view_at_rest_is_blue() {
         );
     }
     std::fs::remove_dir_all(&dir).expect("remove the test directory");
+}
+
+/// Most an 8-bit channel of the `Bgra8UnormSrgb` frame may differ from the
+/// `Rgba8Unorm` one \[levels of 255\]: the sRGB target stores the
+/// hardware's sRGB encoding of the shader's decoded value, rounded to
+/// 8 bits, where the plain target stores the shader's value rounded; the
+/// f32 decode and the encode (which Vulkan lets a device approximate) can
+/// move that rounding by a level. Formats mishandled (the encoded value
+/// written unchanged to the sRGB target, or the clear colour not decoded)
+/// brighten the dark background (30, 34, 44) by over 60 levels.
+const SRGB_ROUNDING_LEVELS: i32 = 1;
+
+/// Steps before the compared frame: the cloth has swung and folded, so
+/// both of its sides, the ground and the ball are in the picture.
+const SRGB_STEPS: u32 = 150;
+
+/// The same frame drawn into an `Rgba8Unorm` target (the PNG path) and a
+/// `Bgra8UnormSrgb` one (a game's swap chain) shows the same colours, with
+/// the cloth lit and with the strain view.
+#[test]
+fn an_srgb_target_shows_the_png_colours() {
+    let ctx = gpu_common::gpu();
+    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
+    let model = scene.model().expect("the model");
+    let mut solver = GpuSolver::new(&ctx.device, &ctx.queue, &model, &scene.params)
+        .unwrap_or_else(|e| panic!("GPU solver: {e}"));
+    solver
+        .step(SRGB_STEPS)
+        .unwrap_or_else(|e| panic!("stepping: {e}"));
+    let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
+    let srgb = RendererFormats {
+        color: wgpu::TextureFormat::Bgra8UnormSrgb,
+        ..RendererFormats::default()
+    };
+    for strain in [false, true] {
+        let frame = |formats: RendererFormats| {
+            let mut renderer =
+                Renderer::with_formats(&ctx.device, &ctx.queue, &scene.params, &camera, formats)
+                    .unwrap_or_else(|e| panic!("renderer for {formats:?}: {e}"));
+            if strain {
+                renderer.show_strain(&ctx.device, &model, &solver);
+            }
+            let target = FrameTarget::with_formats(&ctx.device, WIDTH, HEIGHT, formats);
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            solver.encode_normals(&mut encoder);
+            renderer.encode_frame(&mut encoder, &solver, &target);
+            ctx.queue.submit([encoder.finish()]);
+            render::read_rgba(&ctx.device, &ctx.queue, &target.color)
+                .unwrap_or_else(|e| panic!("reading {formats:?} back: {e}"))
+        };
+        let plain = frame(RendererFormats::default());
+        let bgra = frame(srgb);
+        assert_eq!(plain.len(), bgra.len());
+        let (mut worst, mut at, mut drawn) = (0, 0, 0);
+        for (p, (a, b)) in plain.chunks(4).zip(bgra.chunks(4)).enumerate() {
+            let swizzled = [b[2], b[1], b[0], b[3]];
+            let d = a
+                .iter()
+                .zip(swizzled)
+                .map(|(x, y)| (i32::from(*x) - i32::from(y)).abs())
+                .max()
+                .unwrap_or(0);
+            if d > worst {
+                (worst, at) = (d, p);
+            }
+            drawn += usize::from(a != render::BACKGROUND);
+        }
+        let pixel = |rgba: &[u8]| rgba[at * 4..at * 4 + 4].to_vec();
+        eprintln!("strain view {strain}: worst channel difference {worst} levels");
+        assert!(
+            worst <= SRGB_ROUNDING_LEVELS,
+            "strain view {strain}: pixel ({}, {}) is {:?} on Rgba8Unorm but {:?} (BGRA) on \
+             Bgra8UnormSrgb: {worst} levels apart, more than {SRGB_ROUNDING_LEVELS}",
+            at as u32 % WIDTH,
+            at as u32 / WIDTH,
+            pixel(&plain),
+            pixel(&bgra)
+        );
+        // The comparison means something only if the scene was drawn.
+        assert!(
+            drawn > plain.len() / 4 / 10,
+            "strain view {strain}: only {drawn} pixels differ from the background"
+        );
+    }
 }

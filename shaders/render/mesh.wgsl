@@ -96,8 +96,25 @@ fn vs_collider(
     return out;
 }
 
-// Two-sided Lambert plus ambient, gamma-encoded by hand (the target is a
-// plain `Rgba8Unorm` texture so that the clear colour's bytes are exact).
+// True when the colour target is an `*Srgb` format (set by the host from
+// its format: `RendererFormats` in `src/render/mod.rs`). Such a target
+// sRGB-encodes what the shader writes, so the shader writes the linear
+// value whose encoding is the colour a plain target would store: the
+// picture is the same on both.
+override SRGB_TARGET: bool = false;
+
+// The sRGB transfer function's inverse (IEC 61966-2-1), per channel: an
+// encoded value in [0, 1] to linear. Twin of `srgb_to_linear` in
+// `src/render/mod.rs`.
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    let curve = pow((c + vec3<f32>(0.055)) / 1.055, vec3<f32>(2.4));
+    return select(curve, c / 12.92, c <= vec3<f32>(0.04045));
+}
+
+// Two-sided Lambert plus ambient, gamma-encoded by hand (the PNG frames
+// are read from a plain `Rgba8Unorm` target so that the clear colour's
+// bytes are exact); on an sRGB target, decoded again for the hardware's
+// encode (see `SRGB_TARGET`).
 @fragment
 fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @location(0) vec4<f32> {
     var n = normalize(in.normal);
@@ -116,5 +133,9 @@ fn fs_main(in: VertexOut, @builtin(front_facing) front_facing: bool) -> @locatio
     }
     let diffuse = max(dot(n, globals.light.xyz), 0.0);
     let linear = base * (0.3 + 0.7 * diffuse);
-    return vec4<f32>(pow(linear, vec3<f32>(1.0 / 2.2)), 1.0);
+    let encoded = pow(linear, vec3<f32>(1.0 / 2.2));
+    if SRGB_TARGET {
+        return vec4<f32>(srgb_to_linear(encoded), 1.0);
+    }
+    return vec4<f32>(encoded, 1.0);
 }

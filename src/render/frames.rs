@@ -89,7 +89,9 @@ pub fn steps_per_frame(fps: f64, dt: f64) -> Result<u32> {
 /// frames rendered since the last good check are written. `progress` returning
 /// [`ControlFlow::Break`] stops the run with [`Error::Interrupted`]: the
 /// frames read back by then are written whole, no later one is started.
-/// Returns the frames written.
+/// Returns the frames written. `renderer` must draw into [`COLOR_FORMAT`]
+/// (the PNGs' byte order and encoding; its depth format may be any):
+/// another is an [`Error::InvalidParameter`].
 pub fn render_frames(
     device: &wgpu::Device,
     solver: &mut GpuSolver,
@@ -98,13 +100,24 @@ pub fn render_frames(
     mut progress: impl FnMut(u32) -> ControlFlow<()>,
 ) -> Result<u32> {
     let (width, height) = (options.width, options.height);
+    let formats = renderer.formats();
+    if formats.color != COLOR_FORMAT {
+        return Err(Error::InvalidParameter {
+            key: "RendererFormats::color".into(),
+            allowed: format!("{COLOR_FORMAT:?} for PNG frames"),
+            got: format!("{:?}", formats.color),
+        });
+    }
     let need = check_image(device, width, height)?;
     let row = padded_row(width);
     let (target, staging) = guarded(device, &image(width, height), Some(need), || {
         let staging: Vec<wgpu::Buffer> = (0..STAGING_BUFFERS)
             .map(|i| staging_buffer(device, &format!("wgcloth.render.staging{i}"), row, height))
             .collect();
-        Ok((FrameTarget::new(device, width, height), staging))
+        Ok((
+            FrameTarget::with_formats(device, width, height, formats),
+            staging,
+        ))
     })?;
     let rule = solver.divergence_rule()?;
     let mut writer = PngWriter::spawn()?;
@@ -235,15 +248,25 @@ pub fn render_scene(
     render_frames(device, &mut solver, &renderer, options, progress)
 }
 
-/// Reads `texture`'s colour back now (blocking): tightly packed RGBA8
-/// rows, top row first. For tests and one-off pictures (it goes through
-/// [`crate::gpu::readback`], one more copy); [`render_frames`] pipelines its
-/// read-backs instead.
+/// Reads `texture`'s colour back now (blocking): tightly packed rows of 4
+/// bytes per pixel in the texture's own order (RGBA for [`COLOR_FORMAT`],
+/// BGRA for a `Bgra8*` format), top row first; a format of another texel
+/// size is an [`Error::InvalidParameter`]. For tests and one-off pictures
+/// (it goes through [`crate::gpu::readback`], one more copy);
+/// [`render_frames`] pipelines its read-backs instead.
 pub fn read_rgba(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     texture: &wgpu::Texture,
 ) -> Result<Vec<u8>> {
+    let format = texture.format();
+    if format.block_copy_size(None) != Some(4) || format.block_dimensions() != (1, 1) {
+        return Err(Error::InvalidParameter {
+            key: "read_rgba texture format".into(),
+            allowed: "a format of 4 bytes per pixel".into(),
+            got: format!("{format:?}"),
+        });
+    }
     let (width, height) = (texture.width(), texture.height());
     let row = padded_row(width);
     let size = u64::from(row) * u64::from(height);

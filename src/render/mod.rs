@@ -7,7 +7,9 @@
 //! small meshes made once and placed per instance.
 //!
 //! - [`Renderer::draw`] records into a render pass the host began (the
-//!   pattern a game uses; see `examples/embed.rs`);
+//!   pattern a game uses; see `examples/embed.rs`), on targets of the
+//!   host's formats ([`RendererFormats`], given to
+//!   [`Renderer::with_formats`]);
 //! - [`Renderer::encode_frame`] begins that pass on a [`FrameTarget`];
 //! - [`frames::render_frames`] runs a scene to numbered PNG files, reading
 //!   frames back while the device computes the next ones.
@@ -25,16 +27,84 @@ pub use frames::{
     check_image, read_rgba, render_frames, render_scene, steps_per_frame, FrameOptions,
 };
 
-use crate::gpu::GpuSolver;
+use crate::error::{Error, Result};
+use crate::gpu::{guarded, GpuSolver};
 use crate::model::Model;
 use crate::params::Params;
 
-/// Colour format of the targets the renderer draws into. Not sRGB: the
-/// shader gamma-encodes, so the clear colour's bytes are exactly
-/// [`BACKGROUND`].
+/// Default colour format of the targets the renderer draws into, and the
+/// one the PNG frames are read from. Not sRGB: the shader gamma-encodes,
+/// so the clear colour's bytes are exactly [`BACKGROUND`].
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
-/// Depth format of the targets.
+/// Default depth format of the targets.
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// The formats of the colour and depth targets a [`Renderer`] draws into:
+/// its pipelines are built for these, and a render pass given to
+/// [`Renderer::draw`] must have attachments of exactly these formats.
+///
+/// The picture is the same on any colour format. The shader computes the
+/// gamma-encoded colour the PNG frames hold (their bytes are those values
+/// on an `Rgba8Unorm` target); on an `*Srgb` target, whose hardware
+/// sRGB-encodes what the shader writes, it writes instead the linear value
+/// whose sRGB encoding is that colour (the `SRGB_TARGET` override constant
+/// of `shaders/render/mesh.wgsl`), and the clear colour is decoded the
+/// same way ([`background_for`]). A viewer sees the same colours either
+/// way, to within the rounding of the 8-bit encode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RendererFormats {
+    /// Colour target: any format with a colour aspect and a float sample
+    /// type the device can render to (e.g. a swap chain's
+    /// `Bgra8UnormSrgb`); alpha is written as 1.
+    pub color: wgpu::TextureFormat,
+    /// Depth target: any format with a depth aspect (e.g. `Depth24Plus`).
+    pub depth: wgpu::TextureFormat,
+}
+
+impl Default for RendererFormats {
+    /// [`COLOR_FORMAT`] and [`DEPTH_FORMAT`]: what the PNG frames use.
+    fn default() -> RendererFormats {
+        RendererFormats {
+            color: COLOR_FORMAT,
+            depth: DEPTH_FORMAT,
+        }
+    }
+}
+
+impl RendererFormats {
+    /// Refuses formats no pipeline of the renderer can draw into: a colour
+    /// format without a colour aspect or with an integer sample type (the
+    /// fragment shader writes `vec4<f32>`), a depth format without a depth
+    /// aspect. What the device supports is checked when the pipelines are
+    /// built.
+    fn check(self, device: &wgpu::Device) -> Result<()> {
+        let float = matches!(
+            self.color.sample_type(None, Some(device.features())),
+            Some(wgpu::TextureSampleType::Float { .. })
+        );
+        if !(self.color.has_color_aspect() && float) {
+            return Err(Error::InvalidParameter {
+                key: "RendererFormats::color".into(),
+                allowed: "a colour format with a float sample type".into(),
+                got: format!("{:?}", self.color),
+            });
+        }
+        if !self.depth.has_depth_aspect() {
+            return Err(Error::InvalidParameter {
+                key: "RendererFormats::depth".into(),
+                allowed: "a format with a depth aspect".into(),
+                got: format!("{:?}", self.depth),
+            });
+        }
+        Ok(())
+    }
+
+    /// The render shader's override constants for this colour target.
+    fn constants(self) -> [(&'static str, f64); 1] {
+        [("SRGB_TARGET", if self.color.is_srgb() { 1.0 } else { 0.0 })]
+    }
+}
+
 /// The background (clear) colour, RGBA bytes as they land in the image.
 pub const BACKGROUND: [u8; 4] = [30, 34, 44, 255];
 
@@ -97,6 +167,7 @@ struct Collider {
 #[derive(Debug)]
 pub struct Renderer {
     queue: wgpu::Queue,
+    formats: RendererFormats,
     shader: wgpu::ShaderModule,
     globals_layout: wgpu::BindGroupLayout,
     globals: wgpu::Buffer,
@@ -114,17 +185,31 @@ pub struct Renderer {
 /// A colour texture and its depth buffer, the size of one frame.
 #[derive(Debug)]
 pub struct FrameTarget {
-    /// The colour texture ([`COLOR_FORMAT`], `RENDER_ATTACHMENT | COPY_SRC`).
+    /// The colour texture ([`COLOR_FORMAT`] unless made by
+    /// [`FrameTarget::with_formats`]; `RENDER_ATTACHMENT | COPY_SRC`).
     pub color: wgpu::Texture,
     /// Its view.
     pub color_view: wgpu::TextureView,
-    /// The depth buffer's view ([`DEPTH_FORMAT`]).
+    /// The depth buffer's view ([`DEPTH_FORMAT`] unless made by
+    /// [`FrameTarget::with_formats`]).
     pub depth_view: wgpu::TextureView,
 }
 
 impl FrameTarget {
-    /// Makes a `width` × `height` target on `device`.
+    /// Makes a `width` × `height` target \[pixels\] on `device` of the
+    /// default formats ([`RendererFormats::default`]).
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> FrameTarget {
+        FrameTarget::with_formats(device, width, height, RendererFormats::default())
+    }
+
+    /// Makes a `width` × `height` target \[pixels\] on `device` of
+    /// `formats`, for a renderer made with the same.
+    pub fn with_formats(
+        device: &wgpu::Device,
+        width: u32,
+        height: u32,
+        formats: RendererFormats,
+    ) -> FrameTarget {
         let size = wgpu::Extent3d {
             width,
             height,
@@ -144,12 +229,12 @@ impl FrameTarget {
         };
         let color = texture(
             "wgcloth.render.color",
-            COLOR_FORMAT,
+            formats.color,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
         );
         let depth = texture(
             "wgcloth.render.depth",
-            DEPTH_FORMAT,
+            formats.depth,
             wgpu::TextureUsages::RENDER_ATTACHMENT,
         );
         FrameTarget {
@@ -162,12 +247,45 @@ impl FrameTarget {
 
 impl Renderer {
     /// Builds the pipelines and the meshes of `params`' ground and spheres
-    /// (placed around `camera`'s target), drawing with `camera`.
+    /// (placed around `camera`'s target), drawing with `camera` into
+    /// targets of the default formats ([`COLOR_FORMAT`], [`DEPTH_FORMAT`]).
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         params: &Params,
         camera: &Camera,
+    ) -> Renderer {
+        Renderer::build(device, queue, params, camera, RendererFormats::default())
+    }
+
+    /// As [`Renderer::new`], drawing into targets of the host's `formats`
+    /// (e.g. its swap chain's colour format and its depth buffer's). A
+    /// format no pipeline can draw into is an [`Error::InvalidParameter`]
+    /// naming it; one the device cannot render to an [`Error::Gpu`].
+    pub fn with_formats(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        params: &Params,
+        camera: &Camera,
+        formats: RendererFormats,
+    ) -> Result<Renderer> {
+        formats.check(device)?;
+        guarded(device, "building the renderer", None, || {
+            Ok(Renderer::build(device, queue, params, camera, formats))
+        })
+    }
+
+    /// The formats this renderer draws into.
+    pub fn formats(&self) -> RendererFormats {
+        self.formats
+    }
+
+    fn build(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        params: &Params,
+        camera: &Camera,
+        formats: RendererFormats,
     ) -> Renderer {
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("wgcloth.render.mesh"),
@@ -232,6 +350,8 @@ impl Renderer {
                 &instance_attributes,
             )),
         ];
+        let constants = formats.constants();
+        let targets = [Some(formats.color.into())];
         let pipeline = |label, entry, buffers: &[Option<wgpu::VertexBufferLayout<'_>>], cull| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
                 label: Some(label),
@@ -248,14 +368,9 @@ impl Renderer {
                     cull_mode: cull,
                     ..Default::default()
                 },
-                depth_stencil: Some(depth_state()),
+                depth_stencil: Some(depth_state(formats.depth)),
                 multisample: Default::default(),
-                fragment: Some(wgpu::FragmentState {
-                    module: &shader,
-                    entry_point: Some("fs_main"),
-                    compilation_options: Default::default(),
-                    targets: &[Some(COLOR_FORMAT.into())],
-                }),
+                fragment: Some(fragment_state(&shader, &constants, &targets)),
                 multiview_mask: None,
                 cache: None,
             })
@@ -296,6 +411,7 @@ impl Renderer {
             .then(|| Collider::new(device, "spheres", &mesh::sphere(), &spheres));
         let renderer = Renderer {
             queue: queue.clone(),
+            formats,
             shader,
             globals_layout: layout,
             globals,
@@ -337,14 +453,15 @@ impl Renderer {
             device,
             &self.shader,
             &self.globals_layout,
+            self.formats,
             model,
             solver,
         ));
     }
 
     /// Records the cloth, the ground and the spheres into `pass`, a pass
-    /// whose colour target is [`COLOR_FORMAT`] and depth target
-    /// [`DEPTH_FORMAT`]. The cloth's normals must have been recorded
+    /// whose colour and depth targets have this renderer's
+    /// [`formats`](Renderer::formats). The cloth's normals must have been recorded
     /// (`GpuSolver::encode_normals`) since its last step.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, solver: &GpuSolver) {
         pass.set_bind_group(0, &self.bind_group, &[]);
@@ -374,19 +491,44 @@ impl Renderer {
         solver: &GpuSolver,
         target: &FrameTarget,
     ) {
-        let mut pass = begin_pass(encoder, &target.color_view, &target.depth_view);
+        let mut pass = self.begin_pass(encoder, &target.color_view, &target.depth_view);
         self.draw(&mut pass, solver);
+    }
+
+    /// Begins a render pass on `color` and `depth`, views of this
+    /// renderer's [`formats`](Renderer::formats), that clears them to
+    /// [`BACKGROUND`] (as [`background_for`] the colour format) and the far
+    /// plane, ready for [`Renderer::draw`]. A host's own views (e.g. a
+    /// swap-chain texture's) do as well as a [`FrameTarget`]'s.
+    pub fn begin_pass<'e>(
+        &self,
+        encoder: &'e mut wgpu::CommandEncoder,
+        color: &wgpu::TextureView,
+        depth: &wgpu::TextureView,
+    ) -> wgpu::RenderPass<'e> {
+        clearing_pass(encoder, color, depth, background_for(self.formats.color))
     }
 }
 
 /// Begins a render pass on `color` ([`COLOR_FORMAT`]) and `depth`
 /// ([`DEPTH_FORMAT`]) that clears them to [`BACKGROUND`] and the far plane,
-/// ready for [`Renderer::draw`]. A host's own views (e.g. a swap-chain
-/// texture's, of the same formats) do as well as a [`FrameTarget`]'s.
+/// ready for a [`Renderer`] of the default formats. For other formats,
+/// [`Renderer::begin_pass`].
 pub fn begin_pass<'e>(
     encoder: &'e mut wgpu::CommandEncoder,
     color: &wgpu::TextureView,
     depth: &wgpu::TextureView,
+) -> wgpu::RenderPass<'e> {
+    clearing_pass(encoder, color, depth, background())
+}
+
+/// A render pass on `color` and `depth` that clears them to `clear` and
+/// the far plane.
+fn clearing_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    color: &wgpu::TextureView,
+    depth: &wgpu::TextureView,
+    clear: wgpu::Color,
 ) -> wgpu::RenderPass<'e> {
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("wgcloth.render.pass"),
@@ -395,7 +537,7 @@ pub fn begin_pass<'e>(
             depth_slice: None,
             resolve_target: None,
             ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(background()),
+                load: wgpu::LoadOp::Clear(clear),
                 store: wgpu::StoreOp::Store,
             },
         })],
@@ -413,10 +555,29 @@ pub fn begin_pass<'e>(
     })
 }
 
-/// Depth test and write, nearer wins: every pipeline's.
-fn depth_state() -> wgpu::DepthStencilState {
+/// The fragment stage of every pipeline: `fs_main` with `constants`
+/// (`RendererFormats::constants`' for the colour target) into `targets`.
+fn fragment_state<'a>(
+    shader: &'a wgpu::ShaderModule,
+    constants: &'a [(&'static str, f64)],
+    targets: &'a [Option<wgpu::ColorTargetState>],
+) -> wgpu::FragmentState<'a> {
+    wgpu::FragmentState {
+        module: shader,
+        entry_point: Some("fs_main"),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            ..Default::default()
+        },
+        targets,
+    }
+}
+
+/// Depth test and write into a `format` target, nearer wins: every
+/// pipeline's.
+fn depth_state(format: wgpu::TextureFormat) -> wgpu::DepthStencilState {
     wgpu::DepthStencilState {
-        format: DEPTH_FORMAT,
+        format,
         depth_write_enabled: Some(true),
         depth_compare: Some(wgpu::CompareFunction::Less),
         stencil: Default::default(),
@@ -424,15 +585,40 @@ fn depth_state() -> wgpu::DepthStencilState {
     }
 }
 
-/// [`BACKGROUND`] as a clear colour (the target is not sRGB, so the bytes
-/// come out as given).
+/// [`BACKGROUND`] as a clear colour for a [`COLOR_FORMAT`] target (not
+/// sRGB, so the bytes come out as given).
 pub fn background() -> wgpu::Color {
+    background_for(COLOR_FORMAT)
+}
+
+/// [`BACKGROUND`] as a clear colour for a `format` target: the bytes as
+/// given on a linear format; on an `*Srgb` one, whose hardware sRGB-encodes
+/// the clear colour, their sRGB decoding, so that the stored bytes are
+/// [`BACKGROUND`] again (to within rounding).
+pub fn background_for(format: wgpu::TextureFormat) -> wgpu::Color {
     let c = BACKGROUND.map(|b| f64::from(b) / 255.0);
+    let rgb = |v: f64| {
+        if format.is_srgb() {
+            srgb_to_linear(v)
+        } else {
+            v
+        }
+    };
     wgpu::Color {
-        r: c[0],
-        g: c[1],
-        b: c[2],
+        r: rgb(c[0]),
+        g: rgb(c[1]),
+        b: rgb(c[2]),
         a: c[3],
+    }
+}
+
+/// The sRGB transfer function's inverse (IEC 61966-2-1): an encoded value
+/// in \[0, 1\] to linear; twin of `srgb_to_linear` in `mesh.wgsl`.
+fn srgb_to_linear(v: f64) -> f64 {
+    if v <= 0.04045 {
+        v / 12.92
+    } else {
+        ((v + 0.055) / 1.055).powf(2.4)
     }
 }
 

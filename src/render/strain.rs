@@ -10,7 +10,7 @@
 
 use wgpu::util::DeviceExt;
 
-use super::COLOR_FORMAT;
+use super::RendererFormats;
 use crate::gpu::GpuSolver;
 use crate::model::Model;
 use crate::params::Params;
@@ -38,12 +38,13 @@ pub(super) struct StrainView {
 }
 
 impl StrainView {
-    /// Builds the view of `solver`, made from `model`. `globals` is the
-    /// renderer's group-0 layout.
+    /// Builds the view of `solver`, made from `model`, drawing into
+    /// targets of `formats`. `globals` is the renderer's group-0 layout.
     pub(super) fn new(
         device: &wgpu::Device,
         shader: &wgpu::ShaderModule,
         globals: &wgpu::BindGroupLayout,
+        formats: RendererFormats,
         model: &Model,
         solver: &GpuSolver,
     ) -> StrainView {
@@ -93,6 +94,8 @@ impl StrainView {
             bind_group_layouts: &[Some(globals), Some(&layout)],
             immediate_size: 0,
         });
+        let constants = formats.constants();
+        let targets = [Some(formats.color.into())];
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("wgcloth.render.strain"),
             layout: Some(&pipeline_layout),
@@ -104,14 +107,9 @@ impl StrainView {
             },
             // Two-sided, like the cloth.
             primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(super::depth_state()),
+            depth_stencil: Some(super::depth_state(formats.depth)),
             multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: shader,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(COLOR_FORMAT.into())],
-            }),
+            fragment: Some(super::fragment_state(shader, &constants, &targets)),
             multiview_mask: None,
             cache: None,
         });
