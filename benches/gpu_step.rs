@@ -65,7 +65,7 @@ fn gpu_solver_with(
         Ok(g) => g,
         Err(e) => panic!("GPU solver: {e}"),
     };
-    if let Err(e) = g.set_specialised(specialised) {
+    if let Err(e) = g.tuning_mut().set_specialised(specialised) {
         panic!("GPU kernels: {e}");
     }
     // Warm up past the rest state and let the CG budget adapt.
@@ -138,7 +138,7 @@ fn table(ctx: &GpuContext) {
                 gpu * 1e3,
                 cpu * 1e3,
                 gpu / cpu,
-                g.dispatches_per_step(),
+                g.tuning().dispatches_per_step(),
                 1.0 / f64::from(batch)
             );
         }
@@ -193,10 +193,10 @@ fn skipping_table(ctx: &GpuContext) {
         };
         let mut g_min = gpu_solver(ctx, &minimal_model, &minimal);
         let t_min = gpu_median(&mut g_min, batch, samples);
-        let d_min = g_min.dispatches_per_step();
+        let d_min = g_min.tuning().dispatches_per_step();
         let mut g_full = gpu_solver(ctx, &model, &full);
         let t_full = gpu_median(&mut g_full, batch, samples);
-        let d_full = g_full.dispatches_per_step();
+        let d_full = g_full.tuning().dispatches_per_step();
         // The general kernels on a second solver with the same history (CG
         // warm starts make later steps cheaper, so one solver timed twice
         // would flatter whichever ran second).
@@ -217,9 +217,9 @@ fn skipping_table(ctx: &GpuContext) {
     let (model, params) = scene(Integrator::Implicit, n);
     let mut adaptive = gpu_solver(ctx, &model, &params);
     let t_adaptive = gpu_median(&mut adaptive, 2, samples);
-    let budget = adaptive.cg_budget();
+    let budget = adaptive.tuning().cg_budget();
     let mut fixed = gpu_solver(ctx, &model, &params);
-    fixed.set_adaptive_cg_budget(false);
+    fixed.tuning_mut().set_adaptive_cg_budget(false);
     let t_fixed = gpu_median(&mut fixed, 2, samples);
     println!(
         "adaptive budget ({budget} recorded) {:.3} ms, maximum ({} recorded) {:.3} ms: {:.2}×",
@@ -280,7 +280,7 @@ fn yardstick(ctx: &GpuContext) {
             times[0] * 1e3,
             times[times.len() / 2] * 1e3,
             target,
-            g.dispatches_per_step(),
+            g.tuning().dispatches_per_step(),
             model.springs.len(),
             f64::from(its) / 15.0
         );
@@ -315,8 +315,8 @@ fn grid_table(ctx: &GpuContext) {
             t_grid * 1e3,
             t_general * 1e3,
             t_general / t_grid,
-            grid.dispatches_per_step(),
-            general.dispatches_per_step()
+            grid.tuning().dispatches_per_step(),
+            general.tuning().dispatches_per_step()
         );
     }
 }

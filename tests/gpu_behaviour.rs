@@ -19,7 +19,7 @@ fn model(pins: Vec<Pin>, p: &Params) -> Model {
 fn run(model: &Model, p: &Params, steps: u32, setup: impl FnOnce(&mut GpuSolver)) -> GpuState {
     let ctx = gpu();
     let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, p).expect("GPU solver");
-    g.set_adaptive_cg_budget(false);
+    g.tuning_mut().set_adaptive_cg_budget(false);
     setup(&mut g);
     g.step(steps).expect("GPU steps");
     g.read_state().expect("read-back")
@@ -232,8 +232,10 @@ fn single_pass_against_general(wind: bool) {
     let ctx = gpu();
     let run = |specialised: bool| {
         let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
-        g.set_specialised(specialised).expect("kernels");
-        let plan = g.step_plan();
+        g.tuning_mut()
+            .set_specialised(specialised)
+            .expect("kernels");
+        let plan = g.tuning().step_plan();
         assert_eq!(plan.len() == 1, specialised, "{plan:?}");
         g.step(21).expect("steps");
         g.set_position(40, [0.1, 1.3, 0.05]).expect("move");
@@ -279,8 +281,8 @@ fn every_grid_block_shape_gives_the_same_bits() {
             .iter()
             .map(|&shape| {
                 run(&m, &p, 15, |g| {
-                    g.set_grid_block(shape).expect("block shape");
-                    let plan = g.step_plan();
+                    g.tuning_mut().set_grid_block(shape).expect("block shape");
+                    let plan = g.tuning().step_plan();
                     let gather: Vec<u32> = plan
                         .iter()
                         .filter(|(name, _)| {

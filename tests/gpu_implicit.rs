@@ -43,7 +43,7 @@ fn gpu_cg_iterations_match_the_cpu() {
     let (model, params) = scene();
     let ctx = gpu();
     let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
-    g.set_adaptive_cg_budget(false);
+    g.tuning_mut().set_adaptive_cg_budget(false);
     let mut c = wgcloth::cpu::CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
     for step in 1..=20 {
         let status = g.step(1).expect("GPU step");
@@ -66,16 +66,16 @@ fn adaptive_cg_budget_shrinks_without_changing_the_result() {
     let mut adaptive =
         GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
     let mut exact = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
-    exact.set_adaptive_cg_budget(false);
+    exact.tuning_mut().set_adaptive_cg_budget(false);
     let mut hits = 0;
     for _ in 0..40 {
         hits = adaptive.step(1).expect("GPU step").cg_budget_hits;
         exact.step(1).expect("GPU step");
     }
     assert!(
-        adaptive.cg_budget() < params.implicit.max_iterations / 2,
+        adaptive.tuning().cg_budget() < params.implicit.max_iterations / 2,
         "budget {} of {}",
-        adaptive.cg_budget(),
+        adaptive.tuning().cg_budget(),
         params.implicit.max_iterations
     );
     assert_eq!(hits, 0, "a solve was cut short");

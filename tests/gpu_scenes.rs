@@ -81,7 +81,7 @@ fn grid_and_general_kernels_match_the_cpu_mirror() {
             let g = wgcloth::gpu::GpuSolver::new(&ctx.device, &ctx.queue, model, &scene.params)
                 .expect("GPU solver");
             if integrator == Integrator::Explicit {
-                let plan = g.step_plan();
+                let plan = g.tuning().step_plan();
                 assert_eq!(
                     plan.iter().any(|(k, _)| *k == "spring_forces"),
                     per_spring_pass,

@@ -14,10 +14,15 @@ use wgcloth::{Model, Params};
 fn run(model: &Model, params: &Params, specialised: bool) -> (GpuState, f64) {
     let ctx = gpu();
     let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, params).expect("GPU solver");
-    g.set_adaptive_cg_budget(false);
-    g.set_specialised(specialised).expect("variants");
+    g.tuning_mut().set_adaptive_cg_budget(false);
+    g.tuning_mut()
+        .set_specialised(specialised)
+        .expect("variants");
     g.step(40).expect("GPU steps");
-    (g.read_state().expect("read-back"), g.dispatches_per_step())
+    (
+        g.read_state().expect("read-back"),
+        g.tuning().dispatches_per_step(),
+    )
 }
 
 /// Plain parameters: no wind, no colliders.

@@ -224,7 +224,7 @@ impl Solver for Gpu {
     }
 
     fn passes(&self) -> Vec<(&'static str, u32, u32)> {
-        self.solver.describe_step()
+        self.solver.tuning().describe_step()
     }
 
     fn advance(&mut self, mut n: u64) -> wgcloth::Result<()> {

@@ -128,7 +128,7 @@ impl GpuSolver {
     /// spheres, a ground out of reach, free filters, zero damping) — and no
     /// fused passes: for tests and benchmarks of what specialisation saves.
     /// With `true` (the default), the scene's own variants.
-    pub fn set_specialised(&mut self, on: bool) -> Result<()> {
+    pub(super) fn set_specialised(&mut self, on: bool) -> Result<()> {
         self.specialised = on;
         self.update_features()
     }
@@ -137,7 +137,7 @@ impl GpuSolver {
     /// gather kernels handles (see [`GridBlock`]; the default suits the
     /// adapter: [`GridBlock::for_adapter`]). Results are the same for every
     /// shape; speed is not. No effect on a cloth without grid layout.
-    pub fn set_grid_block(&mut self, block: GridBlock) -> Result<()> {
+    pub(super) fn set_grid_block(&mut self, block: GridBlock) -> Result<()> {
         if !block.is_valid() {
             return Err(Error::InvalidParameter {
                 key: "grid block".into(),
@@ -150,8 +150,8 @@ impl GpuSolver {
         self.update_features()
     }
 
-    /// The grid gather's block shape (see [`GpuSolver::set_grid_block`]).
-    pub fn grid_block(&self) -> GridBlock {
+    /// The grid gather's block shape (see [`GpuTuningMut::set_grid_block`](super::GpuTuningMut::set_grid_block)).
+    pub(super) fn grid_block(&self) -> GridBlock {
         self.block
     }
 

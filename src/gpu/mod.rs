@@ -21,9 +21,11 @@ pub mod readback;
 mod semi_filter;
 pub mod shaders;
 mod solver;
+mod tuning;
 
 pub use context::GpuContext;
 pub(crate) use errors::guarded;
 pub use grid::GridBlock;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 pub use solver::{GpuSolver, GpuState, GpuStatus, SINGLE_PASS, WORKGROUP};
+pub use tuning::{GpuTuning, GpuTuningMut};

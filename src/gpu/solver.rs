@@ -187,7 +187,7 @@ pub(super) const NO_WIND: Wind = Wind {
 };
 
 /// Uniform values when there is no ground: the kernels compile it out,
-/// and the general variant (see [`GpuSolver::set_specialised`]) never
+/// and the general variant (see [`GpuTuningMut::set_specialised`](super::GpuTuningMut::set_specialised)) never
 /// reaches a plane this far down.
 pub(super) const NO_GROUND: Ground = Ground {
     height: -1e30,
@@ -398,7 +398,7 @@ impl GpuSolver {
     /// (see [`GpuSolver::check`]) and stops on the device, after which its
     /// per-particle passes are dispatched with zero workgroups. The fix-up,
     /// too, stops on the device once a pass moves nothing.
-    pub fn step_plan(&self) -> Vec<(&'static str, u32)> {
+    pub(super) fn step_plan(&self) -> Vec<(&'static str, u32)> {
         let (n, s) = (self.particles, self.spring_slots);
         // Invocations of the kernels that gather from neighbours.
         let gather = if self.features.grid {
@@ -510,7 +510,7 @@ impl GpuSolver {
     /// The step plan grouped by kernel, in order of first appearance:
     /// `(kernel, dispatches per step, invocations per dispatch)` — what
     /// `wgcloth run --verbose` prints.
-    pub fn describe_step(&self) -> Vec<(&'static str, u32, u32)> {
+    pub(super) fn describe_step(&self) -> Vec<(&'static str, u32, u32)> {
         let mut out: Vec<(&'static str, u32, u32)> = Vec::new();
         for (name, items) in self.step_plan() {
             let kernel = name.split('.').next().unwrap_or(name);
@@ -577,7 +577,7 @@ impl GpuSolver {
     /// window in which some step used the whole budget restores the full
     /// maximum and is counted in [`GpuStatus::cg_budget_hits`] (such a step
     /// stopped with its residual above the tolerance). With no check in
-    /// between, or with [`GpuSolver::set_adaptive_cg_budget`]`(false)`, the
+    /// between, or with [`GpuTuningMut::set_adaptive_cg_budget`](super::GpuTuningMut::set_adaptive_cg_budget)`(false)`, the
     /// budget never changes and every step may use the full maximum.
     pub fn check(&mut self) -> Result<GpuStatus> {
         let bytes = readback::read_buffers(
@@ -610,7 +610,7 @@ impl GpuSolver {
     /// Turns the adaptive CG iteration budget on (the default) or off (every
     /// step records the configured maximum: results equal the CPU
     /// reference's exactly, at the cost of empty dispatches).
-    pub fn set_adaptive_cg_budget(&mut self, on: bool) {
+    pub(super) fn set_adaptive_cg_budget(&mut self, on: bool) {
         self.adaptive_budget = on;
         if !on {
             self.cg_budget = self.cg_max_iterations;
@@ -619,7 +619,7 @@ impl GpuSolver {
 
     /// CG iterations recorded per step at present (see
     /// [`GpuSolver::check`]).
-    pub fn cg_budget(&self) -> u32 {
+    pub(super) fn cg_budget(&self) -> u32 {
         self.cg_budget
     }
 
@@ -697,7 +697,7 @@ impl GpuSolver {
 
     /// Compute dispatches per step in the last [`GpuSolver::encode_steps`]
     /// call (all in one compute pass of one encoder, one submit).
-    pub fn dispatches_per_step(&self) -> f64 {
+    pub(super) fn dispatches_per_step(&self) -> f64 {
         let (d, s) = self.recorded.get();
         if s == 0 {
             0.0

@@ -1,0 +1,107 @@
+//! Knobs and inspection of a [`GpuSolver`] for benchmarks and tests:
+//! embedders need none of it.
+
+use super::grid::GridBlock;
+use super::solver::GpuSolver;
+use crate::error::Result;
+
+/// Read-only inspection of a [`GpuSolver`], from [`GpuSolver::tuning`]:
+/// for benchmarks, tests and `wgcloth run --verbose`; embedders need none
+/// of it.
+#[derive(Clone, Copy)]
+pub struct GpuTuning<'a> {
+    solver: &'a GpuSolver,
+}
+
+/// The knobs of a [`GpuSolver`], from [`GpuSolver::tuning_mut`]: for
+/// benchmarks and tests; embedders need none of it. None changes results
+/// except [`GpuTuningMut::set_adaptive_cg_budget`] (a step may then use
+/// more CG iterations).
+pub struct GpuTuningMut<'a> {
+    solver: &'a mut GpuSolver,
+}
+
+impl GpuSolver {
+    /// Inspection for benchmarks and tests (the step plan, the CG budget,
+    /// dispatches per step); embedders need none of it.
+    pub fn tuning(&self) -> GpuTuning<'_> {
+        GpuTuning { solver: self }
+    }
+
+    /// Knobs for benchmarks and tests (kernel specialisation, grid block
+    /// shape, adaptive CG budget); embedders need none of it.
+    pub fn tuning_mut(&mut self) -> GpuTuningMut<'_> {
+        GpuTuningMut { solver: self }
+    }
+}
+
+impl GpuTuning<'_> {
+    /// The dispatches of one step, in order: `(kernel variant, invocations)`.
+    ///
+    /// Only what the scene uses is recorded: no fix-up passes without a
+    /// constrained spring kind or with zero iterations; no torque passes for
+    /// a pinned cloth; no per-spring pass on a grid (the kernels compute
+    /// each spring's force, or its implicit linearisation, where they gather
+    /// it); without fix-up an explicit step on a grid is one pass
+    /// ([`SINGLE_PASS`](super::SINGLE_PASS)); wind, ground, spheres, pins
+    /// and damping are compiled out of the kernels when absent; CG records
+    /// the adaptive budget of iterations (see [`GpuSolver::check`]) and
+    /// stops on the device, after which its per-particle passes are
+    /// dispatched with zero workgroups. The fix-up, too, stops on the device
+    /// once a pass moves nothing.
+    pub fn step_plan(&self) -> Vec<(&'static str, u32)> {
+        self.solver.step_plan()
+    }
+
+    /// The step plan grouped by kernel, in order of first appearance:
+    /// `(kernel, dispatches per step, invocations per dispatch)` — what
+    /// `wgcloth run --verbose` prints.
+    pub fn describe_step(&self) -> Vec<(&'static str, u32, u32)> {
+        self.solver.describe_step()
+    }
+
+    /// CG iterations recorded per step at present (see
+    /// [`GpuSolver::check`]).
+    pub fn cg_budget(&self) -> u32 {
+        self.solver.cg_budget()
+    }
+
+    /// Compute dispatches per step in the last
+    /// [`GpuSolver::encode_steps`] call (all in one compute pass of one
+    /// encoder, one submit).
+    pub fn dispatches_per_step(&self) -> f64 {
+        self.solver.dispatches_per_step()
+    }
+
+    /// The grid gather's block shape (see
+    /// [`GpuTuningMut::set_grid_block`]).
+    pub fn grid_block(&self) -> GridBlock {
+        self.solver.grid_block()
+    }
+}
+
+impl GpuTuningMut<'_> {
+    /// With `false`, records the general kernels — every feature compiled
+    /// in, absent ones made inert by their parameters (zero wind, no
+    /// spheres, a ground out of reach, free filters, zero damping) — and no
+    /// fused passes: for tests and benchmarks of what specialisation saves.
+    /// With `true` (the default), the scene's own variants.
+    pub fn set_specialised(&mut self, on: bool) -> Result<()> {
+        self.solver.set_specialised(on)
+    }
+
+    /// Sets how many particles (columns × rows) each invocation of the grid
+    /// gather kernels handles (see [`GridBlock`]; the default suits the
+    /// adapter: [`GridBlock::for_adapter`]). Results are the same for every
+    /// shape; speed is not. No effect on a cloth without grid layout.
+    pub fn set_grid_block(&mut self, block: GridBlock) -> Result<()> {
+        self.solver.set_grid_block(block)
+    }
+
+    /// Turns the adaptive CG iteration budget on (the default) or off (every
+    /// step records the configured maximum: results equal the CPU
+    /// reference's exactly, at the cost of empty dispatches).
+    pub fn set_adaptive_cg_budget(&mut self, on: bool) {
+        self.solver.set_adaptive_cg_budget(on)
+    }
+}
