@@ -10,7 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
-use wgcloth::render::{self, png_writer, Camera, FrameTarget, Renderer, RendererFormats};
+use wgcloth::render::{self, Camera, FrameTarget, Renderer, RendererFormats};
 use wgcloth::{GpuContext, GpuSolver, Scene};
 
 /// Frames the host renders.
@@ -90,7 +90,7 @@ pub fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Re
     solver.check()?;
     // Read the last frame back and write it as a PNG.
     let rgba = render::read_rgba(device, queue, &target.color)?;
-    png_writer::write_png(&png_writer::Frame {
+    render::write_png(&render::Frame {
         path: out.to_path_buf(),
         width,
         height,

@@ -27,13 +27,16 @@ pub mod atomic_file;
 pub mod budget;
 pub mod cpu;
 pub mod diagnostics;
-pub mod error;
+mod error;
+// The `wgcloth bench` harness: used by the binary (`src/cli`) and
+// `tests/evidence.rs`; not part of the embedding API.
 #[cfg(feature = "cli")]
+#[doc(hidden)]
 pub mod evidence;
 pub mod gpu;
 pub mod model;
 pub mod params;
-pub mod real;
+mod real;
 pub mod render;
 pub mod scene;
 

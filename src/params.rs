@@ -145,7 +145,7 @@ pub struct ImplicitParams {
     pub tolerance: f64,
     /// Hard cap on CG iterations per step.
     pub max_iterations: u32,
-    /// Add the coarse levels ([`crate::cpu::coarse`]) to the block-Jacobi
+    /// Add the coarse levels (`cpu/coarse.rs`) to the block-Jacobi
     /// preconditioner on a grid cloth: fewer CG iterations to the same
     /// tolerance (the stopping test stays the block-Jacobi residual norm
     /// above). No effect on a cloth that is not a grid.

@@ -5,8 +5,8 @@ mod gpu_common;
 
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
-use wgcloth::gpu::grid::GridBlock;
 use wgcloth::gpu::pipelines::SUM_GROUP;
+use wgcloth::gpu::GridBlock;
 use wgcloth::gpu::{GpuSolver, GpuState, WORKGROUP};
 use wgcloth::model::{ClothSpec, Pin};
 use wgcloth::params::Integrator;

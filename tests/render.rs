@@ -10,9 +10,7 @@ use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
 use wgcloth::gpu::GpuSolver;
-use wgcloth::render::{
-    self, png_writer, Camera, FrameOptions, FrameTarget, Renderer, RendererFormats,
-};
+use wgcloth::render::{self, Camera, FrameOptions, FrameTarget, Renderer, RendererFormats};
 use wgcloth::Scene;
 
 /// A 9 × 9 cloth held by two corners above the ground, beside a ball:
@@ -138,7 +136,7 @@ fn frames_show_the_cloth_where_its_particles_project() {
     .unwrap_or_else(|e| panic!("rendering: {e}"));
     assert_eq!(written, FRAMES);
     assert_eq!(seen, (1..=FRAMES).collect::<Vec<_>>(), "progress reports");
-    let names: Vec<String> = png_writer::existing_frames(&dir)
+    let names: Vec<String> = render::existing_frames(&dir)
         .expect("list the frames")
         .iter()
         .map(|p| {
@@ -148,7 +146,7 @@ fn frames_show_the_cloth_where_its_particles_project() {
                 .into_owned()
         })
         .collect();
-    let expected: Vec<String> = (0..FRAMES).map(png_writer::frame_name).collect();
+    let expected: Vec<String> = (0..FRAMES).map(render::frame_name).collect();
     assert_eq!(names, expected);
 
     // Frame 0 is the rest state; the last frame the solver's state now.
@@ -157,11 +155,7 @@ fn frames_show_the_cloth_where_its_particles_project() {
         .iter()
         .map(|p| p.map(|v| v as f32))
         .collect();
-    assert_cloth_at(
-        &dir.join(png_writer::frame_name(0)),
-        &camera,
-        &interior(&rest),
-    );
+    assert_cloth_at(&dir.join(render::frame_name(0)), &camera, &interior(&rest));
     let now: Vec<[f32; 3]> = solver
         .read_state()
         .expect("read back")
@@ -169,7 +163,7 @@ fn frames_show_the_cloth_where_its_particles_project() {
         .iter()
         .map(|v| [v.x, v.y, v.z])
         .collect();
-    let last = dir.join(png_writer::frame_name(FRAMES - 1));
+    let last = dir.join(render::frame_name(FRAMES - 1));
     assert_cloth_at(&last, &camera, &interior(&now));
     std::fs::remove_dir_all(&dir).expect("remove the test directory");
 }
@@ -214,7 +208,7 @@ fn strain_view_at_rest_is_blue() {
     })
     .unwrap_or_else(|e| panic!("rendering: {e}"));
     let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
-    let frame = dir.join(png_writer::frame_name(0));
+    let frame = dir.join(render::frame_name(0));
     let (_, _, rgba) = decode(&frame);
     let rest: Vec<[f32; 3]> = model
         .rest_positions

@@ -2,9 +2,9 @@
 //! every Pod twin matches its WGSL struct field by field.
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
-use wgcloth::gpu::grid::GridBlock;
 use wgcloth::gpu::layout::{GpuParams, GpuSphere, GpuSpring};
 use wgcloth::gpu::shaders;
+use wgcloth::gpu::GridBlock;
 
 fn parse(name: &str) -> naga::Module {
     parse_for(name, GridBlock::ONE)

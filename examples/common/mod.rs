@@ -5,7 +5,7 @@ use std::ops::ControlFlow;
 use std::path::PathBuf;
 
 use wgcloth::gpu::GpuContext;
-use wgcloth::render::{self, png_writer, FrameOptions};
+use wgcloth::render::{self, FrameOptions};
 use wgcloth::Scene;
 
 /// Renders the built-in scene `name` for `seconds` of simulated time at 30
@@ -15,7 +15,7 @@ pub fn render_builtin(name: &str, seconds: f64) -> anyhow::Result<()> {
     let scene = Scene::builtin(name)?;
     let dir = PathBuf::from("out").join(name);
     std::fs::create_dir_all(&dir)?;
-    png_writer::remove_frames(&dir)?;
+    render::remove_frames(&dir)?;
     let options = FrameOptions {
         width: 640,
         height: 480,

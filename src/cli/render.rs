@@ -10,7 +10,7 @@ use std::time::Instant;
 use anyhow::Context as _;
 use wgcloth::atomic_file;
 use wgcloth::gpu::GpuContext;
-use wgcloth::render::{self, png_writer, FrameOptions};
+use wgcloth::render::{self, FrameOptions};
 use wgcloth::Scene;
 
 use super::{interrupt, RenderArgs, UsageError};
@@ -75,8 +75,8 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
     println!(
         "wrote {written} frames to {} ({}…{}), {:.1} s simulated in {:.2} s",
         args.out.display(),
-        png_writer::frame_name(0),
-        png_writer::frame_name(written.saturating_sub(1)),
+        render::frame_name(0),
+        render::frame_name(written.saturating_sub(1)),
         f64::from(written.saturating_sub(1)) * f64::from(steps_per_frame) * scene.params.dt,
         started.elapsed().as_secs_f64(),
     );
@@ -88,7 +88,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
 /// [`atomic_file::probe_dir`] has written in `dir` (so that a folder where
 /// no frame can be written keeps its old ones).
 fn prepare_dir(dir: &Path, overwrite: bool) -> anyhow::Result<()> {
-    let old = png_writer::existing_frames(dir)?;
+    let old = render::existing_frames(dir)?;
     if !old.is_empty() {
         if !overwrite {
             return Err(UsageError(format!(
@@ -100,7 +100,7 @@ fn prepare_dir(dir: &Path, overwrite: bool) -> anyhow::Result<()> {
             .into());
         }
         atomic_file::probe_dir(dir)?;
-        let removed = png_writer::remove_frames(dir)?;
+        let removed = render::remove_frames(dir)?;
         eprintln!(
             "--overwrite: removed {removed} old frame file(s) from {}",
             dir.display()

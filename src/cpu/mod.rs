@@ -16,15 +16,19 @@
 //! # Ok(()) }
 //! ```
 
-pub mod coarse;
-pub mod collide;
-pub mod explicit;
+pub(crate) mod coarse;
+pub(crate) mod collide;
+pub(crate) mod explicit;
+// Reached by `tests/cpu_agreement.rs` (filter and fix-up against their
+// dense references); not part of the embedding API.
+#[doc(hidden)]
 pub mod filter;
+#[doc(hidden)]
 pub mod fixup;
-pub mod forces;
-pub mod implicit;
-pub mod mat3;
-pub mod semi_implicit;
+pub(crate) mod forces;
+pub(crate) mod implicit;
+pub(crate) mod mat3;
+pub(crate) mod semi_implicit;
 
 use std::ops::Range;
 
@@ -310,7 +314,7 @@ pub struct Workspace<R> {
 
 impl<R: Real> Workspace<R> {
     /// Every particle's total force at the state `st` into `self.force`
-    /// (see [`forces::total_forces`]).
+    /// (see `forces::total_forces`).
     pub fn compute_forces(&mut self, sys: &System<R>, st: &State<R>) {
         forces::total_forces(
             sys,

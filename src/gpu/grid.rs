@@ -12,12 +12,12 @@
 //! every step or CG iteration take a [`GridBlock`] of particles per
 //! invocation.
 //!
-//! The grid kernels visit a particle's springs in [`INCIDENT`] order, which
+//! The grid kernels visit a particle's springs in `INCIDENT` order, which
 //! is the order of the model's adjacency (ascending spring index), so they
 //! sum in the CPU reference's order and stay bit-identical to it. Slots of
 //! springs that do not exist (at the border, or of a kind with zero
 //! stiffness) hold a spring of zero stiffness from the owner to itself; no
-//! kernel reaches them through the adjacency or [`INCIDENT`].
+//! kernel reaches them through the adjacency or `INCIDENT`.
 
 use crate::model::{Model, Spring};
 use crate::params::{Params, SpringKind};
@@ -151,9 +151,10 @@ impl GridLayout {
         6 * (self.nx as usize) * (self.ny as usize)
     }
 
-    /// The spring slots incident to particle `p`, in [`INCIDENT`] order,
+    /// The spring slots incident to particle `p`, in `INCIDENT` order,
     /// with the other particle and whether `p` is the second end — what the
-    /// grid kernels visit.
+    /// grid kernels visit. The unit tests check the kernels' order against it.
+    #[cfg(test)]
     pub fn incident(&self, p: usize) -> Vec<(u32, usize, bool)> {
         let (nx, ny) = (self.nx as i64, self.ny as i64);
         let n = (nx * ny) as usize;
@@ -187,7 +188,7 @@ impl GridLayout {
 /// GPU, neighbours come from cache and one particle per invocation keeps
 /// every lane busy, so [`GridBlock::for_adapter`] picks blocks for CPU
 /// adapters only. Results do not depend on the shape: every member sums
-/// its springs in [`INCIDENT`] order from the same values.
+/// its springs in `INCIDENT` order from the same values.
 ///
 /// The kernels' gather is generated for the shape ([`GridBlock::wgsl`]):
 /// WGSL has no loops the compilers keep in registers across a stencil, and
@@ -243,7 +244,7 @@ impl GridBlock {
 
     /// The stencil of a block: every particle its members read, as (row,
     /// column) offsets from the block's first particle, in order of first
-    /// use (member by member, itself first, then its [`INCIDENT`] row).
+    /// use (member by member, itself first, then its `INCIDENT` row).
     pub fn stencil(&self) -> Vec<(i32, i32)> {
         let mut points: Vec<(i32, i32)> = Vec::new();
         for (r, c) in self.members() {
@@ -276,7 +277,7 @@ impl GridBlock {
     /// say whether the first end exists; `first`, `second`: the ends'
     /// values); the accumulator type `BlockAcc`, `block_start(p, own)` and
     /// `block_term(acc, own, other, spring, data)` (`spring` seen from the
-    /// member), member by member in [`INCIDENT`] order; and `block_end(p,
+    /// member), member by member in `INCIDENT` order; and `block_end(p,
     /// own, acc)`, which uses the sum. Hooks whose result is unused cost
     /// nothing: the compilers drop dead loads.
     pub fn wgsl(&self) -> String {

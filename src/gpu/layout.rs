@@ -67,7 +67,7 @@ pub struct GpuParams {
     pub filter_count: u32,
     /// 1 when the semi-implicit torque compensation applies.
     pub torque_compensation: u32,
-    /// Grid layout (see [`super::grid`]): columns, rows, a bit per spring
+    /// Grid layout (see `gpu/grid.rs`): columns, rows, a bit per spring
     /// kind present, unused; zero for the general kernels.
     pub grid: [u32; 4],
     /// Rest length of grid directions 0–3 \[m\].
@@ -86,7 +86,7 @@ pub struct GpuParams {
     /// Semi-implicit CG: the constant block `a = dt² k` of each spring
     /// kind \[kg\] (zero otherwise; one unused).
     pub kind_a: [f32; 4],
-    /// The implicit CG's coarse levels ([`crate::cpu::coarse`]): columns,
+    /// The implicit CG's coarse levels (`cpu/coarse.rs`): columns,
     /// rows, level-1 and level-2 aggregates; zero without them.
     pub coarse: [u32; 4],
     /// Sphere colliders; the first `sphere_count` are used.

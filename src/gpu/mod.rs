@@ -4,26 +4,33 @@
 //! - [`GpuSolver`] borrows the host's device and queue, records steps into
 //!   the host's encoder and exposes its position, normal and index buffers
 //!   for drawing;
-//! - [`layout`] holds the Pod twins of the WGSL structs;
-//! - [`shaders`] composes the kernels (one per file in `shaders/`);
-//! - [`context`] opens an adapter and device for tools and tests (the solver
-//!   itself never does).
+//! - [`GpuContext`] opens an adapter and device for tools and tests (the
+//!   solver itself never does);
+//! - [`GpuSolver::tuning`] and [`GpuSolver::tuning_mut`] inspect and set
+//!   the knobs benchmarks and tests use ([`GpuTuning`], [`GpuTuningMut`]).
 
 mod build;
-pub mod context;
+mod context;
 mod control;
 mod divergence;
 mod errors;
-pub mod grid;
+mod grid;
+// The kernels' buffer layouts, pipelines, read-back and WGSL sources:
+// reached by `tests/shaders.rs` and `tests/gpu_behaviour.rs`; not part of
+// the embedding API.
+#[doc(hidden)]
 pub mod layout;
+#[doc(hidden)]
 pub mod pipelines;
+#[doc(hidden)]
 pub mod readback;
 mod semi_filter;
+#[doc(hidden)]
 pub mod shaders;
 mod solver;
 mod tuning;
 
-pub use context::GpuContext;
+pub use context::{GpuContext, BACKEND_NAMES};
 pub(crate) use errors::guarded;
 pub use grid::GridBlock;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};

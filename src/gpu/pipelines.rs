@@ -31,13 +31,13 @@ pub struct Features {
     pub filter: bool,
     /// Some spring is damped.
     pub damping: bool,
-    /// The springs are in grid layout (see [`super::grid`]): gather by row
+    /// The springs are in grid layout (see `gpu/grid.rs`): gather by row
     /// and column.
     pub grid: bool,
     /// Particles per invocation of the grid gather kernels
     /// ([`GridBlock::ONE`] without grid layout).
     pub block: GridBlock,
-    /// The implicit CG's coarse levels ([`crate::cpu::coarse`]).
+    /// The implicit CG's coarse levels (`cpu/coarse.rs`).
     pub coarse: bool,
 }
 

@@ -11,21 +11,23 @@
 //!   host's formats ([`RendererFormats`], given to
 //!   [`Renderer::with_formats`]);
 //! - [`Renderer::encode_frame`] begins that pass on a [`FrameTarget`];
-//! - [`frames::render_frames`] runs a scene to numbered PNG files, reading
+//! - [`render_frames`] runs a scene to numbered PNG files, reading
 //!   frames back while the device computes the next ones.
 
-pub mod camera;
-pub mod frames;
+mod camera;
+mod frames;
 mod mesh;
-pub mod png_writer;
-pub mod strain;
+mod png_writer;
+mod strain;
 
 use wgpu::util::DeviceExt;
 
 pub use camera::Camera;
 pub use frames::{
     check_image, read_rgba, render_frames, render_scene, steps_per_frame, FrameOptions,
+    MAX_STEPS_PER_FRAME, STAGING_BUFFERS,
 };
+pub use png_writer::{existing_frames, frame_name, is_frame_name, remove_frames, write_png, Frame};
 
 use crate::error::{Error, Result};
 use crate::gpu::{guarded, GpuSolver};
@@ -444,7 +446,7 @@ impl Renderer {
 
     /// From now on, draws `solver`'s cloth (made from `model`) coloured per
     /// triangle by its largest edge strain (l − L) / L: blue at ≤ 0, green
-    /// at half of [`strain::full_scale`], red at and above it. Needs
+    /// at half of `strain::full_scale`, red at and above it. Needs
     /// storage buffers in the vertex stage (every Vulkan, Metal and DX12
     /// device has them). [`Renderer::draw`] must then be given this
     /// `solver`.

@@ -343,7 +343,7 @@ fn render_stops_at_a_finite_blow_up_before_writing_its_frames() {
     let written = names_in(&out);
     assert!(written.len() < frames, "{written:?}");
     let expected: Vec<String> = (0..written.len() as u32)
-        .map(wgcloth::render::png_writer::frame_name)
+        .map(wgcloth::render::frame_name)
         .collect();
     assert_eq!(written, expected);
 }
