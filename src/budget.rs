@@ -1,6 +1,7 @@
 //! What a scene needs in memory, on the host and on the GPU device,
 //! computed from its sizes alone before anything is allocated; what the
-//! host can give; and fallible allocation for what a scene's size decides.
+//! host can give. (The crate's own fallible allocation for what a scene's
+//! size decides lives here too, crate-private.)
 //!
 //! Every constructor whose allocations grow with the input —
 //! [`Model::new`](crate::model::Model::new),
@@ -174,7 +175,7 @@ fn refused<T>(len: usize, what: &str) -> Error {
 
 /// `Vec::with_capacity(len)`, failing with [`Error::OutOfMemory`] naming
 /// `what` instead of aborting when the memory is not there.
-pub fn try_with_capacity<T>(len: usize, what: &str) -> Result<Vec<T>> {
+pub(crate) fn try_with_capacity<T>(len: usize, what: &str) -> Result<Vec<T>> {
     let mut v = Vec::new();
     v.try_reserve_exact(len)
         .map_err(|_| refused::<T>(len, what))?;
@@ -182,7 +183,7 @@ pub fn try_with_capacity<T>(len: usize, what: &str) -> Result<Vec<T>> {
 }
 
 /// `vec![value; len]`, failing like [`try_with_capacity`].
-pub fn try_vec<T: Clone>(len: usize, value: T, what: &str) -> Result<Vec<T>> {
+pub(crate) fn try_vec<T: Clone>(len: usize, value: T, what: &str) -> Result<Vec<T>> {
     let mut v = try_with_capacity(len, what)?;
     v.resize(len, value);
     Ok(v)
@@ -190,7 +191,10 @@ pub fn try_vec<T: Clone>(len: usize, value: T, what: &str) -> Result<Vec<T>> {
 
 /// `items.collect()`, reserving first and failing like
 /// [`try_with_capacity`].
-pub fn try_collect<T>(items: impl ExactSizeIterator<Item = T>, what: &str) -> Result<Vec<T>> {
+pub(crate) fn try_collect<T>(
+    items: impl ExactSizeIterator<Item = T>,
+    what: &str,
+) -> Result<Vec<T>> {
     let mut v = try_with_capacity(items.len(), what)?;
     v.extend(items);
     Ok(v)

@@ -76,8 +76,11 @@ pub struct StepStats {
     pub fixup_passes: u32,
 }
 
+// Internals of the CPU solver, public only for the hidden `filter` and
+// `fixup` modules and `tests/cpu_agreement.rs`; not part of the embedding API.
 /// One spring in the solver's precision.
 #[derive(Clone, Copy, Debug)]
+#[doc(hidden)]
 pub struct SpringR<R> {
     /// First particle.
     pub i: u32,
@@ -93,6 +96,7 @@ pub struct SpringR<R> {
 
 /// The ground plane in the solver's precision.
 #[derive(Clone, Copy, Debug)]
+#[doc(hidden)]
 pub struct GroundR<R> {
     /// Height \[m\].
     pub height: R,
@@ -102,6 +106,7 @@ pub struct GroundR<R> {
 
 /// A sphere in the solver's precision.
 #[derive(Clone, Copy, Debug)]
+#[doc(hidden)]
 pub struct SphereR<R> {
     /// Centre \[m\].
     pub center: Vec3<R>,
@@ -113,6 +118,7 @@ pub struct SphereR<R> {
 
 /// Wind in the solver's precision.
 #[derive(Clone, Copy, Debug)]
+#[doc(hidden)]
 pub struct WindR<R> {
     /// Air velocity [m/s].
     pub velocity: Vec3<R>,
@@ -125,6 +131,7 @@ pub struct WindR<R> {
 /// Everything a step reads but does not change: the model and parameters,
 /// converted once to the solver's precision.
 #[derive(Clone, Debug)]
+#[doc(hidden)]
 pub struct System<R> {
     /// Springs.
     pub springs: Vec<SpringR<R>>,
@@ -267,6 +274,7 @@ impl<R: Real> System<R> {
 
 /// Scratch buffers, allocated once per solver.
 #[derive(Clone, Debug)]
+#[doc(hidden)]
 pub struct Workspace<R> {
     /// Per-spring vectors.
     pub per_spring: Vec<Vec3<R>>,
@@ -601,6 +609,7 @@ impl<R: Real> CpuSolver<R> {
     }
 
     /// The system the solver steps (read-only; for diagnostics and tests).
+    #[doc(hidden)]
     pub fn system(&self) -> &System<R> {
         &self.sys
     }
