@@ -322,6 +322,17 @@ pub(crate) fn check(key: &str, value: f64, ok: bool, allowed: &str) -> Result<()
     }
 }
 
+/// Checks a time step \[s\]: `simulation.dt`'s rule, for the scene and for
+/// a solver whose step changes later.
+pub(crate) fn check_dt(dt: f64) -> Result<()> {
+    check(
+        "simulation.dt",
+        dt,
+        dt > 0.0 && dt <= 1.0,
+        "0 < dt ≤ 1 (seconds)",
+    )
+}
+
 /// Checks that `value` is finite (any finite value is allowed); `unit` is
 /// the unit the message names.
 pub(crate) fn check_finite(key: &str, value: f64, unit: &str) -> Result<()> {
@@ -355,12 +366,7 @@ impl Params {
     /// a zero CG tolerance, and so on. The error names the key (scene-file
     /// spelling), what is allowed and what was given.
     pub fn validate(&self) -> Result<()> {
-        check(
-            "simulation.dt",
-            self.dt,
-            self.dt > 0.0 && self.dt <= 1.0,
-            "0 < dt ≤ 1 (seconds)",
-        )?;
+        check_dt(self.dt)?;
         check_vec("simulation.gravity", self.gravity, "m/s²")?;
         for kind in SpringKind::ALL {
             let s = &self.springs[kind.index()];

@@ -40,6 +40,40 @@ fn free_fall_matches_the_exact_discrete_solution() {
     }
 }
 
+/// One free-fall step's velocity, g·dt ≈ 0.02 m/s: rounding is ~1e-18 m/s
+/// and the implicit CG (to 1e-12 relative) ~1e-14 m/s, while a step that
+/// kept the old dt would be 1e-2 m/s off.
+const ONE_STEP_VELOCITY_TOL: f64 = 1e-12;
+
+#[test]
+fn a_changed_step_is_validated_and_then_used() {
+    let spec = cloth(4, 4, vec![]);
+    for integrator in Integrator::ALL {
+        let params = exact_params(integrator, 1e-3);
+        let model = Model::new(&spec, &params.springs).expect("valid");
+        let mut solver = CpuSolver::<f64>::new(&model, &params).expect("valid");
+        for bad in [0.0, -1e-3, 2.0, f64::NAN, f64::INFINITY] {
+            match solver.set_dt(bad) {
+                Err(Error::InvalidParameter { key, .. }) => assert_eq!(key, "simulation.dt"),
+                other => panic!("{integrator}: set_dt({bad}) gave {other:?}"),
+            }
+        }
+        // A refused step leaves the old one; an accepted one is the next
+        // step's: free fall from rest gains exactly g·dt (springs at rest).
+        let dt = 2e-3;
+        solver.set_dt(dt).expect("a valid step");
+        solver.step().expect("a finite step");
+        let expected = params.gravity[1] * dt;
+        for (p, v) in solver.velocities().iter().enumerate() {
+            let err = (v.to_f64()[1] - expected).abs();
+            assert!(
+                err < ONE_STEP_VELOCITY_TOL,
+                "{integrator}: particle {p} falls at {v:?} m/s, expected {expected} m/s"
+            );
+        }
+    }
+}
+
 /// The single-spring oscillator in `f64` against its closed form: rounding
 /// accumulates over 2000 steps to about 1e-13 of the amplitude; 1e-9
 /// relative is far above that and far below any wrong factor in the scheme.

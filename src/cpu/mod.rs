@@ -616,13 +616,7 @@ impl<R: Real> CpuSolver<R> {
 
     /// Changes the time step \[s\]; a semi-implicit solver rebuilds its filter.
     pub fn set_dt(&mut self, dt: f64) -> Result<()> {
-        if !(dt.is_finite() && dt > 0.0 && dt <= 1.0) {
-            return Err(Error::InvalidParameter {
-                key: "simulation.dt".into(),
-                allowed: "0 < dt ≤ 1 (seconds)".into(),
-                got: dt.to_string(),
-            });
-        }
+        crate::params::check_dt(dt)?;
         self.sys.dt = R::from_f64(dt);
         if self.integrator == Integrator::SemiImplicit {
             self.build_filter()?;
