@@ -45,13 +45,6 @@ pub trait Solver {
     fn time(&self) -> f64;
     /// The current state (a read-back on the GPU).
     fn state(&mut self) -> wgcloth::Result<State<'_, Self::Real>>;
-    /// Applies the divergence rule to the current state (a read-back on the
-    /// GPU): an error names the step and the bound crossed.
-    fn check(&mut self, rule: &Divergence) -> wgcloth::Result<()> {
-        let (step, time) = (self.steps(), self.time());
-        let s = self.state()?;
-        rule.check(step, time, &s.x, &s.v)
-    }
     /// The divergence rule for `model` and `params`, starting from the
     /// current state.
     fn divergence_rule(&mut self, model: &Model, params: &Params) -> wgcloth::Result<Divergence> {
@@ -246,10 +239,6 @@ impl Solver for Gpu {
 
     fn time(&self) -> f64 {
         self.solver.time()
-    }
-
-    fn check(&mut self, rule: &Divergence) -> wgcloth::Result<()> {
-        self.solver.check_divergence(rule).map(drop)
     }
 
     fn state(&mut self) -> wgcloth::Result<State<'_, f32>> {

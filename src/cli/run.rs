@@ -163,13 +163,19 @@ impl Run<'_> {
         let mut stepping = Duration::ZERO;
         loop {
             let done = solver.steps();
-            if done.is_multiple_of(CHECK_EVERY) || done == self.steps {
-                solver.check(&rule)?;
-            }
-            if let Some(trace) = trace.as_mut().filter(|t| t.wants(done)) {
+            // One read of the state (a read-back on the GPU) serves both the
+            // divergence check and the trace when they fall on one step.
+            let check = done.is_multiple_of(CHECK_EVERY) || done == self.steps;
+            let traced = trace.as_ref().is_some_and(|t| t.wants(done));
+            if check || traced {
                 let time = solver.time();
                 let s = solver.state()?;
-                trace.step(done, time, &s.x, &s.v)?;
+                if check {
+                    rule.check(done, time, &s.x, &s.v)?;
+                }
+                if let Some(trace) = trace.as_mut().filter(|_| traced) {
+                    trace.step(done, time, &s.x, &s.v)?;
+                }
             }
             if done == self.steps {
                 break;
