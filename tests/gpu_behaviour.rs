@@ -1,11 +1,14 @@
 //! GPU solver behaviour: determinism, pins and contacts, runtime changes,
-//! device limits, blow-ups, normals. On lavapipe in CI.
+//! device limits, blow-ups, normals, shared kernels and the pipeline
+//! cache. On lavapipe in CI.
 
 mod gpu_common;
 
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
-use wgcloth::gpu::{GpuSolver, GpuState, GridBlock, Kernel, Variant};
+use wgcloth::gpu::{
+    pipeline_cache, GpuContext, GpuKernels, GpuSolver, GpuState, GridBlock, Kernel, Variant,
+};
 use wgcloth::kernel_config::{SUM_GROUP, WORKGROUP};
 use wgcloth::model::{ClothSpec, Pin};
 use wgcloth::params::Integrator;
@@ -330,4 +333,79 @@ fn staged_cg_sums_of_more_blocks_than_a_workgroup_match_the_cpu_mirror() {
         d == 0.0,
         "particle {worst}: GPU {g:?} against CPU {c:?}, {d:e} m apart"
     );
+}
+
+/// A fresh device of the test adapter, so that its kernel library starts
+/// empty.
+fn fresh_device() -> (wgpu::Device, wgpu::Queue) {
+    let ctx = gpu();
+    pollster::block_on(ctx.adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("fresh"),
+        required_limits: ctx.adapter.limits(),
+        ..Default::default()
+    }))
+    .expect("a second device")
+}
+
+/// Solvers alive on one device share its kernel library: a second solver
+/// of the same scene compiles nothing, one with wind only the variants
+/// wind changes, and a solver given the library explicitly shares it too.
+#[test]
+fn solvers_on_one_device_compile_each_variant_once() {
+    let (device, queue) = fresh_device();
+    let mut p = busy_params(Integrator::Explicit);
+    p.wind = None;
+    let m = model(corners(), &p);
+    let kernels = GpuKernels::for_device(&device);
+    assert_eq!(kernels.compiled(), 0);
+    let first = GpuSolver::new(&device, &queue, &m, &p).expect("GPU solver");
+    let one = kernels.compiled();
+    // The plan's pipelines and normals, no other variant.
+    let mut distinct: Vec<_> = first.debug_plan().iter().map(|d| d.pipeline()).collect();
+    distinct.sort();
+    distinct.dedup();
+    assert_eq!(one, distinct.len() + 1, "{distinct:?}");
+    let second = GpuSolver::new(&device, &queue, &m, &p).expect("GPU solver");
+    assert_eq!(kernels.compiled(), one, "the second solver compiled again");
+    let third = GpuSolver::with_kernels(&kernels, &queue, &m, &p).expect("GPU solver");
+    assert_eq!(kernels.compiled(), one);
+    let mut windy = p.clone();
+    windy.wind = busy_params(Integrator::Explicit).wind;
+    let fourth = GpuSolver::new(&device, &queue, &m, &windy).expect("GPU solver");
+    let with_wind = kernels.compiled();
+    assert!(
+        with_wind > one && with_wind <= 2 * one,
+        "{one} then {with_wind}"
+    );
+    drop((first, second, third, fourth));
+}
+
+/// A pipeline-cache file that is not one (garbage, or a cache cut short)
+/// is ignored: the solver builds and steps as without it, and saving
+/// writes a cache that the next run reads.
+#[test]
+fn a_corrupt_pipeline_cache_file_does_not_fail_a_run() {
+    let dir = std::env::temp_dir().join(format!("wgcloth-cache-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temporary folder");
+    let mut ctx = GpuContext::new(None).expect("adapter");
+    let info = ctx.adapter.get_info();
+    let Some(file) = pipeline_cache::file(&dir, &info) else {
+        eprintln!("{}: no pipeline cache on this backend", ctx.describe());
+        return;
+    };
+    let p = busy_params(Integrator::Implicit);
+    let m = model(corners(), &p);
+    let reference = run(&m, &p, 10, |_| {});
+    for garbage in [b"not a cache at all".to_vec(), vec![0u8; 4096]] {
+        std::fs::write(&file, &garbage).expect("write the corrupt file");
+        assert!(ctx.keep_pipelines(&dir), "{}", ctx.describe());
+        let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+        g.tuning_mut().set_adaptive_cg_budget(false);
+        g.step(10).expect("steps");
+        assert_identical(&reference, &g.read_state().expect("read-back"), "cached");
+        ctx.save_pipelines().expect("save");
+        let saved = std::fs::read(&file).expect("the cache file");
+        assert_ne!(saved, garbage, "the corrupt file was not replaced");
+    }
+    std::fs::remove_dir_all(&dir).expect("clean up");
 }

@@ -197,8 +197,14 @@ impl Gpu {
     /// builds the solver on it; refuses invalid parameters, what the GPU
     /// solver does not support, and a cloth beyond the device's limits.
     pub fn new(adapter: Option<&str>, model: &Model, params: &Params) -> wgcloth::Result<Self> {
-        let context = GpuContext::new(adapter)?;
+        let mut context = GpuContext::new(adapter)?;
+        if let Some(dir) = wgcloth::gpu::pipeline_cache::default_dir() {
+            context.keep_pipelines(&dir);
+        }
         let solver = GpuSolver::new(&context.device, &context.queue, model, params)?;
+        if let Err(e) = context.save_pipelines() {
+            eprintln!("note: compiled pipelines not kept for the next run: {e}");
+        }
         Ok(Gpu {
             context,
             solver,

@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use anyhow::Context as _;
 use wgcloth::atomic_file;
-use wgcloth::gpu::GpuContext;
+use wgcloth::gpu::{pipeline_cache, GpuContext};
 use wgcloth::render::{self, FrameOptions};
 use wgcloth::Scene;
 
@@ -29,7 +29,10 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         .context("the command-line options make the scene invalid")?;
     let steps_per_frame = render::steps_per_frame(args.fps, scene.params.dt)
         .map_err(|e| UsageError(format!("--fps: {e}")))?;
-    let context = GpuContext::new(args.adapter.as_deref())?;
+    let mut context = GpuContext::new(args.adapter.as_deref())?;
+    if let Some(dir) = pipeline_cache::default_dir() {
+        context.keep_pipelines(&dir);
+    }
     let (width, height) = args.size;
     // Before the output folder is touched.
     render::check_image(&context.device, width, height)
@@ -60,6 +63,9 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         }
     });
     eprintln!();
+    if let Err(e) = context.save_pipelines() {
+        eprintln!("note: compiled pipelines not kept for the next run: {e}");
+    }
     let written = match written.and_then(|n| context.check().map(|()| n)) {
         Err(wgcloth::Error::Interrupted) => {
             return Err(

@@ -1,9 +1,12 @@
 //! Opening a device: a convenience for the CLI, examples and tests. The
 //! solver never calls this; it borrows whatever device its host made.
 
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex, PoisonError};
 
 use super::errors::one_line;
+use super::kernels::GpuKernels;
+use super::pipeline_cache;
 use crate::error::{Error, Result};
 
 /// The backend names `WGPU_BACKEND` may list (comma-separated), as wgpu
@@ -23,6 +26,9 @@ pub struct GpuContext {
     /// The first device error no error scope captured, or the device's
     /// loss (see [`GpuContext::check`]).
     fault: Arc<Mutex<Option<String>>>,
+    /// The kernel library with a pipeline cache kept between runs, and
+    /// its file (see [`GpuContext::keep_pipelines`]).
+    kept: Option<(GpuKernels, PathBuf)>,
 }
 
 /// The backends `WGPU_BACKEND` names, or `None` when it is not set. Unlike
@@ -121,7 +127,8 @@ impl GpuContext {
         };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("wgcloth.device"),
-            required_features: wgpu::Features::empty(),
+            // Compiled pipelines can then be kept between runs (Vulkan).
+            required_features: adapter.features() & wgpu::Features::PIPELINE_CACHE,
             required_limits: adapter.limits(),
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,
@@ -151,7 +158,44 @@ impl GpuContext {
             device,
             queue,
             fault,
+            kept: None,
         })
+    }
+
+    /// Keeps the compiled pipelines between runs in `dir` (see
+    /// [`pipeline_cache::default_dir`] for the CLI's): seeds this device's
+    /// kernel library, which every solver built on the device afterwards
+    /// shares, with the adapter's cache file there if it holds an intact
+    /// cache (anything else is ignored); [`GpuContext::save_pipelines`]
+    /// writes it back. Returns `false`, doing nothing, where the backend
+    /// keeps no pipeline cache (all but Vulkan).
+    pub fn keep_pipelines(&mut self, dir: &Path) -> bool {
+        let Some(path) = pipeline_cache::file(dir, &self.adapter.get_info()) else {
+            return false;
+        };
+        if !self
+            .device
+            .features()
+            .contains(wgpu::Features::PIPELINE_CACHE)
+        {
+            return false;
+        }
+        let data = pipeline_cache::load(&path);
+        let kernels = GpuKernels::with_cache(&self.device, data.as_deref());
+        self.kept = Some((kernels, path));
+        true
+    }
+
+    /// Writes the pipeline cache [`GpuContext::keep_pipelines`] seeded
+    /// back to its file, atomically (nothing without one).
+    pub fn save_pipelines(&self) -> Result<()> {
+        let Some((kernels, path)) = &self.kept else {
+            return Ok(());
+        };
+        match kernels.cache_data() {
+            Some(data) => pipeline_cache::save(path, &data),
+            None => Ok(()),
+        }
     }
 
     /// The first device error that no error scope captured (the library

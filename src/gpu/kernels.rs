@@ -11,9 +11,12 @@
 //! features back and forth costs one compile per new variant, then
 //! nothing.
 
+use std::collections::hash_map::Entry;
 use std::collections::HashMap;
-use std::sync::{Arc, Mutex, PoisonError};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex, PoisonError, Weak};
 
+use super::errors::guarded;
 use super::grid::GridBlock;
 use super::kernel::{ArgsGroup, Kernel, Variant};
 use super::shaders;
@@ -69,13 +72,21 @@ pub fn sum_group(limits: &wgpu::Limits) -> u32 {
 type Key = (Kernel, Variant, Features);
 
 /// The kernel library of one device: cheap to clone (the clones share
-/// everything), safe to share between threads. Build solvers with
-/// [`GpuSolver::with_kernels`](super::GpuSolver::with_kernels) to share it;
-/// [`GpuSolver::new`](super::GpuSolver::new) makes one of its own.
+/// everything), safe to share between threads.
+///
+/// [`GpuSolver::new`](super::GpuSolver::new) takes the library of its
+/// device from [`GpuKernels::for_device`], so solvers alive at the same
+/// time on one device share their pipelines without the host doing
+/// anything; [`GpuSolver::with_kernels`](super::GpuSolver::with_kernels)
+/// takes one explicitly. A library lives as long as a clone of it does.
 #[derive(Clone, Debug)]
 pub struct GpuKernels {
     inner: Arc<Inner>,
 }
+
+/// The libraries alive, one per device at most (a device's is found by
+/// comparing handles; dead entries are dropped as the list is searched).
+static LIBRARIES: Mutex<Vec<Weak<Inner>>> = Mutex::new(Vec::new());
 
 #[derive(Debug)]
 struct Inner {
@@ -86,6 +97,8 @@ struct Inner {
     args: [wgpu::BindGroupLayout; 3],
     layout: wgpu::PipelineLayout,
     args_layouts: [wgpu::PipelineLayout; 3],
+    /// wgpu's pipeline cache, on devices with the feature.
+    cache: Option<wgpu::PipelineCache>,
     built: Mutex<Built>,
 }
 
@@ -93,8 +106,6 @@ struct Inner {
 struct Built {
     modules: HashMap<(Kernel, GridBlock), wgpu::ShaderModule>,
     pipelines: HashMap<Key, wgpu::ComputePipeline>,
-    /// Pipelines compiled so far.
-    compiled: usize,
 }
 
 /// A storage-buffer entry of a bind-group layout.
@@ -127,9 +138,44 @@ const GROUP0_STORAGE: [(u32, bool); 10] = [
 ];
 
 impl GpuKernels {
+    /// The library of `device`: the one alive, else a new one (with an
+    /// empty pipeline cache where the device has the feature).
+    pub fn for_device(device: &wgpu::Device) -> GpuKernels {
+        let mut libraries = LIBRARIES.lock().unwrap_or_else(PoisonError::into_inner);
+        libraries.retain(|w| w.strong_count() > 0);
+        let alive = libraries.iter().filter_map(Weak::upgrade);
+        if let Some(inner) = alive.into_iter().find(|i| i.device == *device) {
+            return GpuKernels { inner };
+        }
+        let kernels = GpuKernels::new(device, None);
+        libraries.push(Arc::downgrade(&kernels.inner));
+        kernels
+    }
+
+    /// A new library for `device`, which [`GpuKernels::for_device`] finds
+    /// from now on, with its pipeline cache seeded by `cache_data` (what
+    /// [`GpuKernels::cache_data`] returned on an earlier run; see
+    /// `src/gpu/pipeline_cache.rs` for how the CLI keeps it).
+    pub(crate) fn with_cache(device: &wgpu::Device, cache_data: Option<&[u8]>) -> GpuKernels {
+        let mut libraries = LIBRARIES.lock().unwrap_or_else(PoisonError::into_inner);
+        libraries.retain(|w| w.upgrade().is_some_and(|i| i.device != *device));
+        let kernels = GpuKernels::new(device, cache_data);
+        libraries.push(Arc::downgrade(&kernels.inner));
+        kernels
+    }
+
+    /// What the pipeline cache holds, to seed a later run's; `None` on a
+    /// device without the feature.
+    pub(crate) fn cache_data(&self) -> Option<Vec<u8>> {
+        self.inner
+            .cache
+            .as_ref()
+            .and_then(wgpu::PipelineCache::get_data)
+    }
+
     /// An empty library for `device`: the layouts now, the pipelines as
     /// solvers ask for them.
-    pub fn new(device: &wgpu::Device) -> GpuKernels {
+    fn new(device: &wgpu::Device, cache_data: Option<&[u8]>) -> GpuKernels {
         let mut entries = vec![wgpu::BindGroupLayoutEntry {
             binding: 0,
             visibility: wgpu::ShaderStages::COMPUTE,
@@ -175,6 +221,7 @@ impl GpuKernels {
                 args,
                 layout,
                 args_layouts,
+                cache: super::pipeline_cache::create(device, cache_data),
                 built: Mutex::new(Built::default()),
             }),
         }
@@ -188,7 +235,7 @@ impl GpuKernels {
     /// Pipelines compiled so far (each kernel variant and feature set
     /// once).
     pub fn compiled(&self) -> usize {
-        self.built().compiled
+        self.built().pipelines.len()
     }
 
     /// Group 0's layout (the buffers every kernel binds).
@@ -211,53 +258,118 @@ impl GpuKernels {
     }
 
     /// The pipelines of `wanted` for `features`, compiling those not built
-    /// yet. A variant that does not belong to its kernel is an error.
+    /// yet, in parallel. A variant that does not belong to its kernel is
+    /// an error.
     pub(super) fn pipelines(
         &self,
         wanted: impl IntoIterator<Item = (Kernel, Variant)>,
         features: Features,
     ) -> Result<HashMap<(Kernel, Variant), wgpu::ComputePipeline>> {
-        let mut out = HashMap::new();
+        let mut wanted: Vec<(Kernel, Variant)> = wanted.into_iter().collect();
+        wanted.sort();
+        wanted.dedup();
+        if let Some((kernel, variant)) = wanted.iter().find(|(k, v)| !v.is_of(*k)) {
+            return Err(Error::Gpu(format!(
+                "the kernel {kernel} has no variant {variant:?}"
+            )));
+        }
         let mut built = self.built();
-        for (kernel, variant) in wanted {
-            if out.contains_key(&(kernel, variant)) {
-                continue;
+        let missing: Vec<Key> = wanted
+            .iter()
+            .map(|&(k, v)| (k, v, features))
+            .filter(|key| !built.pipelines.contains_key(key))
+            .collect();
+        for (key, pipeline) in self.compile_all(&mut built, &missing)? {
+            built.pipelines.insert(key, pipeline);
+        }
+        wanted
+            .iter()
+            .map(|&(k, v)| {
+                let pipeline = built.pipelines.get(&(k, v, features)).cloned();
+                pipeline
+                    .map(|p| ((k, v), p))
+                    .ok_or_else(|| Error::Gpu(format!("{k} ({v:?}) was not compiled")))
+            })
+            .collect()
+    }
+
+    /// Compiles `keys`, spread over the host's cores: wgpu's device is
+    /// shared between threads, and a driver compiles pipelines of one
+    /// device concurrently. Each thread captures its own device errors
+    /// (wgpu's error scopes are per thread).
+    fn compile_all(
+        &self,
+        built: &mut Built,
+        keys: &[Key],
+    ) -> Result<Vec<(Key, wgpu::ComputePipeline)>> {
+        // Shader modules first (one per kernel and grid block, parsed by
+        // wgpu on this thread), then the pipelines, which is where the
+        // driver spends its time.
+        for &(kernel, _, features) in keys {
+            if let Entry::Vacant(e) = built.modules.entry((kernel, features.block)) {
+                e.insert(self.module(kernel, features.block)?);
             }
-            if !variant.is_of(kernel) {
-                return Err(Error::Gpu(format!(
-                    "the kernel {kernel} has no variant {variant:?}"
-                )));
-            }
-            let key = (kernel, variant, features);
-            let pipeline = match built.pipelines.get(&key) {
-                Some(p) => p.clone(),
-                None => {
-                    let p = self.compile(&mut built, key)?;
-                    built.pipelines.insert(key, p.clone());
-                    built.compiled += 1;
-                    p
-                }
-            };
-            out.insert((kernel, variant), pipeline);
+        }
+        let modules = &built.modules;
+        let threads = std::thread::available_parallelism()
+            .map_or(1, usize::from)
+            .min(keys.len());
+        let next = AtomicUsize::new(0);
+        let results: Vec<Result<Vec<(Key, wgpu::ComputePipeline)>>> = std::thread::scope(|scope| {
+            let workers: Vec<_> = (0..threads)
+                .map(|_| {
+                    scope.spawn(|| {
+                        let mut out = Vec::new();
+                        loop {
+                            let k = next.fetch_add(1, Ordering::Relaxed);
+                            let Some(&key) = keys.get(k) else {
+                                return Ok(out);
+                            };
+                            let module = modules.get(&(key.0, key.2.block)).ok_or_else(|| {
+                                Error::Gpu(format!("no shader module for {}", key.0))
+                            })?;
+                            out.push((key, self.compile(module, key)?));
+                        }
+                    })
+                })
+                .collect();
+            workers
+                .into_iter()
+                .map(|w| {
+                    w.join().unwrap_or_else(|_| {
+                        Err(Error::Gpu("a thread compiling the kernels panicked".into()))
+                    })
+                })
+                .collect()
+        });
+        let mut out = Vec::with_capacity(keys.len());
+        for r in results {
+            out.extend(r?);
         }
         Ok(out)
     }
 
-    fn compile(&self, built: &mut Built, key: Key) -> Result<wgpu::ComputePipeline> {
-        let (kernel, variant, features) = key;
+    /// The shader module of `kernel` with its grid gather for `block`.
+    fn module(&self, kernel: Kernel, block: GridBlock) -> Result<wgpu::ShaderModule> {
+        let source = shaders::kernel_source(kernel, block).map_err(Error::Gpu)?;
         let device = &self.inner.device;
-        let module = match built.modules.get(&(kernel, features.block)) {
-            Some(m) => m.clone(),
-            None => {
-                let source = shaders::kernel_source(kernel, features.block).map_err(Error::Gpu)?;
-                let m = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        guarded(
+            device,
+            &format!("compiling shaders/{kernel}.wgsl"),
+            None,
+            || {
+                Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
                     label: Some(&format!("wgcloth.{kernel}")),
                     source: wgpu::ShaderSource::Wgsl(source.into()),
-                });
-                built.modules.insert((kernel, features.block), m.clone());
-                m
-            }
-        };
+                }))
+            },
+        )
+    }
+
+    /// The pipeline of `key` from `module`.
+    fn compile(&self, module: &wgpu::ShaderModule, key: Key) -> Result<wgpu::ComputePipeline> {
+        let (kernel, variant, features) = key;
+        let device = &self.inner.device;
         let flag = |on: bool| f64::from(u8::from(on));
         let mut constants: Vec<(&str, f64)> = vec![
             ("WORKGROUP", f64::from(WORKGROUP)),
@@ -276,19 +388,22 @@ impl GpuKernels {
             Some(g) => &self.inner.args_layouts[g.index()],
             None => &self.inner.layout,
         };
-        Ok(
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(&format!("wgcloth.{kernel}.{variant:?}")),
-                layout: Some(layout),
-                module: &module,
-                entry_point: Some(kernel.name()),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    zero_initialize_workgroup_memory: false,
-                },
-                cache: None,
-            }),
-        )
+        let what = format!("compiling the kernel {kernel} ({variant:?})");
+        guarded(device, &what, None, || {
+            Ok(
+                device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(&format!("wgcloth.{kernel}.{variant:?}")),
+                    layout: Some(layout),
+                    module,
+                    entry_point: Some(kernel.name()),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &constants,
+                        zero_initialize_workgroup_memory: false,
+                    },
+                    cache: self.inner.cache.as_ref(),
+                }),
+            )
+        })
     }
 }
 

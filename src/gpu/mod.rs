@@ -18,6 +18,7 @@ mod errors;
 mod grid;
 mod kernel;
 mod kernels;
+pub mod pipeline_cache;
 // The kernels' buffer layouts, pipelines, read-back and WGSL sources:
 // reached by `tests/shaders.rs` and `tests/gpu_behaviour.rs`; not part of
 // the embedding API.
