@@ -209,3 +209,79 @@ fn render_shader_parses_and_validates() {
     let (_, size) = wgsl_layout(&module, "Globals");
     assert_eq!(size, wgcloth::render::GLOBALS_BYTES);
 }
+
+/// What a kernel that includes a hook file of the grid gather defines
+/// itself (see the files' heads): a stub of each, in the kernel's types.
+const HOOKS: [(&str, &str); 2] = [
+    (
+        "common/apply_block",
+        "const APPLY_SEC: u32 = W_S;\n\
+         fn apply_value(pt: GridPoint, stored: vec4<f32>) -> vec3<f32> { return stored.xyz; }\n\
+         fn apply_end(p: u32, s: vec4<f32>, as_p: vec3<f32>) {}\n",
+    ),
+    (
+        "common/no_spring_data",
+        "struct BlockData { x: vec4<f32> }\n",
+    ),
+];
+
+/// Each common file includes what it uses: composed on its own (a hook
+/// file with stubs of what its including kernel defines), it parses and
+/// validates.
+#[test]
+fn every_common_file_validates_on_its_own() {
+    for (name, _) in shaders::COMMON {
+        let hooks = HOOKS.iter().find(|(h, _)| h == name).map_or("", |h| h.1);
+        let source = shaders::compose(
+            &format!("#include \"{name}.wgsl\"\n{hooks}"),
+            GridBlock::ONE,
+        )
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+        validate(name, &source);
+    }
+}
+
+#[test]
+fn an_include_cycle_is_an_error() {
+    let err = shaders::compose_with(
+        "#include \"common/a.wgsl\"",
+        GridBlock::ONE,
+        &[
+            ("common/a", "#include \"common/b.wgsl\"\n"),
+            ("common/b", "#include \"common/a.wgsl\"\n"),
+        ],
+    )
+    .expect_err("a cycle");
+    assert!(err.contains("common/a → common/b → common/a"), "{err}");
+}
+
+/// The generated constants hold the values of `wgcloth::kernel_config`,
+/// read back through naga from a composed kernel.
+#[test]
+fn the_shared_constants_reach_the_kernels() {
+    let module = parse(Kernel::CgBeta);
+    let value = |name: &str| -> Option<f64> {
+        let init = module
+            .constants
+            .iter()
+            .find(|(_, c)| c.name.as_deref() == Some(name))
+            .map(|(_, c)| c.init)
+            .or_else(|| {
+                module
+                    .overrides
+                    .iter()
+                    .find(|(_, o)| o.name.as_deref() == Some(name))
+                    .and_then(|(_, o)| o.init)
+            })?;
+        match module.global_expressions[init] {
+            naga::Expression::Literal(naga::Literal::U32(v)) => Some(f64::from(v)),
+            naga::Expression::Literal(naga::Literal::F32(v)) => Some(f64::from(v)),
+            _ => None,
+        }
+    };
+    let values = wgcloth::kernel_config::wgsl_values();
+    assert!(values.len() > 40, "{values:?}");
+    for (name, expected) in values {
+        assert_eq!(value(&name), Some(expected), "{name}");
+    }
+}

@@ -8,6 +8,10 @@
 // each spring's block is computed once, from its ends' positions (see
 // grid_spring_block).
 
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+#include "common/cg.wgsl"
+
 struct BlockData {
     a: vec4<f32>,
     x: vec3<f32>,

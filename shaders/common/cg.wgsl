@@ -1,6 +1,9 @@
 // Shared by the CG kernels (implicit integrator and the scalable
 // semi-implicit filter). Twins: cpu::implicit and cpu::mat3.
 
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+
 // Twin: implicit::Filter::apply. `f` is W_Z's w (kind), `n` W_FILTER's xyz.
 fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
     if (!HAS_FILTER) {

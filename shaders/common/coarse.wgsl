@@ -7,6 +7,10 @@
 // The per-iteration kernels that touch particles (cg_update, cg_prolong)
 // take one level-1 aggregate per invocation.
 
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+#include "common/cg.wgsl"
+
 // Twin: cpu::coarse::LEVEL_SIDES.
 const LEVEL1_SIDE: u32 = 4u;
 const LEVEL2_SIDE: u32 = 16u;

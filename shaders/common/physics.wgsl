@@ -4,6 +4,8 @@
 // multiply-adds are the implementation's choice), so the f32 CPU mirror
 // and the GPU round the same way wherever the hardware lets them.
 
+#include "common/bindings.wgsl"
+
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }

@@ -2,6 +2,10 @@
 // cpu::semi_implicit::compensate_torque): the centre of mass from the
 // partial sums of torque_centre.
 
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+#include "common/cg.wgsl"
+
 var<workgroup> shared_vec: vec4<f32>;
 
 const T_MASS: u32 = 0u;      // Σ m

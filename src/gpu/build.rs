@@ -3,6 +3,7 @@
 
 use wgpu::util::DeviceExt;
 
+use super::cg_budget::CgBudget;
 use super::grid::{fixup_limit, GridBlock, GridLayout};
 use super::kernel::ArgsGroup;
 use super::kernels::GpuKernels;
@@ -378,10 +379,7 @@ impl GpuSolver {
             block,
             triangles: model.triangles.len() as u32,
             fixup_iterations,
-            cg_max_iterations,
-            cg_budget: cg_max_iterations,
-            adaptive_budget: true,
-            budget_hits: 0,
+            cg: CgBudget::new(cg_max_iterations),
             params: gpu_params,
             params_buffer,
             x,

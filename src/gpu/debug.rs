@@ -133,7 +133,7 @@ impl GpuSolver {
     /// iterations).
     #[doc(hidden)]
     pub fn debug_plan(&self) -> Vec<Dispatch> {
-        self.prepared.steps.dispatches(Some(1), self.cg_budget)
+        self.prepared.steps.dispatches(Some(1), self.cg.current())
     }
 
     /// Records and submits dispatches `range` of [`GpuSolver::debug_plan`].
@@ -143,7 +143,7 @@ impl GpuSolver {
     #[doc(hidden)]
     pub fn debug_run(&mut self, range: Range<usize>) -> Result<()> {
         let mut entries = Vec::new();
-        self.prepared.steps.for_each(1, self.cg_budget, |e, k| {
+        self.prepared.steps.for_each(1, self.cg.current(), |e, k| {
             entries.push((e, k));
         });
         if range.start > range.end || range.end > entries.len() {

@@ -10,6 +10,7 @@
 //!   the knobs benchmarks and tests use ([`GpuTuning`], [`GpuTuningMut`]).
 
 mod build;
+mod cg_budget;
 mod context;
 mod control;
 mod debug;

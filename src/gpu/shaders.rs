@@ -47,10 +47,19 @@ pub const COMMON: &[(&str, &str)] = &[
 /// A composed source (its grid gather generated for `block`), or what is
 /// wrong with its includes: a file that does not exist, or a cycle.
 pub fn compose(source: &str, block: GridBlock) -> Result<String, String> {
+    compose_with(source, block, COMMON)
+}
+
+/// [`compose`] with the shared files `common` (for tests of the mechanism).
+pub fn compose_with(
+    source: &str,
+    block: GridBlock,
+    common: &[(&'static str, &'static str)],
+) -> Result<String, String> {
     let mut out = String::with_capacity(source.len() * 4);
     let mut done = Vec::new();
     let mut open = Vec::new();
-    include_into(source, block, &mut out, &mut done, &mut open)?;
+    include_into(source, block, common, &mut out, &mut done, &mut open)?;
     Ok(out)
 }
 
@@ -59,6 +68,7 @@ pub fn compose(source: &str, block: GridBlock) -> Result<String, String> {
 fn include_into(
     source: &str,
     block: GridBlock,
+    common: &[(&'static str, &'static str)],
     out: &mut String,
     done: &mut Vec<&'static str>,
     open: &mut Vec<&'static str>,
@@ -89,11 +99,11 @@ fn include_into(
             out.push_str(&kernel_config::wgsl());
             continue;
         }
-        let Some(&(name, text)) = COMMON.iter().find(|(n, _)| *n == stem) else {
+        let Some(&(name, text)) = common.iter().find(|(n, _)| *n == stem) else {
             return Err(format!("unknown include `{name}`"));
         };
         open.push(name);
-        include_into(text, block, out, done, open)?;
+        include_into(text, block, common, out, done, open)?;
         open.pop();
         done.push(name);
         out.push('\n');

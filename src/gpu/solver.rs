@@ -1,5 +1,6 @@
 //! The GPU solver: buffers, pipelines and the recording of steps.
 
+use super::cg_budget::CgBudget;
 use super::errors::guarded;
 use super::grid::{GridBlock, GridLayout};
 use super::kernel::{Dispatch, Kernel, Launch};
@@ -88,11 +89,8 @@ pub struct GpuSolver {
     pub(super) block: GridBlock,
     pub(super) triangles: u32,
     pub(super) fixup_iterations: u32,
-    pub(super) cg_max_iterations: u32,
-    /// CG iterations recorded per step (adapts at each status check).
-    pub(super) cg_budget: u32,
-    pub(super) adaptive_budget: bool,
-    pub(super) budget_hits: u64,
+    /// CG iterations recorded per step.
+    pub(super) cg: CgBudget,
     pub(super) params: GpuParams,
     pub(super) params_buffer: wgpu::Buffer,
     pub(super) x: wgpu::Buffer,
@@ -405,7 +403,7 @@ impl GpuSolver {
         self.recorded.set((0, n));
         self.prepared
             .steps
-            .for_each(n, self.cg_budget, |(d, p), k| {
+            .for_each(n, self.cg.current(), |(d, p), k| {
                 self.dispatch(&mut pass, d, p, k)
             });
         self.steps_recorded += u64::from(n);
@@ -432,7 +430,7 @@ impl GpuSolver {
     /// single-pass explicit steps, one that reads x and v (an odd number of
     /// steps first records `explicit_seed`; see [`super::plan`]).
     pub(super) fn step_plan(&self) -> Vec<Dispatch> {
-        self.prepared.steps.dispatches(None, self.cg_budget)
+        self.prepared.steps.dispatches(None, self.cg.current())
     }
 
     /// The step plan grouped by kernel, in order of first appearance:
@@ -484,16 +482,13 @@ impl GpuSolver {
     ///
     /// It also sets the CG iteration budget — how many iterations each
     /// recorded step contains — to twice the largest count any step needed
-    /// since the last check, plus 16 (at most the configured maximum): a
-    /// tighter margin cuts solves short as a cloth starts to move, for
-    /// little gain. Iterations past convergence do no work, but on some devices
-    /// (lavapipe) even an empty dispatch costs tens of microseconds, so a
-    /// budget of 200 for a solve that takes 30 would dominate the step. A
-    /// window in which some step used the whole budget restores the full
-    /// maximum and is counted in [`GpuStatus::cg_budget_hits`] (such a step
-    /// stopped with its residual above the tolerance). With no check in
-    /// between, or with [`GpuTuningMut::set_adaptive_cg_budget`](super::GpuTuningMut::set_adaptive_cg_budget)`(false)`, the
-    /// budget never changes and every step may use the full maximum.
+    /// since the last check, plus a margin (at most the configured
+    /// maximum; see `src/gpu/cg_budget.rs`). A window in which some step
+    /// used the whole budget restores the full maximum and is counted in
+    /// [`GpuStatus::cg_budget_hits`] (such a step stopped with its residual
+    /// above the tolerance). With no check in between, or with
+    /// [`GpuTuningMut::set_adaptive_cg_budget`](super::GpuTuningMut::set_adaptive_cg_budget)`(false)`,
+    /// the budget never changes and every step may use the full maximum.
     pub fn check(&mut self) -> Result<GpuStatus> {
         let bytes = readback::read_buffers(
             &self.device,
@@ -501,16 +496,7 @@ impl GpuSolver {
             &[(&self.status, 0, (layout::status::COUNT * 4) as u64)],
         )?;
         let mut status = self.decode_status(&bytes[0])?;
-        let used = status.cg_max_iterations;
-        if self.adaptive_budget && used > 0 {
-            if used >= self.cg_budget && self.cg_budget < self.cg_max_iterations {
-                self.budget_hits += 1;
-            }
-            self.cg_budget = if used >= self.cg_budget {
-                self.cg_max_iterations
-            } else {
-                (2 * used + 16).min(self.cg_max_iterations)
-            };
+        if self.cg.update(status.cg_max_iterations) {
             // Restart the window: the next check sees only new steps.
             self.queue.write_buffer(
                 &self.status,
@@ -518,7 +504,7 @@ impl GpuSolver {
                 bytemuck::bytes_of(&0u32),
             );
         }
-        status.cg_budget_hits = self.budget_hits;
+        status.cg_budget_hits = self.cg.hits();
         Ok(status)
     }
 
@@ -526,16 +512,13 @@ impl GpuSolver {
     /// step records the configured maximum: results equal the CPU
     /// reference's exactly, at the cost of empty dispatches).
     pub(super) fn set_adaptive_cg_budget(&mut self, on: bool) {
-        self.adaptive_budget = on;
-        if !on {
-            self.cg_budget = self.cg_max_iterations;
-        }
+        self.cg.set_adaptive(on);
     }
 
     /// CG iterations recorded per step at present (see
     /// [`GpuSolver::check`]).
     pub(super) fn cg_budget(&self) -> u32 {
-        self.cg_budget
+        self.cg.current()
     }
 
     fn decode_status(&self, bytes: &[u8]) -> Result<GpuStatus> {
@@ -553,7 +536,7 @@ impl GpuSolver {
             steps: widen_step(words[layout::status::STEP], self.steps_recorded),
             cg_iterations: words[layout::status::CG_ITERATIONS],
             cg_max_iterations: words[layout::status::CG_MAX_ITERATIONS],
-            cg_budget_hits: self.budget_hits,
+            cg_budget_hits: self.cg.hits(),
             fixup_passes: words[layout::status::FIXUP_PASSES],
         })
     }

@@ -1,0 +1,113 @@
+//! How many CG iterations each recorded step contains.
+//!
+//! CG stops on the device, and iterations past convergence do no work,
+//! but on some devices (lavapipe) even an empty dispatch costs tens of
+//! microseconds, so a budget of 200 for a solve that takes 30 would
+//! dominate the step. At each status check the budget becomes twice the
+//! largest count any step needed since the last check, plus
+//! [`CgBudget::MARGIN`] (at most the configured maximum). A window in
+//! which some step used the whole budget restores the maximum and counts
+//! a hit (such a step stopped with its residual above the tolerance).
+
+/// The CG iteration budget of a solver and its rule.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct CgBudget {
+    /// The configured maximum (`implicit.max_iterations`, or the
+    /// semi-implicit filter's cap).
+    max: u32,
+    /// Iterations recorded per step at present.
+    current: u32,
+    /// Whether checks adapt the budget (else it stays at `max`).
+    adaptive: bool,
+    /// Check windows in which some step used the whole, reduced budget.
+    hits: u64,
+}
+
+impl CgBudget {
+    /// Iterations added to twice the largest count seen: a tighter margin
+    /// cuts solves short as a cloth starts to move, for little gain.
+    pub const MARGIN: u32 = 16;
+
+    /// A budget of `max` iterations, adaptive.
+    pub fn new(max: u32) -> CgBudget {
+        CgBudget {
+            max,
+            current: max,
+            adaptive: true,
+            hits: 0,
+        }
+    }
+
+    /// Iterations recorded per step at present.
+    pub fn current(&self) -> u32 {
+        self.current
+    }
+
+    /// Check windows in which a step used the whole, reduced budget.
+    pub fn hits(&self) -> u64 {
+        self.hits
+    }
+
+    /// Adapts at checks (`true`, the default) or stays at the maximum.
+    pub fn set_adaptive(&mut self, on: bool) {
+        self.adaptive = on;
+        if !on {
+            self.current = self.max;
+        }
+    }
+
+    /// The rule, after a check found that the steps since the last one
+    /// needed at most `used` iterations. Returns whether the window
+    /// restarts (the device's count of the largest `used` is then zeroed).
+    pub fn update(&mut self, used: u32) -> bool {
+        if !self.adaptive || used == 0 {
+            return false;
+        }
+        let exhausted = used >= self.current;
+        if exhausted && self.current < self.max {
+            self.hits += 1;
+        }
+        self.current = if exhausted {
+            self.max
+        } else {
+            (2 * used + Self::MARGIN).min(self.max)
+        };
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::CgBudget;
+
+    #[test]
+    fn the_budget_follows_the_largest_count_and_recovers_from_a_hit() {
+        let mut b = CgBudget::new(200);
+        assert_eq!(b.current(), 200);
+        assert!(b.update(30));
+        assert_eq!(b.current(), 2 * 30 + CgBudget::MARGIN);
+        // A window that used the whole reduced budget: back to the maximum,
+        // counted.
+        assert!(b.update(b.current()));
+        assert_eq!((b.current(), b.hits()), (200, 1));
+        // Using the whole maximum is no hit (there was nothing more).
+        assert!(b.update(200));
+        assert_eq!((b.current(), b.hits()), (200, 1));
+        // A window without CG changes nothing.
+        assert!(!b.update(0));
+        assert_eq!(b.current(), 200);
+        assert!(b.update(150));
+        assert_eq!(b.current(), 200, "never above the maximum");
+    }
+
+    #[test]
+    fn a_fixed_budget_stays_at_the_maximum() {
+        let mut b = CgBudget::new(50);
+        b.update(3);
+        assert_eq!(b.current(), 3 * 2 + CgBudget::MARGIN);
+        b.set_adaptive(false);
+        assert_eq!(b.current(), 50);
+        assert!(!b.update(3));
+        assert_eq!((b.current(), b.hits()), (50, 0));
+    }
+}
