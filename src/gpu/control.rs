@@ -72,8 +72,11 @@ impl GpuSolver {
     /// dragging a corner). Its velocity is left as it is.
     pub fn set_position(&mut self, p: usize, position: [f32; 3]) -> Result<()> {
         self.check_particle(p)?;
-        self.queue
-            .write_buffer(&self.x, (p * 16) as u64, bytemuck::cast_slice(&position));
+        self.queue.write_buffer(
+            &self.buffers.x,
+            (p * 16) as u64,
+            bytemuck::cast_slice(&position),
+        );
         Ok(())
     }
 
@@ -92,11 +95,14 @@ impl GpuSolver {
             (1.0 / self.model.mass[p]) as f32
         };
         let base = (p * 16) as u64;
-        self.queue
-            .write_buffer(&self.x, base + 12, bytemuck::bytes_of(&inverse_mass));
+        self.queue.write_buffer(
+            &self.buffers.x,
+            base + 12,
+            bytemuck::bytes_of(&inverse_mass),
+        );
         if pinned {
             self.queue
-                .write_buffer(&self.v, base, bytemuck::cast_slice(&[0f32; 3]));
+                .write_buffer(&self.buffers.v, base, bytemuck::cast_slice(&[0f32; 3]));
         }
         self.params.torque_compensation = u32::from(
             self.host_params.semi_implicit.torque_compensation && self.model.pinned_count() == 0,
@@ -105,18 +111,18 @@ impl GpuSolver {
             let filter = SemiFilter::new(&self.model, &self.host_params)?;
             self.params.filter_count = filter.count;
             self.queue
-                .write_buffer(&self.dense, 0, bytemuck::cast_slice(&filter.words));
+                .write_buffer(&self.buffers.dense, 0, bytemuck::cast_slice(&filter.words));
         }
         self.update_features()
     }
 
     fn check_particle(&self, p: usize) -> Result<()> {
-        if p < self.particles as usize {
+        if p < self.params.particle_count as usize {
             Ok(())
         } else {
             Err(Error::InvalidParameter {
                 key: "particle".into(),
-                allowed: format!("an index below {}", self.particles),
+                allowed: format!("an index below {}", self.params.particle_count),
                 got: p.to_string(),
             })
         }
@@ -190,6 +196,6 @@ impl GpuSolver {
 
     fn upload_params(&self) {
         self.queue
-            .write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+            .write_buffer(&self.buffers.params, 0, bytemuck::bytes_of(&self.params));
     }
 }

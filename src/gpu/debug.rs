@@ -107,26 +107,6 @@ impl DebugLayout {
 }
 
 impl GpuSolver {
-    /// The buffer `buffer`.
-    fn debug_buffer(&self, buffer: DebugBuffer) -> &wgpu::Buffer {
-        match buffer {
-            DebugBuffer::Params => &self.params_buffer,
-            DebugBuffer::Springs => &self.springs_buffer,
-            DebugBuffer::Topo => &self.topo,
-            DebugBuffer::X => &self.x,
-            DebugBuffer::V => &self.v,
-            DebugBuffer::Work => &self.work,
-            DebugBuffer::SpringWork => &self.spring_work,
-            DebugBuffer::Partials => &self.partials,
-            DebugBuffer::Status => &self.status,
-            DebugBuffer::VertexNormals => &self.normals,
-            DebugBuffer::Dense => &self.dense,
-            DebugBuffer::CgArgs => &self.cg_args,
-            DebugBuffer::AlphaSlots => &self.alpha_slots,
-            DebugBuffer::BetaSlots => &self.beta_slots,
-        }
-    }
-
     /// The dispatches of the next step, in the order
     /// [`GpuSolver::encode_steps`]`(…, 1)` records them (single-pass
     /// explicit: `explicit_seed` first; CG: the current budget of
@@ -163,7 +143,7 @@ impl GpuSolver {
                     label: Some("wgcloth.debug_run"),
                     timestamp_writes: None,
                 });
-                pass.set_bind_group(0, &self.bind_group, &[]);
+                pass.set_bind_group(0, &self.buffers.bind_group, &[]);
                 for &((d, p), k) in &entries[range.clone()] {
                     self.dispatch(&mut pass, d, p, k);
                 }
@@ -180,7 +160,7 @@ impl GpuSolver {
     /// The words of `buffer` (blocking).
     #[doc(hidden)]
     pub fn debug_read(&self, buffer: DebugBuffer) -> Result<Vec<u32>> {
-        let b = self.debug_buffer(buffer);
+        let b = self.buffers.get(buffer);
         let bytes = readback::read_buffers(&self.device, &self.queue, &[(b, 0, b.size())])?;
         Ok(bytemuck::cast_slice::<u8, u32>(&bytes[0]).to_vec())
     }
@@ -190,7 +170,7 @@ impl GpuSolver {
     /// error.
     #[doc(hidden)]
     pub fn debug_write(&self, buffer: DebugBuffer, words: &[u32]) -> Result<()> {
-        let b = self.debug_buffer(buffer);
+        let b = self.buffers.get(buffer);
         let capacity = b.size() / 4;
         if words.len() as u64 > capacity {
             return Err(Error::InvalidParameter {
@@ -209,9 +189,9 @@ impl GpuSolver {
     #[doc(hidden)]
     pub fn debug_layout(&self) -> DebugLayout {
         DebugLayout {
-            work_section_words: 4 * self.particles as usize,
+            work_section_words: 4 * self.params.particle_count as usize,
             spring_section_words: 4 * self.spring_slots as usize,
-            partial_slot_words: self.particles.div_ceil(WORKGROUP) as usize,
+            partial_slot_words: self.params.particle_count.div_ceil(WORKGROUP) as usize,
         }
     }
 }

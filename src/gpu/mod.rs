@@ -9,6 +9,7 @@
 //! - [`GpuSolver::tuning`] and [`GpuSolver::tuning_mut`] inspect and set
 //!   the knobs benchmarks and tests use ([`GpuTuning`], [`GpuTuningMut`]).
 
+mod buffers;
 mod build;
 mod cg_budget;
 mod context;

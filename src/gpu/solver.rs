@@ -1,5 +1,6 @@
 //! The GPU solver: buffers, pipelines and the recording of steps.
 
+use super::buffers::ClothBuffers;
 use super::cg_budget::CgBudget;
 use super::errors::guarded;
 use super::grid::{GridBlock, GridLayout};
@@ -78,8 +79,6 @@ pub struct GpuSolver {
     pub(super) device: wgpu::Device,
     pub(super) queue: wgpu::Queue,
     pub(super) integrator: Integrator,
-    pub(super) particles: u32,
-    pub(super) springs: u32,
     /// Spring slots on the device: the springs, or six per particle in
     /// grid layout.
     pub(super) spring_slots: u32,
@@ -87,34 +86,14 @@ pub struct GpuSolver {
     pub(super) grid: bool,
     /// Particles per invocation of the grid gather kernels.
     pub(super) block: GridBlock,
-    pub(super) triangles: u32,
+    /// Fix-up passes per step.
     pub(super) fixup_iterations: u32,
     /// CG iterations recorded per step.
     pub(super) cg: CgBudget,
+    /// The uniform block as uploaded (particle and triangle counts too).
     pub(super) params: GpuParams,
-    pub(super) params_buffer: wgpu::Buffer,
-    pub(super) x: wgpu::Buffer,
-    pub(super) v: wgpu::Buffer,
-    pub(super) normals: wgpu::Buffer,
-    pub(super) indices: wgpu::Buffer,
-    pub(super) status: wgpu::Buffer,
-    /// The buffers only kernels use (and the debug API reads).
-    pub(super) springs_buffer: wgpu::Buffer,
-    pub(super) topo: wgpu::Buffer,
-    pub(super) work: wgpu::Buffer,
-    pub(super) spring_work: wgpu::Buffer,
-    pub(super) partials: wgpu::Buffer,
-    pub(super) bind_group: wgpu::BindGroup,
-    /// Indirect arguments of the per-particle CG kernels (workgroups, or 0
-    /// once CG has stopped), and the group that binds it to the kernels
-    /// that write it.
-    pub(super) cg_args: wgpu::Buffer,
-    /// Indirect arguments of cg_alpha and cg_beta, a slot per recorded
-    /// CG iteration (see `alpha_slots` in `shaders/common/cg.wgsl`).
-    pub(super) alpha_slots: wgpu::Buffer,
-    pub(super) beta_slots: wgpu::Buffer,
-    /// Group 1 of cg_start, cg_alpha and cg_beta ([`ArgsGroup::ALL`](super::kernel::ArgsGroup::ALL) order).
-    pub(super) args_groups: [wgpu::BindGroup; 3],
+    /// The cloth's buffers and bind groups.
+    pub(super) buffers: ClothBuffers,
     pub(super) kernels: GpuKernels,
     /// The step plan with its pipelines.
     pub(super) prepared: Prepared,
@@ -129,7 +108,6 @@ pub struct GpuSolver {
     pub(super) specialised: bool,
     /// The parameters with the current colliders, wind and gravity.
     pub(super) host_params: Params,
-    pub(super) dense: wgpu::Buffer,
 }
 
 /// What the step plan depends on (`params`: as uploaded).
@@ -375,19 +353,19 @@ impl GpuSolver {
         self.recorded.set((n + 1, s));
         pass.set_pipeline(pipeline);
         if let Some(g) = d.kernel.args_group() {
-            pass.set_bind_group(1, &self.args_groups[g.index()], &[]);
+            pass.set_bind_group(1, &self.buffers.args_groups[g.index()], &[]);
         }
         let launch = plan::in_iteration(*d, iteration).launch;
         match launch {
             Launch::Direct => pass.dispatch_workgroups(d.items.div_ceil(WORKGROUP), 1, 1),
             Launch::ApplyArgs | Launch::UpdateArgs => {
-                pass.dispatch_workgroups_indirect(&self.cg_args, launch.offset())
+                pass.dispatch_workgroups_indirect(&self.buffers.cg_args, launch.offset())
             }
             Launch::AlphaSlot(_) => {
-                pass.dispatch_workgroups_indirect(&self.alpha_slots, launch.offset())
+                pass.dispatch_workgroups_indirect(&self.buffers.alpha_slots, launch.offset())
             }
             Launch::BetaSlot(_) => {
-                pass.dispatch_workgroups_indirect(&self.beta_slots, launch.offset())
+                pass.dispatch_workgroups_indirect(&self.buffers.beta_slots, launch.offset())
             }
         }
     }
@@ -399,7 +377,7 @@ impl GpuSolver {
             label: Some("wgcloth.steps"),
             timestamp_writes: None,
         });
-        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_bind_group(0, &self.buffers.bind_group, &[]);
         self.recorded.set((0, n));
         self.prepared
             .steps
@@ -455,8 +433,8 @@ impl GpuSolver {
             label: Some("wgcloth.normals"),
             timestamp_writes: None,
         });
-        pass.set_bind_group(0, &self.bind_group, &[]);
-        let normals = Dispatch::direct(Kernel::Normals, self.particles);
+        pass.set_bind_group(0, &self.buffers.bind_group, &[]);
+        let normals = Dispatch::direct(Kernel::Normals, self.params.particle_count);
         self.dispatch(&mut pass, &normals, &self.prepared.normals, 0);
     }
 
@@ -493,13 +471,13 @@ impl GpuSolver {
         let bytes = readback::read_buffers(
             &self.device,
             &self.queue,
-            &[(&self.status, 0, (layout::status::COUNT * 4) as u64)],
+            &[(&self.buffers.status, 0, (layout::status::COUNT * 4) as u64)],
         )?;
         let mut status = self.decode_status(&bytes[0])?;
         if self.cg.update(status.cg_max_iterations) {
             // Restart the window: the next check sees only new steps.
             self.queue.write_buffer(
-                &self.status,
+                &self.buffers.status,
                 (layout::status::CG_MAX_ITERATIONS * 4) as u64,
                 bytemuck::bytes_of(&0u32),
             );
@@ -544,14 +522,14 @@ impl GpuSolver {
     /// Reads positions and velocities back (blocking); fails if the state
     /// stopped being finite at some step.
     pub fn read_state(&self) -> Result<GpuState> {
-        let bytes = u64::from(self.particles) * 16;
+        let bytes = u64::from(self.params.particle_count) * 16;
         let parts = readback::read_buffers(
             &self.device,
             &self.queue,
             &[
-                (&self.x, 0, bytes),
-                (&self.v, 0, bytes),
-                (&self.status, 0, (layout::status::COUNT * 4) as u64),
+                (&self.buffers.x, 0, bytes),
+                (&self.buffers.v, 0, bytes),
+                (&self.buffers.status, 0, (layout::status::COUNT * 4) as u64),
             ],
         )?;
         self.decode_status(&parts[2])?;
@@ -574,23 +552,23 @@ impl GpuSolver {
     /// only (single-pass explicit steps read a snapshot of it that those
     /// mark stale).
     pub fn positions_buffer(&self) -> &wgpu::Buffer {
-        &self.x
+        &self.buffers.x
     }
 
     /// Vertex normals (`vec4<f32>`, xyz unit), valid after
     /// [`GpuSolver::encode_normals`].
     pub fn normals_buffer(&self) -> &wgpu::Buffer {
-        &self.normals
+        &self.buffers.normals
     }
 
     /// Triangle indices (`u32`, three per triangle) as an index buffer.
     pub fn index_buffer(&self) -> &wgpu::Buffer {
-        &self.indices
+        &self.buffers.indices
     }
 
     /// Number of indices in [`GpuSolver::index_buffer`].
     pub fn index_count(&self) -> u32 {
-        self.triangles * 3
+        self.params.triangle_count * 3
     }
 
     /// Compute dispatches per step in the last [`GpuSolver::encode_steps`]
@@ -606,7 +584,7 @@ impl GpuSolver {
 
     /// Particles.
     pub fn particle_count(&self) -> u32 {
-        self.particles
+        self.params.particle_count
     }
 
     /// Steps recorded so far.
@@ -616,7 +594,7 @@ impl GpuSolver {
 
     /// Springs.
     pub fn spring_count(&self) -> u32 {
-        self.springs
+        self.model.springs.len() as u32
     }
 }
 
