@@ -1,9 +1,8 @@
 //! How many CG iterations each recorded step contains.
 //!
 //! CG stops on the device, and iterations past convergence do no work,
-//! but on some devices (lavapipe) even an empty dispatch costs tens of
-//! microseconds, so a budget of 200 for a solve that takes 30 would
-//! dominate the step. At each status check the budget becomes twice the
+//! but every recorded dispatch still costs its recording and launch, so a
+//! budget of 200 for a solve that takes 30 would dominate the step. At each status check the budget becomes twice the
 //! largest count any step needed since the last check, plus
 //! [`CgBudget::MARGIN`] (at most the configured maximum). A window in
 //! which some step used the whole budget restores the maximum and counts

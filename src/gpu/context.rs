@@ -82,9 +82,10 @@ impl GpuContext {
         // own (on by default, release builds too). The solver's only
         // indirect dispatches are its CG kernels', whose arguments its own
         // kernels write: zero or a workgroup count checked against the
-        // device's limits when the solver is built. On lavapipe the extra
-        // passes cost 5–10 % of a 128² implicit step, so this context turns
-        // the check off; `WGPU_VALIDATION_INDIRECT_CALL=1` turns it on.
+        // device's limits when the solver is built. The extra passes would
+        // cost an implicit step about as much as a few CG iterations, so
+        // this context turns the check off;
+        // `WGPU_VALIDATION_INDIRECT_CALL=1` turns it on.
         desc.flags = wgpu::InstanceFlags::from_build_config()
             .difference(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL)
             .with_env();

@@ -289,10 +289,10 @@ fn step(i: &PlanInputs) -> Vec<Part<Dispatch>> {
 /// [`Variant::CgFirst`] preconditions the initial residual.
 ///
 /// The per-iteration kernels are dispatched indirectly (see `cg_args` and
-/// `alpha_slots` in `shaders/common/cg.wgsl`): on lavapipe a dispatch
-/// whose invocations all return at once still costs about a third of a
-/// working one — the masked-off code runs — while an indirect dispatch of
-/// zero workgroups costs little more than its recording.
+/// `alpha_slots` in `shaders/common/cg.wgsl`): a dispatch whose
+/// invocations all return at once still runs its workgroups (on a CPU
+/// adapter, the masked-off code too), while an indirect dispatch of zero
+/// workgroups runs none.
 fn cg(i: &PlanInputs, plan: &mut Vec<Part<Dispatch>>) {
     let (n, gather) = (i.particles, i.gather);
     let one = WORKGROUP;
