@@ -1,6 +1,6 @@
 // CG start: r = S b − S A Δv with ρ = r·s's term in its w, s = S P r
 // with the particle's filter kind in its w (see cg_update; with coarse
-// levels cg_update.first computes s and ρ's terms), and a zero previous
+// levels cg_update with FIRST computes s and ρ's terms), and a zero previous
 // direction and product (the first iteration has β = 0).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
@@ -32,7 +32,7 @@ fn apply_end(p: u32, dv: vec4<f32>, adv: vec3<f32>) {
     let q = filter_with(kind, p, adv);
     let r = filter_with(kind, p, work[wi(W_RHS, p)].xyz) - q;
     if (COARSE) {
-        // cg_update.first preconditions r with the coarse levels.
+        // cg_update with FIRST preconditions r with the coarse levels.
         work[wi(W_R, p)] = vec4<f32>(r, 0.0);
     } else {
         let s = filter_with(kind, p, precond_mul(p, r));

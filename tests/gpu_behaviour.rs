@@ -347,31 +347,35 @@ fn fresh_device() -> (wgpu::Device, wgpu::Queue) {
     .expect("a second device")
 }
 
-/// Solvers alive on one device share its kernel library: a second solver
-/// of the same scene compiles nothing, one with wind only the variants
-/// wind changes, and a solver given the library explicitly shares it too.
+/// Solvers built with one kernel library share it: a second solver of the
+/// same scene compiles nothing, one with wind only the variants wind
+/// changes; a solver built with `new` compiles into a library of its own.
 #[test]
-fn solvers_on_one_device_compile_each_variant_once() {
+fn solvers_sharing_kernels_compile_each_variant_once() {
     let (device, queue) = fresh_device();
     let mut p = busy_params(Integrator::Explicit);
     p.wind = None;
     let m = model(corners(), &p);
-    let kernels = GpuKernels::for_device(&device);
+    let kernels = GpuKernels::new(&device);
     assert_eq!(kernels.compiled(), 0);
-    let first = GpuSolver::new(&device, &queue, &m, &p).expect("GPU solver");
+    let first = GpuSolver::with_kernels(&kernels, &queue, &m, &p).expect("GPU solver");
     let one = kernels.compiled();
     // The plan's pipelines and normals, no other variant.
     let mut distinct: Vec<_> = first.debug_plan().iter().map(|d| d.pipeline()).collect();
     distinct.sort();
     distinct.dedup();
     assert_eq!(one, distinct.len() + 1, "{distinct:?}");
-    let second = GpuSolver::new(&device, &queue, &m, &p).expect("GPU solver");
+    let second = GpuSolver::with_kernels(&kernels.clone(), &queue, &m, &p).expect("GPU solver");
     assert_eq!(kernels.compiled(), one, "the second solver compiled again");
-    let third = GpuSolver::with_kernels(&kernels, &queue, &m, &p).expect("GPU solver");
-    assert_eq!(kernels.compiled(), one);
+    let third = GpuSolver::new(&device, &queue, &m, &p).expect("GPU solver");
+    assert_eq!(
+        kernels.compiled(),
+        one,
+        "`new` compiled into the shared library"
+    );
     let mut windy = p.clone();
     windy.wind = busy_params(Integrator::Explicit).wind;
-    let fourth = GpuSolver::new(&device, &queue, &m, &windy).expect("GPU solver");
+    let fourth = GpuSolver::with_kernels(&kernels, &queue, &m, &windy).expect("GPU solver");
     let with_wind = kernels.compiled();
     assert!(
         with_wind > one && with_wind <= 2 * one,
@@ -399,7 +403,7 @@ fn a_corrupt_pipeline_cache_file_does_not_fail_a_run() {
     for garbage in [b"not a cache at all".to_vec(), vec![0u8; 4096]] {
         std::fs::write(&file, &garbage).expect("write the corrupt file");
         assert!(ctx.keep_pipelines(&dir), "{}", ctx.describe());
-        let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+        let mut g = GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &m, &p).expect("GPU solver");
         g.tuning_mut().set_adaptive_cg_budget(false);
         g.step(10).expect("steps");
         assert_identical(&reference, &g.read_state().expect("read-back"), "cached");

@@ -399,7 +399,7 @@ var<workgroup> stage: array<f32, SUM_GROUP>;
 // SUM_GROUP values at a time into workgroup memory, and invocation 0 adds
 // them from there. On a GPU, invocation 0 loading each value from storage
 // itself would wait out a memory latency every few values (a 257² cloth
-// has ~1000 block sums; see gpu::pipelines::sum_group for why every
+// has ~1000 block sums; see gpu::kernels::sum_group for why every
 // adapter runs this form). The result is valid in invocation 0 only.
 // Call from uniform control flow, after a storageBarrier.
 fn sum_staged(source: u32, slot: u32, count: u32, lid: u32) -> f32 {

@@ -201,7 +201,7 @@ impl Gpu {
         if let Some(dir) = wgcloth::gpu::pipeline_cache::default_dir() {
             context.keep_pipelines(&dir);
         }
-        let solver = GpuSolver::new(&context.device, &context.queue, model, params)?;
+        let solver = GpuSolver::with_kernels(context.kernels(), &context.queue, model, params)?;
         if let Err(e) = context.save_pipelines() {
             eprintln!("note: compiled pipelines not kept for the next run: {e}");
         }

@@ -53,15 +53,17 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         args.frames,
     );
     let mut done = 0;
-    let written = render::render_scene(&context.device, &context.queue, &scene, &options, |n| {
-        done = n;
-        progress(n, args.frames, started);
-        if interrupt::requested() {
-            ControlFlow::Break(())
-        } else {
-            ControlFlow::Continue(())
-        }
-    });
+    let kernels = context.kernels();
+    let written =
+        render::render_scene_with_kernels(kernels, &context.queue, &scene, &options, |n| {
+            done = n;
+            progress(n, args.frames, started);
+            if interrupt::requested() {
+                ControlFlow::Break(())
+            } else {
+                ControlFlow::Continue(())
+            }
+        });
     eprintln!();
     if let Err(e) = context.save_pipelines() {
         eprintln!("note: compiled pipelines not kept for the next run: {e}");

@@ -26,9 +26,11 @@ pub struct GpuContext {
     /// The first device error no error scope captured, or the device's
     /// loss (see [`GpuContext::check`]).
     fault: Arc<Mutex<Option<String>>>,
-    /// The kernel library with a pipeline cache kept between runs, and
-    /// its file (see [`GpuContext::keep_pipelines`]).
-    kept: Option<(GpuKernels, PathBuf)>,
+    /// The device's kernel library (see [`GpuContext::kernels`]).
+    kernels: GpuKernels,
+    /// The file its pipeline cache is kept in (see
+    /// [`GpuContext::keep_pipelines`]).
+    kept: Option<PathBuf>,
 }
 
 /// The backends `WGPU_BACKEND` names, or `None` when it is not set. Unlike
@@ -156,20 +158,29 @@ impl GpuContext {
         });
         Ok(GpuContext {
             adapter,
-            device,
             queue,
+            kernels: GpuKernels::new(&device),
+            device,
             fault,
             kept: None,
         })
     }
 
+    /// The device's kernel library: solvers built with
+    /// [`GpuSolver::with_kernels`](super::GpuSolver::with_kernels)`(context.kernels(), …)`
+    /// share their pipelines (and the cache of
+    /// [`GpuContext::keep_pipelines`]).
+    pub fn kernels(&self) -> &GpuKernels {
+        &self.kernels
+    }
+
     /// Keeps the compiled pipelines between runs in `dir` (see
-    /// [`pipeline_cache::default_dir`] for the CLI's): seeds this device's
-    /// kernel library, which every solver built on the device afterwards
-    /// shares, with the adapter's cache file there if it holds an intact
-    /// cache (anything else is ignored); [`GpuContext::save_pipelines`]
-    /// writes it back. Returns `false`, doing nothing, where the backend
-    /// keeps no pipeline cache (all but Vulkan).
+    /// [`pipeline_cache::default_dir`] for the CLI's): replaces
+    /// [`GpuContext::kernels`] by a library whose pipeline cache is seeded
+    /// with the adapter's cache file there if it holds an intact cache
+    /// (anything else is ignored); [`GpuContext::save_pipelines`] writes it
+    /// back. Returns `false`, doing nothing, where the backend keeps no
+    /// pipeline cache (all but Vulkan).
     pub fn keep_pipelines(&mut self, dir: &Path) -> bool {
         let Some(path) = pipeline_cache::file(dir, &self.adapter.get_info()) else {
             return false;
@@ -182,18 +193,18 @@ impl GpuContext {
             return false;
         }
         let data = pipeline_cache::load(&path);
-        let kernels = GpuKernels::with_cache(&self.device, data.as_deref());
-        self.kept = Some((kernels, path));
+        self.kernels = GpuKernels::with_cache(&self.device, data.as_deref());
+        self.kept = Some(path);
         true
     }
 
     /// Writes the pipeline cache [`GpuContext::keep_pipelines`] seeded
     /// back to its file, atomically (nothing without one).
     pub fn save_pipelines(&self) -> Result<()> {
-        let Some((kernels, path)) = &self.kept else {
+        let Some(path) = &self.kept else {
             return Ok(());
         };
-        match kernels.cache_data() {
+        match self.kernels.cache_data() {
             Some(data) => pipeline_cache::save(path, &data),
             None => Ok(()),
         }

@@ -68,7 +68,7 @@ pub enum Kernel {
 macro_rules! kernels {
     ($($kernel:ident = $name:literal),* $(,)?) => {
         impl Kernel {
-            /// Every kernel, in the order of `shaders/` listings in the docs.
+            /// Every kernel.
             pub const ALL: [Kernel; [$($name),*].len()] = [$(Kernel::$kernel),*];
 
             /// The file stem and entry point.

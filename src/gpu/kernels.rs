@@ -14,7 +14,7 @@
 use std::collections::hash_map::Entry;
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex, PoisonError, Weak};
+use std::sync::{Arc, Mutex, PoisonError};
 
 use super::errors::guarded;
 use super::grid::GridBlock;
@@ -74,19 +74,16 @@ type Key = (Kernel, Variant, Features);
 /// The kernel library of one device: cheap to clone (the clones share
 /// everything), safe to share between threads.
 ///
-/// [`GpuSolver::new`](super::GpuSolver::new) takes the library of its
-/// device from [`GpuKernels::for_device`], so solvers alive at the same
-/// time on one device share their pipelines without the host doing
-/// anything; [`GpuSolver::with_kernels`](super::GpuSolver::with_kernels)
-/// takes one explicitly. A library lives as long as a clone of it does.
+/// Solvers built with [`GpuSolver::with_kernels`](super::GpuSolver::with_kernels)
+/// and one library compile each pipeline once between them;
+/// [`GpuSolver::new`](super::GpuSolver::new) makes a library of its own.
+/// Sharing is explicit: wgpu compares devices by an id that devices of
+/// two wgpu instances in one process may share, so a library cannot be
+/// found from a device alone.
 #[derive(Clone, Debug)]
 pub struct GpuKernels {
     inner: Arc<Inner>,
 }
-
-/// The libraries alive, one per device at most (a device's is found by
-/// comparing handles; dead entries are dropped as the list is searched).
-static LIBRARIES: Mutex<Vec<Weak<Inner>>> = Mutex::new(Vec::new());
 
 #[derive(Debug)]
 struct Inner {
@@ -138,30 +135,11 @@ const GROUP0_STORAGE: [(u32, bool); 10] = [
 ];
 
 impl GpuKernels {
-    /// The library of `device`: the one alive, else a new one (with an
-    /// empty pipeline cache where the device has the feature).
-    pub fn for_device(device: &wgpu::Device) -> GpuKernels {
-        let mut libraries = LIBRARIES.lock().unwrap_or_else(PoisonError::into_inner);
-        libraries.retain(|w| w.strong_count() > 0);
-        let alive = libraries.iter().filter_map(Weak::upgrade);
-        if let Some(inner) = alive.into_iter().find(|i| i.device == *device) {
-            return GpuKernels { inner };
-        }
-        let kernels = GpuKernels::new(device, None);
-        libraries.push(Arc::downgrade(&kernels.inner));
-        kernels
-    }
-
-    /// A new library for `device`, which [`GpuKernels::for_device`] finds
-    /// from now on, with its pipeline cache seeded by `cache_data` (what
-    /// [`GpuKernels::cache_data`] returned on an earlier run; see
-    /// `src/gpu/pipeline_cache.rs` for how the CLI keeps it).
-    pub(crate) fn with_cache(device: &wgpu::Device, cache_data: Option<&[u8]>) -> GpuKernels {
-        let mut libraries = LIBRARIES.lock().unwrap_or_else(PoisonError::into_inner);
-        libraries.retain(|w| w.upgrade().is_some_and(|i| i.device != *device));
-        let kernels = GpuKernels::new(device, cache_data);
-        libraries.push(Arc::downgrade(&kernels.inner));
-        kernels
+    /// An empty library for `device` (with an empty pipeline cache where
+    /// the device has the feature): the layouts now, the pipelines as
+    /// solvers ask for them.
+    pub fn new(device: &wgpu::Device) -> GpuKernels {
+        GpuKernels::with_cache(device, None)
     }
 
     /// What the pipeline cache holds, to seed a later run's; `None` on a
@@ -173,9 +151,11 @@ impl GpuKernels {
             .and_then(wgpu::PipelineCache::get_data)
     }
 
-    /// An empty library for `device`: the layouts now, the pipelines as
-    /// solvers ask for them.
-    fn new(device: &wgpu::Device, cache_data: Option<&[u8]>) -> GpuKernels {
+    /// A library for `device` whose pipeline cache is seeded by
+    /// `cache_data` (what [`GpuKernels::cache_data`] returned on an
+    /// earlier run; see `src/gpu/pipeline_cache.rs` for how the CLI keeps
+    /// it).
+    pub(crate) fn with_cache(device: &wgpu::Device, cache_data: Option<&[u8]>) -> GpuKernels {
         let mut entries = vec![wgpu::BindGroupLayoutEntry {
             binding: 0,
             visibility: wgpu::ShaderStages::COMPUTE,

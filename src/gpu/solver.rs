@@ -242,16 +242,16 @@ impl GpuSolver {
     /// ([`Error::OutOfMemory`]; see [`crate::budget`]). A device error while
     /// building (out of device memory, validation) is an error too.
     ///
-    /// The solver takes its pipelines from its device's kernel library
-    /// ([`GpuKernels::for_device`]): solvers alive on one device at the same
-    /// time compile each kernel variant once between them.
+    /// The solver compiles its pipelines into a kernel library of its own;
+    /// solvers built with [`GpuSolver::with_kernels`] and one library
+    /// compile each kernel variant once between them.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         model: &Model,
         params: &Params,
     ) -> Result<GpuSolver> {
-        GpuSolver::with_kernels(&GpuKernels::for_device(device), queue, model, params)
+        GpuSolver::with_kernels(&GpuKernels::new(device), queue, model, params)
     }
 
     /// [`GpuSolver::new`] on the device of `kernels`, taking its pipelines

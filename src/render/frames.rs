@@ -9,7 +9,7 @@ use super::png_writer::{self, frame_name, Frame, PngWriter};
 use super::{Camera, FrameTarget, Renderer, COLOR_FORMAT, DEPTH_FORMAT};
 use crate::budget;
 use crate::error::{Error, Result};
-use crate::gpu::{guarded, readback, GpuSolver};
+use crate::gpu::{guarded, readback, GpuKernels, GpuSolver};
 use crate::scene::Scene;
 
 /// Staging buffers in rotation, and so frames in flight between two status
@@ -233,9 +233,23 @@ pub fn render_scene(
     options: &FrameOptions,
     progress: impl FnMut(u32) -> ControlFlow<()>,
 ) -> Result<u32> {
+    let kernels = GpuKernels::new(device);
+    render_scene_with_kernels(&kernels, queue, scene, options, progress)
+}
+
+/// [`render_scene`] on the device of `kernels`, whose pipelines the solver
+/// shares (see [`GpuSolver::with_kernels`]).
+pub fn render_scene_with_kernels(
+    kernels: &GpuKernels,
+    queue: &wgpu::Queue,
+    scene: &Scene,
+    options: &FrameOptions,
+    progress: impl FnMut(u32) -> ControlFlow<()>,
+) -> Result<u32> {
+    let device = kernels.device();
     check_image(device, options.width, options.height)?;
     let model = scene.model()?;
-    let mut solver = GpuSolver::new(device, queue, &model, &scene.params)?;
+    let mut solver = GpuSolver::with_kernels(kernels, queue, &model, &scene.params)?;
     let aspect = options.width as f32 / options.height as f32;
     let camera = Camera::for_scene(scene, &model, aspect);
     let renderer = guarded(device, "building the renderer", None, || {
