@@ -4,7 +4,8 @@
 //! Block Jacobi removes the error of each particle against its neighbours
 //! quickly and the smooth error (a whole region moving together) slowly:
 //! CG needs more iterations the stiffer the springs are against the mass.
-//! Grouping the particles into square *aggregates* of [`LEVEL_SIDES`]
+//! Grouping the particles into square *aggregates* of
+//! [`LEVEL_SIDES`](crate::aggregation::LEVEL_SIDES)
 //! particles a side gives each level one unknown 3-vector per aggregate
 //! (the aggregate moving rigidly), and the preconditioner becomes
 //!
@@ -44,97 +45,16 @@
 
 use super::implicit::Filter;
 use super::mat3::Sym3;
-use crate::model::Model;
-use crate::params::{Integrator, Params};
+pub use crate::aggregation::Aggregation;
+use crate::aggregation::RATIO;
 use crate::real::{Real, Vec3};
-
-/// Particles per aggregate side, level by level. Level 2's side is a
-/// multiple of level 1's, so each level-2 aggregate is a whole number of
-/// level-1 aggregates (at most 4 × 4).
-pub const LEVEL_SIDES: [usize; 2] = [4, 16];
-
-/// Level-1 aggregates per level-2 aggregate side.
-const RATIO: usize = LEVEL_SIDES[1] / LEVEL_SIDES[0];
-
-/// How an `nx × ny` grid is cut into aggregates (the last row and column
-/// of aggregates may be partial).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Aggregation {
-    /// Columns of particles.
-    pub nx: usize,
-    /// Rows of particles.
-    pub ny: usize,
-}
-
-impl Aggregation {
-    /// The aggregation of a grid of `(nx, ny)` particles, or `None` without
-    /// a grid or where the aggregates outnumber the particles (a grid
-    /// thinner than two particles: the GPU keeps the aggregates in
-    /// per-particle storage).
-    pub fn for_grid(grid: Option<(usize, usize)>) -> Option<Self> {
-        let (nx, ny) = grid?;
-        let agg = Aggregation { nx, ny };
-        (nx >= 2 && ny >= 2 && agg.total() <= nx * ny).then_some(agg)
-    }
-
-    /// The aggregation both backends use for `model` under `params`: an
-    /// implicit grid cloth with [`crate::params::ImplicitParams::coarse_levels`].
-    pub fn for_scene(model: &Model, params: &Params) -> Option<Self> {
-        if params.integrator != Integrator::Implicit || !params.implicit.coarse_levels {
-            return None;
-        }
-        Self::for_grid(model.grid.as_ref().map(|g| (g.nx, g.ny)))
-    }
-
-    /// Aggregates per row at `level`.
-    pub fn across(&self, level: usize) -> usize {
-        self.nx.div_ceil(LEVEL_SIDES[level])
-    }
-
-    /// Aggregates per column at `level`.
-    pub fn down(&self, level: usize) -> usize {
-        self.ny.div_ceil(LEVEL_SIDES[level])
-    }
-
-    /// Aggregates at `level`.
-    pub fn count(&self, level: usize) -> usize {
-        self.across(level) * self.down(level)
-    }
-
-    /// Aggregates of both levels: level 1's, then level 2's.
-    pub fn total(&self) -> usize {
-        self.count(0) + self.count(1)
-    }
-
-    /// Index, among both levels' aggregates, of aggregate `(row, col)` of
-    /// `level`.
-    pub fn index(&self, level: usize, row: usize, col: usize) -> usize {
-        let offset = if level == 0 { 0 } else { self.count(0) };
-        offset + row * self.across(level) + col
-    }
-
-    /// Index, among both levels' aggregates, of the level-`level` aggregate
-    /// of particle `p`.
-    pub fn of(&self, level: usize, p: usize) -> usize {
-        let side = LEVEL_SIDES[level];
-        self.index(level, (p / self.nx) / side, (p % self.nx) / side)
-    }
-
-    /// Particles of aggregate `(row, col)` of `level`, row-major.
-    fn particles(&self, level: usize, row: usize, col: usize) -> impl Iterator<Item = usize> + '_ {
-        let side = LEVEL_SIDES[level];
-        let rows = row * side..((row + 1) * side).min(self.ny);
-        let cols = col * side..((col + 1) * side).min(self.nx);
-        rows.flat_map(move |r| cols.clone().map(move |c| r * self.nx + c))
-    }
-}
 
 /// The coarse levels' per-step state.
 #[derive(Clone, Debug)]
 pub struct Coarse<R> {
     /// How the grid is aggregated.
     pub agg: Aggregation,
-    /// Each particle's aggregate at both levels ([`Aggregation::of`]).
+    /// Each particle's aggregate at both levels (`Aggregation::of`).
     pub of: Vec<[u32; 2]>,
     /// Per particle and level: its mass times `I` plus the blocks of its
     /// springs whose other end lies in another aggregate of that level
@@ -250,35 +170,5 @@ impl<R: Real> Coarse<R> {
             }
         }
         total
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn aggregates_cover_the_grid_once_per_level() {
-        let agg = Aggregation::for_grid(Some((37, 21))).expect("a grid");
-        for level in 0..2 {
-            let mut seen = vec![0; agg.nx * agg.ny];
-            for row in 0..agg.down(level) {
-                for col in 0..agg.across(level) {
-                    for p in agg.particles(level, row, col) {
-                        seen[p] += 1;
-                        assert_eq!(agg.of(level, p), agg.index(level, row, col));
-                    }
-                }
-            }
-            assert!(seen.iter().all(|&c| c == 1), "level {level}");
-        }
-        assert_eq!(agg.count(0), 10 * 6);
-        assert_eq!(agg.count(1), 3 * 2);
-    }
-
-    #[test]
-    fn no_aggregation_without_a_grid_or_on_a_line() {
-        assert_eq!(Aggregation::for_grid(None), None);
-        assert_eq!(Aggregation::for_grid(Some((1, 50))), None);
     }
 }
