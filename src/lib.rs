@@ -36,6 +36,10 @@ mod error;
 #[doc(hidden)]
 pub mod evidence;
 pub mod gpu;
+// The numbers the kernels and the CPU reference share (workgroup size,
+// buffer sections, status words); reached by the twin tests.
+#[doc(hidden)]
+pub mod kernel_config;
 pub mod model;
 pub mod params;
 mod real;

@@ -1,12 +1,14 @@
 //! The GPU solver skips what a scene does not use: specialised kernels give
 //! the general kernels' results, switched-off features record fewer
-//! dispatches, and the fix-up stops on the device. On lavapipe in CI.
+//! dispatches, and the fix-up stops on the device. The step plan it records
+//! is typed, and the debug API runs it dispatch by dispatch. On lavapipe in
+//! CI.
 
 mod gpu_common;
 
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
-use wgcloth::gpu::{GpuSolver, GpuState};
+use wgcloth::gpu::{DebugBuffer, FixupPhase, GpuSolver, GpuState, Kernel, Launch, Variant};
 use wgcloth::model::{Corner, Pin};
 use wgcloth::params::{Integrator, Wind};
 use wgcloth::{Model, Params};
@@ -131,5 +133,145 @@ fn the_fixup_stops_on_the_device_when_nothing_is_over_stretched() {
     assert!(
         early > 0,
         "the fix-up never stopped early: the test proves nothing"
+    );
+}
+
+/// The plan is typed: a single-pass explicit step (a grid, no fix-up) is
+/// the seed copy into the snapshot and the pass back from it; with fix-up
+/// it is integration, the fix-up passes (the first its own variant) and
+/// the step end.
+#[test]
+fn the_plan_names_kernels_and_variants() {
+    let ctx = gpu();
+    let mut p = base(Integrator::Explicit);
+    p.fixup.iterations = 0;
+    let m = model(&p, vec![]);
+    let g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    let plan: Vec<(Kernel, Variant)> = g.debug_plan().iter().map(|d| d.pipeline()).collect();
+    assert_eq!(
+        plan,
+        [
+            (Kernel::ExplicitSeed, Variant::Plain),
+            (Kernel::ExplicitIntegrate, Variant::FromSnapshot),
+        ]
+    );
+    p.fixup.iterations = 3;
+    let g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    let plan: Vec<(Kernel, Variant)> = g.debug_plan().iter().map(|d| d.pipeline()).collect();
+    let fixup = |k| (Kernel::FixupJacobi, Variant::Fixup(FixupPhase::of_pass(k)));
+    assert_eq!(
+        plan,
+        [
+            (Kernel::ExplicitIntegrate, Variant::Plain),
+            (Kernel::FixupJacobi, Variant::FixupFirst),
+            fixup(1),
+            fixup(2),
+            (Kernel::FinishStep, Variant::Plain),
+        ]
+    );
+}
+
+/// The CG iterations launch their scalar kernels from the iteration's
+/// slots, and the per-particle ones from `cg_args`.
+#[test]
+fn cg_iterations_launch_from_their_slots() {
+    let ctx = gpu();
+    let p = base(Integrator::Implicit);
+    let m = model(&p, vec![]);
+    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    g.tuning_mut().set_adaptive_cg_budget(false);
+    let plan = g.debug_plan();
+    let launches = |k: Kernel| -> Vec<Launch> {
+        plan.iter()
+            .filter(|d| d.kernel == k)
+            .map(|d| d.launch)
+            .collect()
+    };
+    let budget = g.tuning().cg_budget();
+    let alpha: Vec<Launch> = (0..budget).map(Launch::AlphaSlot).collect();
+    let beta: Vec<Launch> = (0..budget).map(Launch::BetaSlot).collect();
+    assert_eq!(launches(Kernel::CgAlpha), alpha);
+    assert_eq!(launches(Kernel::CgBeta), beta);
+    assert!(launches(Kernel::CgApply)
+        .iter()
+        .all(|&l| l == Launch::ApplyArgs));
+    assert_eq!(launches(Kernel::CgStart), [Launch::Direct]);
+}
+
+/// A step run through the debug API in pieces — one dispatch at a time
+/// for the first ten, then the rest at once — leaves every buffer as
+/// `step(1)` does, bit for bit, for every integrator and the single-pass
+/// explicit step; and the step count advances once.
+#[test]
+fn a_step_run_dispatch_by_dispatch_equals_one_step() {
+    let mut cases: Vec<(String, Params)> = Integrator::ALL
+        .iter()
+        .map(|&i| (i.to_string(), busy_params(i)))
+        .collect();
+    let mut single = busy_params(Integrator::Explicit);
+    single.fixup.iterations = 0;
+    cases.push(("explicit single pass".into(), single));
+    let corners = vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)];
+    let ctx = gpu();
+    for (what, p) in cases {
+        let m = model(&p, corners.clone());
+        let solver = || {
+            let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+            g.tuning_mut().set_adaptive_cg_budget(false);
+            // Some steps first, so the pieces start from a moving cloth.
+            g.step(3).expect("steps");
+            g
+        };
+        let mut whole = solver();
+        whole.step(1).expect("step");
+        let mut pieces = solver();
+        let len = pieces.debug_plan().len();
+        let cut = len.min(10);
+        for k in 0..cut {
+            pieces.debug_run(k..k + 1).expect("one dispatch");
+        }
+        pieces.debug_run(cut..len).expect("the rest");
+        let status = pieces.check().expect("status");
+        assert_eq!(status.steps, 4, "{what}");
+        assert_eq!(pieces.steps_recorded(), 4, "{what}");
+        for buffer in DebugBuffer::ALL {
+            let (a, b) = (
+                whole.debug_read(buffer).expect("read"),
+                pieces.debug_read(buffer).expect("read"),
+            );
+            let first = a.iter().zip(&b).position(|(x, y)| x != y);
+            assert!(
+                first.is_none(),
+                "{what}: {buffer:?} differs at word {first:?}"
+            );
+        }
+    }
+}
+
+/// A range past the plan or a write larger than its buffer is refused,
+/// naming what is allowed; a write lands at the buffer's start.
+#[test]
+fn the_debug_api_refuses_what_does_not_fit() {
+    let ctx = gpu();
+    let p = base(Integrator::Explicit);
+    let m = model(&p, vec![]);
+    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    let len = g.debug_plan().len();
+    let e = g.debug_run(0..len + 1).expect_err("past the plan");
+    assert!(e.to_string().contains(&format!("0..{len}")), "{e}");
+    let x = g.debug_read(DebugBuffer::X).expect("read");
+    let too_many = vec![0u32; x.len() + 1];
+    assert!(g.debug_write(DebugBuffer::X, &too_many).is_err());
+    let words: Vec<u32> = (0..8).map(|k| 1.5f32.to_bits() + k).collect();
+    g.debug_write(DebugBuffer::X, &words).expect("write");
+    let back = g.debug_read(DebugBuffer::X).expect("read");
+    assert_eq!(&back[..8], &words[..]);
+    assert_eq!(&back[8..], &x[8..]);
+    // The work buffer holds its 17 sections of four words per particle.
+    let layout = g.debug_layout();
+    let work = g.debug_read(DebugBuffer::Work).expect("read");
+    assert_eq!(
+        work.len(),
+        layout.work_section_words * wgcloth::kernel_config::work::COUNT as usize
     );
 }

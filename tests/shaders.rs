@@ -4,32 +4,55 @@
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 use wgcloth::gpu::layout::{GpuParams, GpuSphere, GpuSpring};
 use wgcloth::gpu::shaders;
-use wgcloth::gpu::GridBlock;
+use wgcloth::gpu::{GridBlock, Kernel};
 
-fn parse(name: &str) -> naga::Module {
-    parse_for(name, GridBlock::ONE)
+fn parse(kernel: Kernel) -> naga::Module {
+    parse_for(kernel, GridBlock::ONE)
 }
 
-fn parse_for(name: &str, block: GridBlock) -> naga::Module {
-    let source = shaders::kernel_source(name, block).unwrap_or_else(|e| panic!("{name}: {e}"));
-    let module = naga::front::wgsl::parse_str(&source)
-        .unwrap_or_else(|e| panic!("{name} does not parse:\n{}", e.emit_to_string(&source)));
+fn parse_for(kernel: Kernel, block: GridBlock) -> naga::Module {
+    let source = shaders::kernel_source(kernel, block).unwrap_or_else(|e| panic!("{e}"));
+    validate(kernel.name(), &source)
+}
+
+/// The module `source` (named `name` in a failure), parsed and validated.
+fn validate(name: &str, source: &str) -> naga::Module {
+    let module = naga::front::wgsl::parse_str(source)
+        .unwrap_or_else(|e| panic!("{name} does not parse:\n{}", e.emit_to_string(source)));
     Validator::new(ValidationFlags::all(), Capabilities::all())
         .validate(&module)
-        .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(&source)));
+        .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(source)));
     module
 }
 
 #[test]
 fn every_kernel_parses_and_validates() {
-    assert!(!shaders::KERNELS.is_empty());
-    for (name, _) in shaders::KERNELS {
-        let module = parse(name);
+    for kernel in Kernel::ALL {
+        let module = parse(kernel);
+        let name = kernel.name();
         assert!(
-            module.entry_points.iter().any(|e| e.name == *name),
+            module.entry_points.iter().any(|e| e.name == name),
             "{name}.wgsl must define the entry point `{name}`"
         );
     }
+}
+
+/// `Kernel::ALL` names every file of `shaders/` (the render shader's
+/// folder aside), so no kernel is left out of these tests.
+#[test]
+fn every_kernel_file_has_a_kernel() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders");
+    let mut files: Vec<String> = std::fs::read_dir(&dir)
+        .expect("shaders/")
+        .filter_map(|e| {
+            let name = e.ok()?.file_name().into_string().ok()?;
+            Some(name.strip_suffix(".wgsl")?.to_string())
+        })
+        .collect();
+    files.sort();
+    let mut kernels: Vec<String> = Kernel::ALL.iter().map(|k| k.name().to_string()).collect();
+    kernels.sort();
+    assert_eq!(files, kernels);
 }
 
 /// The generated grid gather validates for every block shape the solver
@@ -39,9 +62,9 @@ fn every_grid_block_shape_validates() {
     for cols in 1..=GridBlock::MAX {
         for rows in 1..=GridBlock::MAX {
             let block = GridBlock { cols, rows };
-            for (name, source) in shaders::KERNELS {
-                if source.contains("generated/grid_block") {
-                    parse_for(name, block);
+            for kernel in Kernel::ALL {
+                if kernel.source().contains("generated/grid_block") {
+                    parse_for(kernel, block);
                 }
             }
         }
@@ -79,7 +102,7 @@ macro_rules! offsets {
 
 #[test]
 fn pod_twins_match_their_wgsl_structs() {
-    let module = parse("explicit_integrate");
+    let module = parse(Kernel::ExplicitIntegrate);
     let check = |name: &str, rust: Vec<(String, u32)>, size: usize| {
         let (wgsl, span) = wgsl_layout(&module, name);
         assert_eq!(

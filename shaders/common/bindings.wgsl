@@ -3,12 +3,14 @@
 // of the scratch buffers. Included by each kernel file through
 // `#include "common/bindings.wgsl"` (src/gpu/shaders.rs).
 
-// Workgroup size of every per-particle and per-spring kernel.
-override WORKGROUP: u32 = 64u;
-// Workgroup size of the one-workgroup CG scalar kernels (cg_start,
-// cg_alpha, cg_beta): 256, or what the device allows (src/gpu/pipelines.rs,
-// sum_group).
-override SUM_GROUP: u32 = 256u;
+// The shared numbers (workgroup sizes, buffer sections, partial slots,
+// status words), generated from src/kernel_config.rs where each is
+// documented: W_* (`work` sections), S_* (`spring_work` sections), P_* and
+// C_* (`partials` slots and CG scalars), STATUS_* (`status` words),
+// FILTER_* (filter kinds), MAX_SPHERES, and the overrides WORKGROUP and
+// SUM_GROUP (set per pipeline by src/gpu/kernels.rs).
+#include "generated/config.wgsl"
+
 // Scene features; a pipeline variant with a feature off has its code
 // removed by the compiler (constant-folded branch).
 override HAS_WIND: bool = true;
@@ -28,8 +30,6 @@ override CONSTANT_BLOCKS: bool = false;
 // The implicit CG adds the coarse levels (common/coarse.wgsl) to its
 // preconditioner.
 override COARSE: bool = false;
-
-const MAX_SPHERES: u32 = 16u;
 
 // Twin: layout::GpuSphere.
 struct Sphere {
@@ -121,84 +121,6 @@ struct Spring {
 // Dense semi-implicit filter, row-major over filter positions, then the
 // filter order (particle of each position, as f32 bits).
 @group(0) @binding(10) var<storage, read> dense: array<f32>;
-
-// `work` sections. Twin: layout::section.
-const W_X_PRED: u32 = 0u;
-const W_X_ALT: u32 = 1u;
-const W_V_NEW: u32 = 2u;
-const W_DV: u32 = 3u;
-const W_R: u32 = 4u;
-const W_C: u32 = 5u;
-const W_Q: u32 = 6u;
-const W_S: u32 = 7u;
-const W_RHS: u32 = 8u;
-const W_Z: u32 = 9u;
-const W_FILTER: u32 = 10u;
-const W_PRE_DIAG: u32 = 11u;
-const W_PRE_OFF: u32 = 12u;
-// Δv of the step before the last (CG warm start: 2 Δv − Δv_prev).
-const W_DV_PREV: u32 = 13u;
-// The w of the CG vectors: W_DV's and W_S's hold the particle's filter
-// kind (W_DV's from the CG set-up, implicit_prepare or semi_cg_prepare,
-// to the step's end; W_S's from cg_init and cg_update), for the kernels
-// that load them anyway; W_R's, W_Q's and W_RHS's the particle's terms of
-// ρ, cᵀq and δ0, summed by the one-workgroup kernels (see sum_w).
-
-// The start-of-step positions of an implicit step on a grid with
-// colliders, from which implicit_finish computes the spring blocks of its
-// contact particles while x is being overwritten (the section of the
-// explicit integrator's predicted positions, unused by the implicit one).
-const W_X_START: u32 = W_X_PRED;
-// The coarse levels (common/coarse.wgsl), indexed by aggregate: D⁻¹'s
-// diagonal and off-diagonal, and the correction z = D⁻¹ Πᵀr (w: the
-// coarse terms of δ, level-2 aggregates only).
-const W_COARSE_INV_D: u32 = 14u;
-const W_COARSE_INV_O: u32 = 15u;
-const W_COARSE_Z: u32 = 16u;
-// Each particle's contribution to its aggregates' D at levels 1 and 2
-// (diagonal, off-diagonal; W_LEVEL1_O's w: the trace of the particle's
-// block-Jacobi block), from implicit_prepare to coarse_setup: in CG
-// sections that cg_init writes afterwards.
-const W_LEVEL1_D: u32 = W_R;
-const W_LEVEL1_O: u32 = W_C;
-const W_LEVEL2_D: u32 = W_Q;
-const W_LEVEL2_O: u32 = W_S;
-
-// `spring_work` sections: the implicit block (m, a) with B = a I + m mᵀ;
-// K_s u; the spring force on end i.
-const S_BLOCK: u32 = 0u;
-const S_KV: u32 = 1u;
-const S_FORCE: u32 = 2u;
-
-// `partials` slots (one value per block each), then the CG scalars.
-const P_CQ: u32 = 0u;
-const P_RS: u32 = 1u;
-const P_D0: u32 = 2u;
-const P_TORQUE: u32 = 3u; // 16 slots: torque-compensation sums
-const P_SLOTS: u32 = 19u;
-
-// `status` words. Twin: layout::status.
-const STATUS_STEP: u32 = 0u;
-const STATUS_BAD_STEP: u32 = 1u;
-const STATUS_BAD_PARTICLE: u32 = 2u;
-const STATUS_FIXUP_MOVED: u32 = 3u;
-const STATUS_CG_ITERATIONS: u32 = 4u;
-const STATUS_CG_STOPPED: u32 = 5u;
-const STATUS_CG_MAX_ITERATIONS: u32 = 6u;
-// Fix-up: stopped this step; the section holding its result; passes run;
-// three rotating "this pass moved something" flags.
-const STATUS_FIXUP_STOPPED: u32 = 7u;
-const STATUS_FIXUP_RESULT: u32 = 8u;
-const STATUS_FIXUP_PASSES: u32 = 9u;
-const STATUS_FIXUP_FLAG: u32 = 10u;
-// CG: the slots of cg_alpha and cg_beta last enabled (common/cg.wgsl).
-const STATUS_ALPHA_SLOT: u32 = 13u;
-const STATUS_BETA_SLOT: u32 = 14u;
-
-// Filter kinds (w of W_Z).
-const FILTER_FREE: f32 = 0.0;
-const FILTER_FIXED: f32 = 1.0;
-const FILTER_PLANE: f32 = 2.0;
 
 // A length below which a spring or triangle has no direction. Twin:
 // Real::TINY for f32.

@@ -437,14 +437,9 @@ fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
     return sum_staged(STAGED_PARTIALS, slot, params.partial_count, lid);
 }
 
-// CG scalars, after the partials: δ0, δ (current rᵀM⁻¹r: with the coarse
-// levels more than ρ = rᵀP⁻¹r with the block-Jacobi P alone, which decides
-// convergence and is summed where it is tested), α, β.
-const C_DELTA0: u32 = 0u;
-const C_DELTA: u32 = 1u;
-const C_ALPHA: u32 = 2u;
-const C_BETA: u32 = 3u;
-
+// CG scalars C_*, after the partials: δ0, δ (current rᵀM⁻¹r: with the
+// coarse levels more than ρ = rᵀP⁻¹r with the block-Jacobi P alone, which
+// decides convergence and is summed where it is tested), α, β.
 fn scalar_index(k: u32) -> u32 {
     return P_SLOTS * params.partial_count + k;
 }

@@ -56,9 +56,7 @@ use mat3::Sym3;
 /// "Dense or banded filter"). The article's sizes (15², 25², 33²) all stay dense.
 pub const DENSE_FILTER_MAX_PARTICLES: usize = 1 << 11;
 
-/// Particles per block of a reduction (dot products in CG): the GPU's
-/// workgroup size, so the CPU sums in the GPU's order.
-pub const REDUCTION_BLOCK: usize = 64;
+pub use crate::kernel_config::REDUCTION_BLOCK;
 
 /// Positions and velocities: what a step changes.
 #[derive(Clone, Debug, PartialEq)]

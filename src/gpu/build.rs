@@ -4,13 +4,17 @@
 use wgpu::util::DeviceExt;
 
 use super::grid::{fixup_limit, GridBlock, GridLayout};
+use super::kernel::ArgsGroup;
+use super::kernels::GpuKernels;
 use super::layout::{self, section, GpuParams, GpuSpring};
-use super::pipelines::Pipelines;
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
-use super::solver::{gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND, WORKGROUP};
+use super::solver::{
+    gpu_spheres, plan_inputs, scene_features, GpuSolver, Prepared, NO_GROUND, NO_WIND,
+};
 use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_vec, try_with_capacity};
 use crate::error::Result;
+use crate::kernel_config::WORKGROUP;
 use crate::model::Model;
 use crate::params::Params;
 
@@ -27,6 +31,7 @@ impl GpuSolver {
         params: &Params,
         filter: Option<SemiFilter>,
         grid: Option<GridLayout>,
+        kernels: GpuKernels,
     ) -> Result<GpuSolver> {
         let n = model.particle_count() as u32;
         let partial_count = n.div_ceil(WORKGROUP);
@@ -199,7 +204,9 @@ impl GpuSolver {
         let params_buffer = init(
             "wgcloth.params",
             bytemuck::bytes_of(&gpu_params),
-            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            wgpu::BufferUsages::UNIFORM
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
         );
         let springs_buffer = init(
             "wgcloth.springs",
@@ -269,44 +276,6 @@ impl GpuSolver {
             wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
         );
 
-        let storage_entry = |binding: u32, read_only: bool| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let mut entries = vec![wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }];
-        for (binding, read_only) in [
-            (1, true),
-            (2, true),
-            (3, false),
-            (4, false),
-            (5, false),
-            (6, false),
-            (7, false),
-            (8, false),
-            (9, false),
-            (10, true),
-        ] {
-            entries.push(storage_entry(binding, read_only));
-        }
-        let bgl = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("wgcloth.bindings"),
-            entries: &entries,
-        });
         let buffers = [
             &params_buffer,
             &springs_buffer,
@@ -330,13 +299,8 @@ impl GpuSolver {
             .collect();
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("wgcloth.bindings"),
-            layout: &bgl,
+            layout: kernels.group0(),
             entries: &bind_entries,
-        });
-        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("wgcloth.pipeline_layout"),
-            bind_group_layouts: &[Some(&bgl)],
-            immediate_size: 0,
         });
         // The per-particle CG kernels are dispatched indirectly from
         // `cg_args`, which the CG scalar kernels zero when CG stops: a
@@ -349,7 +313,7 @@ impl GpuSolver {
         let cg_args = init(
             "wgcloth.cg_args",
             bytemuck::cast_slice(&[0u32, 1, 1, 0, 1, 1]),
-            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+            storage | wgpu::BufferUsages::INDIRECT,
         );
         // The scalar kernels' own indirect arguments: a (workgroups, 1, 1)
         // slot per CG iteration, which the kernels enable one ahead and
@@ -361,51 +325,46 @@ impl GpuSolver {
             init(
                 label,
                 bytemuck::cast_slice(&slot_words),
-                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::INDIRECT,
+                storage | wgpu::BufferUsages::INDIRECT,
             )
         };
         let alpha_slots = slot_buffer("wgcloth.alpha_slots");
         let beta_slots = slot_buffer("wgcloth.beta_slots");
         // Group 1 of each kernel that writes dispatch arguments: cg_args
         // and the slots of the other scalar kernel (cg_start: both).
-        let args_group = |name: &str, bindings: &[(u32, &wgpu::Buffer)]| {
-            let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some(name),
-                entries: &bindings
-                    .iter()
-                    .map(|&(b, _)| storage_entry(b, false))
-                    .collect::<Vec<_>>(),
-            });
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(name),
-                layout: &layout,
-                entries: &bindings
-                    .iter()
-                    .map(|&(binding, buffer)| wgpu::BindGroupEntry {
-                        binding,
-                        resource: buffer.as_entire_binding(),
-                    })
-                    .collect::<Vec<_>>(),
-            });
-            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(name),
-                bind_group_layouts: &[Some(&bgl), Some(&layout)],
-                immediate_size: 0,
-            });
-            (group, pipeline_layout)
-        };
-        let (start_group, start_layout) = args_group(
-            "wgcloth.args.cg_start",
-            &[(0, &cg_args), (1, &alpha_slots), (2, &beta_slots)],
-        );
-        let (alpha_group, alpha_layout) =
-            args_group("wgcloth.args.cg_alpha", &[(0, &cg_args), (2, &beta_slots)]);
-        let (beta_group, beta_layout) =
-            args_group("wgcloth.args.cg_beta", &[(0, &cg_args), (1, &alpha_slots)]);
+        let args_groups = ArgsGroup::ALL.map(|g| {
+            let entries: Vec<_> = g
+                .bindings()
+                .iter()
+                .map(|&binding| wgpu::BindGroupEntry {
+                    binding,
+                    resource: [&cg_args, &alpha_slots, &beta_slots][binding as usize]
+                        .as_entire_binding(),
+                })
+                .collect();
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("wgcloth.args"),
+                layout: kernels.args_layout(g),
+                entries: &entries,
+            })
+        });
 
         let features = scene_features(model, params, grid.as_ref().map(|_| block));
-        let mut pipelines = Pipelines::new(layout, [start_layout, alpha_layout, beta_layout]);
-        pipelines.ensure(device, params.integrator, features)?;
+        let fixup_iterations = if params.springs.iter().any(|s| s.max_stretch.is_some()) {
+            params.fixup.iterations
+        } else {
+            0
+        };
+        let prepared = Prepared::new(
+            &kernels,
+            &plan_inputs(
+                params.integrator,
+                features,
+                &gpu_params,
+                slots as u32,
+                fixup_iterations,
+            ),
+        )?;
         queue.submit([]);
 
         Ok(GpuSolver {
@@ -418,11 +377,7 @@ impl GpuSolver {
             grid: grid.is_some(),
             block,
             triangles: model.triangles.len() as u32,
-            fixup_iterations: if params.springs.iter().any(|s| s.max_stretch.is_some()) {
-                params.fixup.iterations
-            } else {
-                0
-            },
+            fixup_iterations,
             cg_max_iterations,
             cg_budget: cg_max_iterations,
             adaptive_budget: true,
@@ -434,12 +389,18 @@ impl GpuSolver {
             normals,
             indices,
             status,
+            springs_buffer,
+            topo: topo_buffer,
+            work,
+            spring_work,
+            partials,
             bind_group,
             cg_args,
             alpha_slots,
             beta_slots,
-            args_groups: [start_group, alpha_group, beta_group],
-            pipelines,
+            args_groups,
+            kernels,
+            prepared,
             features,
             steps_recorded: 0,
             dt: params.dt,

@@ -2,10 +2,9 @@
 //! spheres, pins, pinned positions and the kernel variants. Nothing is
 //! rebuilt but what the change invalidates.
 
-use super::errors::guarded;
 use super::grid::GridBlock;
+use super::kernels::Features;
 use super::layout::MAX_SPHERES;
-use super::pipelines::Features;
 use super::semi_filter::SemiFilter;
 use super::solver::{gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND};
 use crate::error::{Error, Result};
@@ -177,13 +176,14 @@ impl GpuSolver {
                 // follows the scene's choice), not which code is compiled
                 // in.
                 coarse: self.features.coarse,
+                constant_blocks: self.features.constant_blocks,
             }
         };
-        guarded(&self.device, "compiling the kernels", None, || {
-            self.pipelines
-                .ensure(&self.device, self.integrator, features)
-        })?;
-        self.features = features;
+        let previous = std::mem::replace(&mut self.features, features);
+        if let Err(e) = self.prepare() {
+            self.features = previous;
+            return Err(e);
+        }
         self.upload_params();
         Ok(())
     }

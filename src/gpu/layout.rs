@@ -5,8 +5,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-/// Most spheres the GPU solver takes (they live in the uniform block).
-pub const MAX_SPHERES: usize = 16;
+pub use crate::kernel_config::{status, work as section, MAX_SPHERES};
 
 /// Twin of WGSL `Sphere`.
 #[repr(C)]
@@ -115,61 +114,10 @@ pub struct GpuSpring {
 }
 const _: () = assert!(std::mem::size_of::<GpuSpring>() == 32);
 
-/// Sections of the per-particle `work` buffer (twin of the `W_*` constants).
-pub mod section {
-    /// Predicted positions.
-    pub const X_PRED: u32 = 0;
-    /// Fix-up ping-pong.
-    pub const X_ALT: u32 = 1;
-    /// Velocity before the fix-up.
-    pub const V_NEW: u32 = 2;
-    /// CG unknown Δv.
-    pub const DV: u32 = 3;
-    /// Where single-pass explicit steps alternate the state (x, then v)
-    /// with the x and v buffers: the CG sections R and C, which the
-    /// explicit integrator does not use.
-    pub const SNAPSHOT: u32 = 4;
-    /// Number of sections (the last three: the coarse levels' aggregates).
-    pub const COUNT: u32 = 17;
-}
-
 /// Sections of the per-spring buffer.
-pub const SPRING_SECTIONS: u32 = 3;
+pub const SPRING_SECTIONS: u32 = crate::kernel_config::spring_work::COUNT;
 
-/// Slots of the reduction partials (3 CG slots + 16 torque sums), followed
-/// by 4 CG scalars (twin: `P_SLOTS` and `C_*`).
-pub const PARTIAL_SLOTS: u32 = 19;
+/// Slots of the reduction partials (3 CG slots + 16 torque sums).
+pub const PARTIAL_SLOTS: u32 = crate::kernel_config::partials::SLOTS;
 /// CG scalars after the partial slots.
-pub const CG_SCALARS: u32 = 4;
-
-/// Words of the status buffer (twin of the `STATUS_*` constants).
-pub mod status {
-    /// Steps taken on the device.
-    pub const STEP: usize = 0;
-    /// First step whose state was not finite (`u32::MAX`: none).
-    pub const BAD_STEP: usize = 1;
-    /// First non-finite particle at that step.
-    pub const BAD_PARTICLE: usize = 2;
-    /// The fix-up moved something this step.
-    pub const FIXUP_MOVED: usize = 3;
-    /// CG iterations of the last step.
-    pub const CG_ITERATIONS: usize = 4;
-    /// CG has stopped this step (converged or broke down).
-    pub const CG_STOPPED: usize = 5;
-    /// Largest CG iteration count of any step.
-    pub const CG_MAX_ITERATIONS: usize = 6;
-    /// The fix-up stopped early this step.
-    pub const FIXUP_STOPPED: usize = 7;
-    /// Section holding the fix-up's result.
-    pub const FIXUP_RESULT: usize = 8;
-    /// Fix-up passes run in the last step (the last one found nothing to
-    /// move when it stopped early).
-    pub const FIXUP_PASSES: usize = 9;
-    /// The CG iteration whose `cg_alpha` was last enabled (its slot may
-    /// still hold a workgroup; `cg_start` clears it).
-    pub const ALPHA_SLOT: usize = 13;
-    /// The same for `cg_beta`.
-    pub const BETA_SLOT: usize = 14;
-    /// Number of status words (three rotating fix-up flags follow 9).
-    pub const COUNT: usize = 16;
-}
+pub const CG_SCALARS: u32 = crate::kernel_config::partials::CG_SCALARS;

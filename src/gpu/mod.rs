@@ -12,16 +12,18 @@
 mod build;
 mod context;
 mod control;
+mod debug;
 mod divergence;
 mod errors;
 mod grid;
+mod kernel;
+mod kernels;
 // The kernels' buffer layouts, pipelines, read-back and WGSL sources:
 // reached by `tests/shaders.rs` and `tests/gpu_behaviour.rs`; not part of
 // the embedding API.
 #[doc(hidden)]
 pub mod layout;
-#[doc(hidden)]
-pub mod pipelines;
+mod plan;
 #[doc(hidden)]
 pub mod readback;
 mod semi_filter;
@@ -34,5 +36,17 @@ pub use context::{GpuContext, BACKEND_NAMES};
 pub(crate) use errors::guarded;
 pub use grid::GridBlock;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
-pub use solver::{GpuSolver, GpuState, GpuStatus, SINGLE_PASS, WORKGROUP};
+pub use solver::{GpuSolver, GpuState, GpuStatus};
+// The kernels' typed identity and the debug API that runs them one by one:
+// reached by `tests/kernel_twins.rs` and `tests/gpu_skipping.rs`.
+/// The workgroup size of every per-particle and per-spring kernel (see
+/// [`crate::kernel_config::WORKGROUP`]).
+pub use crate::kernel_config::WORKGROUP;
+#[doc(hidden)]
+pub use debug::{DebugBuffer, DebugLayout};
+#[doc(hidden)]
+pub use kernel::{ArgsGroup, Dispatch, FixupPhase, Kernel, Launch, Variant};
+pub use kernels::GpuKernels;
+#[doc(hidden)]
+pub use kernels::{sum_group, Features};
 pub use tuning::{GpuTuning, GpuTuningMut};

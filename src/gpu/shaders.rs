@@ -1,19 +1,27 @@
-//! WGSL sources: one kernel per file under `shaders/`, shared code under
-//! `shaders/common/`.
+//! WGSL sources: one kernel per file under `shaders/` ([`Kernel`]), shared
+//! code under `shaders/common/`.
 //!
 //! Sharing goes through exactly one mechanism: a line
-//! `#include "common/NAME.wgsl"` is replaced by that file's text, once per
-//! kernel (a second include of the same file is dropped), before the source
-//! reaches wgpu or naga. One include is generated rather than stored:
+//! `#include "common/NAME.wgsl"` is replaced by that file's text, itself
+//! composed the same way, before the source reaches wgpu or naga. Each
+//! file is included once per kernel (a later include of it is dropped),
+//! and an include cycle is an error. Two includes are generated rather
+//! than stored: `generated/config.wgsl`, the shared numbers of
+//! [`crate::kernel_config`] (see [`kernel_config::wgsl`]), and
 //! `generated/grid_block.wgsl`, the block gather of the grid kernels for
-//! the solver's [`GridBlock`] (see [`GridBlock::wgsl`]). Everything is embedded with `include_str!`, so the
-//! crate needs no files at run time, and `tests/shaders.rs` validates every
-//! composed kernel with naga on any machine.
+//! the solver's [`GridBlock`] (see [`GridBlock::wgsl`]). Everything is
+//! embedded with `include_str!`, so the crate needs no files at run time,
+//! and `tests/shaders.rs` validates every composed kernel and every common
+//! file with naga on any machine.
 
 use super::grid::GridBlock;
+use super::kernel::Kernel;
+use crate::kernel_config;
 
 /// The include that [`GridBlock::wgsl`] generates.
 const GRID_BLOCK: &str = "generated/grid_block";
+/// The include that [`kernel_config::wgsl`] generates.
+const CONFIG: &str = "generated/config";
 
 /// `(name, source)` of `shaders/NAME.wgsl`, embedded at compile time.
 macro_rules! wgsl {
@@ -26,7 +34,7 @@ macro_rules! wgsl {
 }
 
 /// Shared files an `#include` may name.
-const COMMON: &[(&str, &str)] = &[
+pub const COMMON: &[(&str, &str)] = &[
     wgsl!("common/bindings"),
     wgsl!("common/physics"),
     wgsl!("common/cg"),
@@ -36,39 +44,25 @@ const COMMON: &[(&str, &str)] = &[
     wgsl!("common/torque"),
 ];
 
-/// Every kernel: (entry point = file stem, source before composition).
-pub const KERNELS: &[(&str, &str)] = &[
-    wgsl!("spring_forces"),
-    wgsl!("explicit_integrate"),
-    wgsl!("explicit_seed"),
-    wgsl!("fixup_jacobi"),
-    wgsl!("finish_step"),
-    wgsl!("normals"),
-    wgsl!("implicit_springs"),
-    wgsl!("implicit_prepare"),
-    wgsl!("coarse_setup"),
-    wgsl!("cg_prolong"),
-    wgsl!("cg_init"),
-    wgsl!("cg_start"),
-    wgsl!("cg_apply"),
-    wgsl!("cg_alpha"),
-    wgsl!("cg_update"),
-    wgsl!("cg_beta"),
-    wgsl!("implicit_finish"),
-    wgsl!("semi_rhs"),
-    wgsl!("filter_dense"),
-    wgsl!("torque_centre"),
-    wgsl!("torque_moments"),
-    wgsl!("torque_apply"),
-    wgsl!("semi_integrate"),
-    wgsl!("semi_cg_prepare"),
-];
-
-/// A composed kernel source (its grid gather generated for `block`), or
-/// the name of the include it could not find.
+/// A composed source (its grid gather generated for `block`), or what is
+/// wrong with its includes: a file that does not exist, or a cycle.
 pub fn compose(source: &str, block: GridBlock) -> Result<String, String> {
     let mut out = String::with_capacity(source.len() * 4);
-    let mut seen: Vec<&str> = Vec::new();
+    let mut done = Vec::new();
+    let mut open = Vec::new();
+    include_into(source, block, &mut out, &mut done, &mut open)?;
+    Ok(out)
+}
+
+/// Appends `source` to `out` with its includes resolved; `done` are the
+/// files already included, `open` the chain of files being included.
+fn include_into(
+    source: &str,
+    block: GridBlock,
+    out: &mut String,
+    done: &mut Vec<&'static str>,
+    open: &mut Vec<&'static str>,
+) -> Result<(), String> {
     for line in source.lines() {
         let Some(rest) = line.trim().strip_prefix("#include") else {
             out.push_str(line);
@@ -77,29 +71,37 @@ pub fn compose(source: &str, block: GridBlock) -> Result<String, String> {
         };
         let name = rest.trim().trim_matches('"');
         let stem = name.strip_suffix(".wgsl").unwrap_or(name);
-        if seen.contains(&stem) {
+        if let Some(k) = open.iter().position(|&o| o == stem) {
+            let mut chain = open[k..].to_vec();
+            chain.push(open[k]);
+            return Err(format!("include cycle: {}", chain.join(" → ")));
+        }
+        if done.contains(&stem) {
             continue;
         }
         if stem == GRID_BLOCK {
-            seen.push(GRID_BLOCK);
+            done.push(GRID_BLOCK);
             out.push_str(&block.wgsl());
             continue;
         }
-        let Some((name, text)) = COMMON.iter().find(|(n, _)| *n == stem) else {
+        if stem == CONFIG {
+            done.push(CONFIG);
+            out.push_str(&kernel_config::wgsl());
+            continue;
+        }
+        let Some(&(name, text)) = COMMON.iter().find(|(n, _)| *n == stem) else {
             return Err(format!("unknown include `{name}`"));
         };
-        seen.push(name);
-        out.push_str(text);
+        open.push(name);
+        include_into(text, block, out, done, open)?;
+        open.pop();
+        done.push(name);
         out.push('\n');
     }
-    Ok(out)
+    Ok(())
 }
 
-/// The composed source of kernel `name` for grid blocks of `block`.
-pub fn kernel_source(name: &str, block: GridBlock) -> Result<String, String> {
-    let (_, src) = KERNELS
-        .iter()
-        .find(|(n, _)| *n == name)
-        .ok_or_else(|| format!("no kernel `{name}`"))?;
-    compose(src, block)
+/// The composed source of `kernel` for grid blocks of `block`.
+pub fn kernel_source(kernel: Kernel, block: GridBlock) -> Result<String, String> {
+    compose(kernel.source(), block).map_err(|e| format!("shaders/{kernel}.wgsl: {e}"))
 }

@@ -2,24 +2,23 @@
 
 use super::errors::guarded;
 use super::grid::{GridBlock, GridLayout};
+use super::kernel::{Dispatch, Kernel, Launch};
+use super::kernels::{Features, GpuKernels};
 use super::layout::{self, GpuParams, GpuSphere, MAX_SPHERES};
-use super::pipelines::{fixup_variant, Features, Pipelines, ARGS_WRITERS};
+use super::plan::{self, Plan, PlanInputs};
 use super::readback;
 use super::semi_filter::SemiFilter;
 use crate::aggregation::Aggregation;
 use crate::budget::{self, Counts};
 use crate::cpu::filter::FilterSystem;
 use crate::error::{Error, Result};
+use crate::kernel_config::WORKGROUP;
 use crate::model::Model;
 use crate::params::{Ground, Integrator, Params, Sphere, Wind};
 use crate::real::Vec3;
 
-/// Invocations per workgroup of every per-particle and per-spring kernel,
-/// and so the block size of every reduction (the CPU reference reduces in
-/// blocks of the same size to sum in the same order). 64 is a multiple of
-/// every GPU's SIMD width and, on lavapipe, keeps both CPU cores busy down
-/// to a 33 × 33 cloth (17 workgroups).
-pub const WORKGROUP: u32 = crate::cpu::REDUCTION_BLOCK as u32;
+/// A dispatch with the pipeline it runs.
+pub(super) type Entry = (Dispatch, wgpu::ComputePipeline);
 
 /// A step number the device counts in 32 bits (it wraps after 4.3·10⁹
 /// steps), widened with the host's count of recorded steps, which is never
@@ -28,39 +27,6 @@ pub const WORKGROUP: u32 = crate::cpu::REDUCTION_BLOCK as u32;
 pub(super) fn widen_step(low: u32, recorded: u64) -> u64 {
     recorded - u64::from((recorded as u32).wrapping_sub(low))
 }
-
-/// The step-plan entry of a single-pass explicit step. Such a step reads
-/// every particle's neighbours, so it cannot update the state in place:
-/// `encode_steps` alternates it between the x, v buffers and a snapshot in
-/// `work` (`explicit_integrate.to_snapshot`, `.from_snapshot`), two stores
-/// per particle and step. An odd number of steps starts with
-/// `explicit_seed` (a copy into the snapshot), so the last step always
-/// writes x and v.
-pub const SINGLE_PASS: &str = "explicit_integrate.snapshot";
-
-/// Where an indirectly dispatched kernel finds its workgroup count.
-#[derive(Clone, Copy)]
-enum Indirect {
-    /// `cg_args` at this byte offset.
-    Args(u64),
-    /// Its slot of the CG iteration in `alpha_slots`.
-    AlphaSlot,
-    /// Its slot of the CG iteration in `beta_slots`.
-    BetaSlot,
-}
-
-/// Per-iteration CG kernels, dispatched indirectly (see `cg_args` and
-/// `alpha_slots` in `shaders/common/cg.wgsl`): on lavapipe a dispatch
-/// whose invocations all return at once still costs about a third of a
-/// working one — the masked-off code runs — while an indirect dispatch of
-/// zero workgroups costs little more than its recording.
-const INDIRECT_CG: [(&str, Indirect); 5] = [
-    ("cg_apply", Indirect::Args(0)),
-    ("cg_update", Indirect::Args(12)),
-    ("cg_prolong", Indirect::Args(12)),
-    ("cg_alpha", Indirect::AlphaSlot),
-    ("cg_beta", Indirect::BetaSlot),
-];
 
 /// Storage buffers a kernel binds at most: group 0's ten (see
 /// `shaders/common/bindings.wgsl`) and cg_start's three dispatch-argument
@@ -134,6 +100,12 @@ pub struct GpuSolver {
     pub(super) normals: wgpu::Buffer,
     pub(super) indices: wgpu::Buffer,
     pub(super) status: wgpu::Buffer,
+    /// The buffers only kernels use (and the debug API reads).
+    pub(super) springs_buffer: wgpu::Buffer,
+    pub(super) topo: wgpu::Buffer,
+    pub(super) work: wgpu::Buffer,
+    pub(super) spring_work: wgpu::Buffer,
+    pub(super) partials: wgpu::Buffer,
     pub(super) bind_group: wgpu::BindGroup,
     /// Indirect arguments of the per-particle CG kernels (workgroups, or 0
     /// once CG has stopped), and the group that binds it to the kernels
@@ -143,9 +115,11 @@ pub struct GpuSolver {
     /// CG iteration (see `alpha_slots` in `shaders/common/cg.wgsl`).
     pub(super) alpha_slots: wgpu::Buffer,
     pub(super) beta_slots: wgpu::Buffer,
-    /// Group 1 of cg_start, cg_alpha and cg_beta ([`ARGS_WRITERS`] order).
+    /// Group 1 of cg_start, cg_alpha and cg_beta ([`ArgsGroup::ALL`](super::kernel::ArgsGroup::ALL) order).
     pub(super) args_groups: [wgpu::BindGroup; 3],
-    pub(super) pipelines: Pipelines,
+    pub(super) kernels: GpuKernels,
+    /// The step plan with its pipelines.
+    pub(super) prepared: Prepared,
     pub(super) features: Features,
     pub(super) steps_recorded: u64,
     pub(super) dt: f64,
@@ -158,6 +132,66 @@ pub struct GpuSolver {
     /// The parameters with the current colliders, wind and gravity.
     pub(super) host_params: Params,
     pub(super) dense: wgpu::Buffer,
+}
+
+/// What the step plan depends on (`params`: as uploaded).
+pub(super) fn plan_inputs(
+    integrator: Integrator,
+    features: Features,
+    params: &GpuParams,
+    spring_slots: u32,
+    fixup_iterations: u32,
+) -> PlanInputs {
+    let particles = params.particle_count;
+    PlanInputs {
+        integrator,
+        features,
+        particles,
+        spring_slots,
+        gather: if features.grid {
+            params.grid[3]
+        } else {
+            particles
+        },
+        aggregates: [params.coarse[2], params.coarse[3]],
+        filter_count: params.filter_count,
+        torque: params.torque_compensation != 0,
+        fixup_iterations,
+    }
+}
+
+/// The step plan with the pipelines it records, taken from the kernel
+/// library (which compiles those it lacks): a plan recorded afterwards
+/// cannot meet a pipeline that was not built.
+#[derive(Debug)]
+pub(super) struct Prepared {
+    /// The step plan.
+    pub(super) steps: Plan<Entry>,
+    /// The vertex-normal pass.
+    pub(super) normals: wgpu::ComputePipeline,
+}
+
+impl Prepared {
+    pub(super) fn new(kernels: &GpuKernels, inputs: &PlanInputs) -> Result<Prepared> {
+        let plan = Plan::new(inputs);
+        let normals = Dispatch::direct(Kernel::Normals, inputs.particles);
+        let wanted = plan.entries().chain([&normals]).map(Dispatch::pipeline);
+        let device = kernels.device().clone();
+        let pipelines = guarded(&device, "compiling the kernels", None, || {
+            kernels.pipelines(wanted, inputs.features)
+        })?;
+        let take = |d: &Dispatch| {
+            pipelines
+                .get(&d.pipeline())
+                .cloned()
+                .map(|p| (*d, p))
+                .ok_or_else(|| Error::Gpu(format!("no pipeline was built for {d:?}")))
+        };
+        Ok(Prepared {
+            steps: plan.try_map(take)?,
+            normals: take(&normals)?.1,
+        })
+    }
 }
 
 /// What the scene uses, for the kernel variants.
@@ -176,6 +210,7 @@ pub(super) fn scene_features(model: &Model, params: &Params, grid: Option<GridBl
         grid: grid.is_some(),
         block: grid.unwrap_or(GridBlock::ONE),
         coarse: Aggregation::for_scene(model, params).is_some(),
+        constant_blocks: params.integrator == Integrator::SemiImplicit,
     }
 }
 
@@ -230,12 +265,28 @@ impl GpuSolver {
     /// and one that needs more memory than the host has
     /// ([`Error::OutOfMemory`]; see [`crate::budget`]). A device error while
     /// building (out of device memory, validation) is an error too.
+    ///
+    /// The solver compiles its kernels into a library of its own; solvers
+    /// built with [`GpuSolver::with_kernels`] share one instead.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         model: &Model,
         params: &Params,
     ) -> Result<GpuSolver> {
+        GpuSolver::with_kernels(&GpuKernels::new(device), queue, model, params)
+    }
+
+    /// [`GpuSolver::new`] on the device of `kernels`, taking its pipelines
+    /// from that library: solvers built with one library (clones share
+    /// it) compile each kernel variant once between them.
+    pub fn with_kernels(
+        kernels: &GpuKernels,
+        queue: &wgpu::Queue,
+        model: &Model,
+        params: &Params,
+    ) -> Result<GpuSolver> {
+        let device = kernels.device();
         params.validate()?;
         let counts = Counts::of_model(model);
         let dense = params.integrator == Integrator::SemiImplicit
@@ -309,38 +360,36 @@ impl GpuSolver {
             None
         };
         guarded(device, &what, Some(need.device), || {
-            Self::build(device, queue, model, params, filter, grid)
+            Self::build(device, queue, model, params, filter, grid, kernels.clone())
         })
     }
 
-    /// Dispatches `name` over `items` invocations, in workgroups of
-    /// [`WORKGROUP`] (the per-particle CG kernels: indirectly, see
-    /// [`INDIRECT_CG`]; cg_alpha and cg_beta: indirectly from the slot of
-    /// CG iteration `iteration`).
-    fn dispatch(&self, pass: &mut wgpu::ComputePass<'_>, name: &str, items: u32, iteration: u32) {
-        if let Some(p) = self.pipelines.get(name, self.features) {
-            let (d, s) = self.recorded.get();
-            self.recorded.set((d + 1, s));
-            pass.set_pipeline(p);
-            if let Some(k) = ARGS_WRITERS.iter().position(|&w| w == name) {
-                pass.set_bind_group(1, &self.args_groups[k], &[]);
+    /// Records `d` with `pipeline` (the CG iterations' scalar kernels:
+    /// launched from the slot of CG iteration `iteration`).
+    pub(super) fn dispatch(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        d: &Dispatch,
+        pipeline: &wgpu::ComputePipeline,
+        iteration: u32,
+    ) {
+        let (n, s) = self.recorded.get();
+        self.recorded.set((n + 1, s));
+        pass.set_pipeline(pipeline);
+        if let Some(g) = d.kernel.args_group() {
+            pass.set_bind_group(1, &self.args_groups[g.index()], &[]);
+        }
+        let launch = plan::in_iteration(*d, iteration).launch;
+        match launch {
+            Launch::Direct => pass.dispatch_workgroups(d.items.div_ceil(WORKGROUP), 1, 1),
+            Launch::ApplyArgs | Launch::UpdateArgs => {
+                pass.dispatch_workgroups_indirect(&self.cg_args, launch.offset())
             }
-            let slot = u64::from(iteration) * 12;
-            match INDIRECT_CG
-                .iter()
-                .find(|(n, _)| *n == name)
-                .map(|&(_, i)| i)
-            {
-                Some(Indirect::Args(offset)) => {
-                    pass.dispatch_workgroups_indirect(&self.cg_args, offset)
-                }
-                Some(Indirect::AlphaSlot) => {
-                    pass.dispatch_workgroups_indirect(&self.alpha_slots, slot)
-                }
-                Some(Indirect::BetaSlot) => {
-                    pass.dispatch_workgroups_indirect(&self.beta_slots, slot)
-                }
-                None => pass.dispatch_workgroups(items.div_ceil(WORKGROUP), 1, 1),
+            Launch::AlphaSlot(_) => {
+                pass.dispatch_workgroups_indirect(&self.alpha_slots, launch.offset())
+            }
+            Launch::BetaSlot(_) => {
+                pass.dispatch_workgroups_indirect(&self.beta_slots, launch.offset())
             }
         }
     }
@@ -354,157 +403,36 @@ impl GpuSolver {
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
         self.recorded.set((0, n));
-        let plan = self.step_plan();
-        // Single-pass steps: the state is in the snapshot (else in x, v).
-        let mut in_snapshot = false;
-        if n % 2 == 1 && plan.iter().any(|&(name, _)| name == SINGLE_PASS) {
-            self.dispatch(&mut pass, "explicit_seed", self.particles, 0);
-            in_snapshot = true;
-        }
-        for _ in 0..n {
-            // The CG iteration each cg_alpha / cg_beta belongs to.
-            let mut iteration = 0;
-            for &(name, items) in &plan {
-                if name != SINGLE_PASS {
-                    self.dispatch(&mut pass, name, items, iteration);
-                    if name == "cg_beta" {
-                        iteration += 1;
-                    }
-                    continue;
-                }
-                let variant = if in_snapshot {
-                    "explicit_integrate.from_snapshot"
-                } else {
-                    "explicit_integrate.to_snapshot"
-                };
-                self.dispatch(&mut pass, variant, items, 0);
-                in_snapshot = !in_snapshot;
-            }
-        }
+        self.prepared
+            .steps
+            .for_each(n, self.cg_budget, |(d, p), k| {
+                self.dispatch(&mut pass, d, p, k)
+            });
         self.steps_recorded += u64::from(n);
     }
 
-    /// The dispatches of one step, in order: `(kernel variant, invocations)`.
-    ///
-    /// Only what the scene uses is recorded: no fix-up passes without a
-    /// constrained spring kind or with zero iterations; no torque passes for
-    /// a pinned cloth; no per-spring pass on a grid (see [`super::grid`]:
-    /// the kernels compute each spring's force, or its implicit
-    /// linearisation, where they gather it); without fix-up an explicit step on a grid is one
-    /// pass ([`SINGLE_PASS`]; the general kernels fuse integration and step
-    /// end after their spring pass when there is no wind either); wind, ground, spheres, pins and
-    /// damping are compiled out of the kernels when absent (see
-    /// [`super::pipelines`]); CG records the adaptive budget of iterations
-    /// (see [`GpuSolver::check`]) and stops on the device, after which its
-    /// per-particle passes are dispatched with zero workgroups. The fix-up,
-    /// too, stops on the device once a pass moves nothing.
-    pub(super) fn step_plan(&self) -> Vec<(&'static str, u32)> {
-        let (n, s) = (self.particles, self.spring_slots);
-        // Invocations of the kernels that gather from neighbours.
-        let gather = if self.features.grid {
-            self.params.grid[3]
-        } else {
-            n
-        };
-        let mut plan = Vec::new();
-        let cg = |plan: &mut Vec<(&'static str, u32)>| {
-            // The per-particle kernels leave their dot-product terms in
-            // their output vectors; δ0, α, β and the convergence test are
-            // each summed once, by a one-workgroup kernel — no workgroup
-            // barrier in any per-particle pass.
-            // With coarse levels the scalar kernels also restrict the
-            // residual and solve the level-2 aggregates' 3×3 systems, and
-            // the level-2 corrections are added to the search direction's
-            // source: by cg_apply as it loads it on a grid, else by a
-            // cg_prolong pass. With coarse levels cg_update and cg_prolong
-            // take a level-1 aggregate per invocation, and cg_update.first
-            // preconditions the initial residual.
-            let one = WORKGROUP;
-            let coarse = self.features.coarse;
-            let prolong = coarse && !self.features.grid;
-            let update = if coarse { self.params.coarse[2] } else { n };
-            plan.push(("cg_init", gather));
-            if coarse {
-                plan.push(("cg_update.first", update));
-            }
-            plan.push(("cg_start", one));
-            if prolong {
-                plan.push(("cg_prolong", update));
-            }
-            for _ in 0..self.cg_budget {
-                plan.extend([
-                    ("cg_apply", gather),
-                    ("cg_alpha", one),
-                    ("cg_update", update),
-                    ("cg_beta", one),
-                ]);
-                if prolong {
-                    plan.push(("cg_prolong", update));
-                }
-            }
-        };
-        match self.integrator {
-            Integrator::Implicit => {
-                // On a grid the gathering kernels linearise the springs
-                // they use: no spring pass.
-                if !self.features.grid {
-                    plan.push(("implicit_springs", s));
-                }
-                plan.push(("implicit_prepare", gather));
-                if self.features.coarse {
-                    let [_, _, n1, n2] = self.params.coarse;
-                    plan.push(("coarse_setup", n1 + n2));
-                }
-                cg(&mut plan);
-                plan.push(("implicit_finish", n));
-                return plan;
-            }
-            // The grid kernels compute spring forces where they gather them;
-            // without fix-up the whole step is one pass, which reads
-            // the state from the snapshot the previous step wrote (see
-            // `encode_steps`).
-            Integrator::Explicit if self.single_pass_explicit() => {
-                plan.push((SINGLE_PASS, gather));
-                return plan;
-            }
-            Integrator::Explicit if self.features.grid => {
-                plan.push(("explicit_integrate", gather));
-            }
-            Integrator::Explicit => {
-                plan.push(("spring_forces", s));
-                if self.fused_explicit() {
-                    plan.push(("explicit_integrate.fused", n));
-                    return plan;
-                }
-                plan.push(("explicit_integrate", n));
-            }
-            Integrator::SemiImplicit => {
-                if !self.features.grid {
-                    plan.push(("spring_forces", s));
-                }
-                if self.params.filter_count > 0 {
-                    plan.push(("semi_rhs", n));
-                    plan.push(("filter_dense", self.params.filter_count));
-                } else {
-                    plan.push(("semi_rhs.keep", n));
-                    plan.push(("semi_cg_prepare", n));
-                    cg(&mut plan);
-                }
-                if self.params.torque_compensation != 0 {
-                    plan.extend([
-                        ("torque_centre", n),
-                        ("torque_moments", n),
-                        ("torque_apply", n),
-                    ]);
-                }
-                plan.push(("semi_integrate", n));
-            }
-        }
-        for k in 0..self.fixup_iterations {
-            plan.push((fixup_variant(k), gather));
-        }
-        plan.push(("finish_step", n));
-        plan
+    /// What the step plan depends on.
+    pub(super) fn plan_inputs(&self) -> PlanInputs {
+        plan_inputs(
+            self.integrator,
+            self.features,
+            &self.params,
+            self.spring_slots,
+            self.fixup_iterations,
+        )
+    }
+
+    /// Rebuilds the step plan of the current scene (see [`Prepared`]).
+    pub(super) fn prepare(&mut self) -> Result<()> {
+        self.prepared = Prepared::new(&self.kernels, &self.plan_inputs())?;
+        Ok(())
+    }
+
+    /// The dispatches of one step of a long run, in order: with
+    /// single-pass explicit steps, one that reads x and v (an odd number of
+    /// steps first records `explicit_seed`; see [`super::plan`]).
+    pub(super) fn step_plan(&self) -> Vec<Dispatch> {
+        self.prepared.steps.dispatches(None, self.cg_budget)
     }
 
     /// The step plan grouped by kernel, in order of first appearance:
@@ -512,28 +440,14 @@ impl GpuSolver {
     /// `wgcloth run --verbose` prints.
     pub(super) fn describe_step(&self) -> Vec<(&'static str, u32, u32)> {
         let mut out: Vec<(&'static str, u32, u32)> = Vec::new();
-        for (name, items) in self.step_plan() {
-            let kernel = name.split('.').next().unwrap_or(name);
+        for d in self.step_plan() {
+            let kernel = d.kernel.name();
             match out.iter_mut().find(|(k, _, _)| *k == kernel) {
                 Some(entry) => entry.1 += 1,
-                None => out.push((kernel, 1, items)),
+                None => out.push((kernel, 1, d.items)),
             }
         }
         out
-    }
-
-    /// Explicit steps without fix-up or wind integrate and finish in one
-    /// kernel (it then reads no other particle's state, so it may write
-    /// its own in place).
-    fn single_pass_explicit(&self) -> bool {
-        self.integrator == Integrator::Explicit && self.fixup_iterations == 0 && self.features.grid
-    }
-
-    fn fused_explicit(&self) -> bool {
-        self.integrator == Integrator::Explicit
-            && self.fixup_iterations == 0
-            && !self.features.wind
-            && !self.features.grid
     }
 
     /// Records the vertex-normal pass (for rendering; stepping never needs
@@ -544,7 +458,8 @@ impl GpuSolver {
             timestamp_writes: None,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
-        self.dispatch(&mut pass, "normals", self.particles, 0);
+        let normals = Dispatch::direct(Kernel::Normals, self.particles);
+        self.dispatch(&mut pass, &normals, &self.prepared.normals, 0);
     }
 
     /// Records and submits `n` steps in one encoder, then checks the

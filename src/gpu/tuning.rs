@@ -2,6 +2,7 @@
 //! embedders need none of it.
 
 use super::grid::GridBlock;
+use super::kernel::Dispatch;
 use super::solver::GpuSolver;
 use crate::error::Result;
 
@@ -36,20 +37,12 @@ impl GpuSolver {
 }
 
 impl GpuTuning<'_> {
-    /// The dispatches of one step, in order: `(kernel variant, invocations)`.
-    ///
-    /// Only what the scene uses is recorded: no fix-up passes without a
-    /// constrained spring kind or with zero iterations; no torque passes for
-    /// a pinned cloth; no per-spring pass on a grid (the kernels compute
-    /// each spring's force, or its implicit linearisation, where they gather
-    /// it); without fix-up an explicit step on a grid is one pass
-    /// ([`SINGLE_PASS`](super::SINGLE_PASS)); wind, ground, spheres, pins
-    /// and damping are compiled out of the kernels when absent; CG records
-    /// the adaptive budget of iterations (see [`GpuSolver::check`]) and
-    /// stops on the device, after which its per-particle passes are
-    /// dispatched with zero workgroups. The fix-up, too, stops on the device
-    /// once a pass moves nothing.
-    pub fn step_plan(&self) -> Vec<(&'static str, u32)> {
+    /// The dispatches of one step of a long run, in order (see
+    /// `src/gpu/plan.rs` for what is recorded and why): with single-pass
+    /// explicit steps, one that reads x and v; an odd number of steps
+    /// first records `explicit_seed` ([`GpuSolver::debug_plan`] lists
+    /// exactly what one step records).
+    pub fn step_plan(&self) -> Vec<Dispatch> {
         self.solver.step_plan()
     }
 

@@ -1,0 +1,387 @@
+//! The typed identity of every compute kernel: [`Kernel`] (one per
+//! `shaders/NAME.wgsl`, whose entry point is `NAME`), its [`Variant`]s
+//! (values of the kernel's own `override` constants), how a dispatch of it
+//! is launched ([`Launch`]), and a step's entries ([`Dispatch`]).
+
+use crate::kernel_config::work;
+
+/// One compute kernel: the file `shaders/NAME.wgsl` and its entry point
+/// `NAME` ([`Kernel::name`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Kernel {
+    /// Per spring: the spring force on each end (general layout).
+    SpringForces,
+    /// Per particle: explicit integration (and, fused, the step end).
+    ExplicitIntegrate,
+    /// Per particle: copies the state into the snapshot before an odd
+    /// number of single-pass explicit steps.
+    ExplicitSeed,
+    /// Per particle: one Jacobi pass of the length fix-up.
+    FixupJacobi,
+    /// Per particle: the step end (velocity from the fix-up, collisions,
+    /// the finite check).
+    FinishStep,
+    /// Per particle: vertex normals (rendering only).
+    Normals,
+    /// Per spring: the implicit linearisation (spring blocks).
+    ImplicitSprings,
+    /// Per particle: the implicit system, its right-hand side and filter.
+    ImplicitPrepare,
+    /// Per aggregate: the coarse levels' diagonal blocks.
+    CoarseSetup,
+    /// Per level-1 aggregate: adds the coarse correction to the search
+    /// direction's source.
+    CgProlong,
+    /// Per particle: CG's initial residual.
+    CgInit,
+    /// One workgroup: δ0, the convergence test's start, the first slots.
+    CgStart,
+    /// Per particle: q = A c.
+    CgApply,
+    /// One workgroup: α.
+    CgAlpha,
+    /// Per particle (per level-1 aggregate with coarse levels): the CG
+    /// update of Δv, r and s.
+    CgUpdate,
+    /// One workgroup: β and the convergence test.
+    CgBeta,
+    /// Per particle: the implicit step's end.
+    ImplicitFinish,
+    /// Per particle: the semi-implicit right-hand side.
+    SemiRhs,
+    /// Per free particle: the dense semi-implicit filter's product.
+    FilterDense,
+    /// Torque compensation: the centre of mass.
+    TorqueCentre,
+    /// Torque compensation: the moments.
+    TorqueMoments,
+    /// Torque compensation: the correction.
+    TorqueApply,
+    /// Per particle: the semi-implicit integration.
+    SemiIntegrate,
+    /// Per particle: the semi-implicit filter's CG system.
+    SemiCgPrepare,
+}
+
+/// `(kernel, name, WGSL source before composition)`, in [`Kernel::ALL`]
+/// order.
+macro_rules! kernels {
+    ($($kernel:ident = $name:literal),* $(,)?) => {
+        impl Kernel {
+            /// Every kernel, in the order of `shaders/` listings in the docs.
+            pub const ALL: [Kernel; [$($name),*].len()] = [$(Kernel::$kernel),*];
+
+            /// The file stem and entry point.
+            pub const fn name(self) -> &'static str {
+                match self {
+                    $(Kernel::$kernel => $name,)*
+                }
+            }
+
+            /// The kernel's WGSL before `#include`s are resolved, embedded
+            /// at compile time.
+            pub const fn source(self) -> &'static str {
+                match self {
+                    $(Kernel::$kernel => include_str!(concat!("../../shaders/", $name, ".wgsl")),)*
+                }
+            }
+        }
+    };
+}
+
+kernels! {
+    SpringForces = "spring_forces",
+    ExplicitIntegrate = "explicit_integrate",
+    ExplicitSeed = "explicit_seed",
+    FixupJacobi = "fixup_jacobi",
+    FinishStep = "finish_step",
+    Normals = "normals",
+    ImplicitSprings = "implicit_springs",
+    ImplicitPrepare = "implicit_prepare",
+    CoarseSetup = "coarse_setup",
+    CgProlong = "cg_prolong",
+    CgInit = "cg_init",
+    CgStart = "cg_start",
+    CgApply = "cg_apply",
+    CgAlpha = "cg_alpha",
+    CgUpdate = "cg_update",
+    CgBeta = "cg_beta",
+    ImplicitFinish = "implicit_finish",
+    SemiRhs = "semi_rhs",
+    FilterDense = "filter_dense",
+    TorqueCentre = "torque_centre",
+    TorqueMoments = "torque_moments",
+    TorqueApply = "torque_apply",
+    SemiIntegrate = "semi_integrate",
+    SemiCgPrepare = "semi_cg_prepare",
+}
+
+impl std::fmt::Display for Kernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The buffers a kernel that writes indirect dispatch arguments binds as
+/// its group 1 (see `cg_args` and `alpha_slots` in
+/// `shaders/common/cg.wgsl`): a kernel may not bind the buffer it is
+/// dispatched from, so each binds only the others'.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ArgsGroup {
+    /// cg_start: `cg_args`, `alpha_slots`, `beta_slots`.
+    Start,
+    /// cg_alpha: `cg_args`, `beta_slots`.
+    Alpha,
+    /// cg_beta: `cg_args`, `alpha_slots`.
+    Beta,
+}
+
+impl ArgsGroup {
+    /// Every group, in the order the solver stores them.
+    pub const ALL: [ArgsGroup; 3] = [ArgsGroup::Start, ArgsGroup::Alpha, ArgsGroup::Beta];
+
+    /// Its index in [`ArgsGroup::ALL`].
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The group-1 bindings: 0 `cg_args`, 1 `alpha_slots`, 2 `beta_slots`.
+    pub const fn bindings(self) -> &'static [u32] {
+        match self {
+            ArgsGroup::Start => &[0, 1, 2],
+            ArgsGroup::Alpha => &[0, 2],
+            ArgsGroup::Beta => &[0, 1],
+        }
+    }
+}
+
+impl Kernel {
+    /// The group 1 of a kernel that writes indirect dispatch arguments.
+    pub const fn args_group(self) -> Option<ArgsGroup> {
+        match self {
+            Kernel::CgStart => Some(ArgsGroup::Start),
+            Kernel::CgAlpha => Some(ArgsGroup::Alpha),
+            Kernel::CgBeta => Some(ArgsGroup::Beta),
+            _ => None,
+        }
+    }
+}
+
+/// Which fix-up pass of a step a `fixup_jacobi` pipeline runs, after the
+/// first: pass `k` is phase `k mod 6` (which section it reads, by parity,
+/// and which of three rotating flags it sets).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct FixupPhase(u8);
+
+impl FixupPhase {
+    /// The phase of pass `k ≥ 1`.
+    pub const fn of_pass(k: u32) -> FixupPhase {
+        FixupPhase((k % 6) as u8)
+    }
+
+    /// `k mod 6` of the passes of this phase.
+    pub const fn index(self) -> u32 {
+        self.0 as u32
+    }
+}
+
+/// A kernel's specialisation beyond the scene's features: values of its
+/// own `override` constants. Each variant but [`Variant::Plain`] belongs to
+/// one kernel ([`Variant::kernel`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Variant {
+    /// The kernel's own constants at their defaults.
+    Plain,
+    /// `explicit_integrate` with the step end fused after it (explicit
+    /// steps without fix-up or wind, general layout).
+    Fused,
+    /// `explicit_integrate` as a whole single-pass step, from the state
+    /// buffers into the snapshot (see [`work::SNAPSHOT`]).
+    ToSnapshot,
+    /// `explicit_integrate` as a whole single-pass step, from the snapshot
+    /// into the state buffers.
+    FromSnapshot,
+    /// `fixup_jacobi`'s first pass of a step: reads the predicted
+    /// positions, finds no previous pass.
+    FixupFirst,
+    /// `fixup_jacobi`'s later passes.
+    Fixup(FixupPhase),
+    /// `cg_update` preconditioning the initial residual (coarse levels).
+    CgFirst,
+    /// `semi_rhs` keeping Δv for the CG's warm start.
+    KeepDv,
+}
+
+/// `STATE_BUFFERS` in the kernels: read or write x and v.
+const STATE_BUFFERS: f64 = u32::MAX as f64;
+
+impl Variant {
+    /// The kernel the variant belongs to; `None` for [`Variant::Plain`],
+    /// which every kernel has.
+    pub const fn kernel(self) -> Option<Kernel> {
+        match self {
+            Variant::Plain => None,
+            Variant::Fused | Variant::ToSnapshot | Variant::FromSnapshot => {
+                Some(Kernel::ExplicitIntegrate)
+            }
+            Variant::FixupFirst | Variant::Fixup(_) => Some(Kernel::FixupJacobi),
+            Variant::CgFirst => Some(Kernel::CgUpdate),
+            Variant::KeepDv => Some(Kernel::SemiRhs),
+        }
+    }
+
+    /// Whether `kernel` has this variant.
+    pub fn is_of(self, kernel: Kernel) -> bool {
+        self.kernel().is_none_or(|k| k == kernel)
+    }
+
+    /// The `override` constants of `kernel`'s pipeline of this variant
+    /// (beyond the workgroup sizes and scene features every kernel takes).
+    pub(crate) fn constants(self, kernel: Kernel) -> Vec<(&'static str, f64)> {
+        let section = |s: u32| f64::from(s);
+        let (pred, alt) = (section(work::X_PRED), section(work::X_ALT));
+        match (kernel, self) {
+            (Kernel::ExplicitSeed, _) => vec![("SNAP", section(work::SNAPSHOT))],
+            (Kernel::FixupJacobi, Variant::FixupFirst) => {
+                vec![("SRC", pred), ("DST", alt), ("FLAG", 0.0), ("FIRST", 1.0)]
+            }
+            (Kernel::FixupJacobi, Variant::Fixup(phase)) => {
+                let k = phase.index();
+                let (src, dst) = if k % 2 == 1 { (alt, pred) } else { (pred, alt) };
+                vec![
+                    ("SRC", src),
+                    ("DST", dst),
+                    ("FLAG", f64::from(k % 3)),
+                    ("FIRST", 0.0),
+                ]
+            }
+            (Kernel::ExplicitIntegrate, Variant::Fused) => vec![("FUSED", 1.0)],
+            (Kernel::ExplicitIntegrate, Variant::ToSnapshot) => vec![
+                ("FUSED", 1.0),
+                ("SNAP_IN", STATE_BUFFERS),
+                ("SNAP_OUT", section(work::SNAPSHOT)),
+            ],
+            (Kernel::ExplicitIntegrate, Variant::FromSnapshot) => vec![
+                ("FUSED", 1.0),
+                ("SNAP_IN", section(work::SNAPSHOT)),
+                ("SNAP_OUT", STATE_BUFFERS),
+            ],
+            (Kernel::CgUpdate, Variant::CgFirst) => vec![("FIRST", 1.0)],
+            (Kernel::SemiRhs, Variant::KeepDv) => vec![("ZERO_DV", 0.0)],
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// How a dispatch finds its workgroup count.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Launch {
+    /// ⌈items / WORKGROUP⌉ workgroups (one workgroup for the CG scalar
+    /// kernels' `items` of [`WORKGROUP`](crate::kernel_config::WORKGROUP)).
+    Direct,
+    /// Indirectly from `cg_args`, words 0–2 (cg_apply's workgroups, 0 once
+    /// CG has stopped; see `shaders/common/cg.wgsl`).
+    ApplyArgs,
+    /// Indirectly from `cg_args`, words 3–5 (cg_update's and cg_prolong's).
+    UpdateArgs,
+    /// Indirectly from CG iteration `k`'s slot of `alpha_slots`.
+    AlphaSlot(u32),
+    /// Indirectly from CG iteration `k`'s slot of `beta_slots`.
+    BetaSlot(u32),
+}
+
+impl Launch {
+    /// Byte offset of the arguments in their buffer.
+    pub(crate) fn offset(self) -> u64 {
+        match self {
+            Launch::Direct | Launch::ApplyArgs => 0,
+            Launch::UpdateArgs => 12,
+            Launch::AlphaSlot(k) | Launch::BetaSlot(k) => u64::from(k) * 12,
+        }
+    }
+}
+
+/// One entry of a step's plan: a kernel variant over `items` invocations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Dispatch {
+    /// The kernel.
+    pub kernel: Kernel,
+    /// Its variant.
+    pub variant: Variant,
+    /// Invocations (particles, springs, grid blocks, aggregates; the CG
+    /// scalar kernels: one workgroup's worth).
+    pub items: u32,
+    /// How its workgroup count is found.
+    pub launch: Launch,
+}
+
+impl Dispatch {
+    /// `kernel`'s plain variant over `items`, launched directly.
+    pub const fn direct(kernel: Kernel, items: u32) -> Dispatch {
+        Dispatch {
+            kernel,
+            variant: Variant::Plain,
+            items,
+            launch: Launch::Direct,
+        }
+    }
+
+    /// The same dispatch of `variant`.
+    pub const fn of(self, variant: Variant) -> Dispatch {
+        Dispatch { variant, ..self }
+    }
+
+    /// The same dispatch launched by `launch`.
+    pub const fn launched(self, launch: Launch) -> Dispatch {
+        Dispatch { launch, ..self }
+    }
+
+    /// The pipeline it runs: kernel and variant.
+    pub const fn pipeline(&self) -> (Kernel, Variant) {
+        (self.kernel, self.variant)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_kernel_has_its_own_name_and_file() {
+        for (k, kernel) in Kernel::ALL.iter().enumerate() {
+            assert!(
+                Kernel::ALL[..k].iter().all(|o| o.name() != kernel.name()),
+                "{kernel} named twice"
+            );
+            let entry = format!("fn {}(", kernel.name());
+            assert!(
+                kernel.source().contains(&entry),
+                "shaders/{kernel}.wgsl has no entry point `{}`",
+                kernel.name()
+            );
+        }
+    }
+
+    #[test]
+    fn fixup_passes_alternate_sections_and_rotate_flags() {
+        let get = |pass: u32, name: &str| {
+            let v = if pass == 0 {
+                Variant::FixupFirst
+            } else {
+                Variant::Fixup(FixupPhase::of_pass(pass))
+            };
+            v.constants(Kernel::FixupJacobi)
+                .iter()
+                .find(|c| c.0 == name)
+                .map(|c| c.1)
+        };
+        for pass in 0..13 {
+            // Each pass reads what the previous one wrote.
+            if pass > 0 {
+                assert_eq!(get(pass, "SRC"), get(pass - 1, "DST"), "pass {pass}");
+            }
+            assert_eq!(get(pass, "FLAG"), Some(f64::from(pass % 3)), "pass {pass}");
+            assert_ne!(get(pass, "SRC"), get(pass, "DST"), "pass {pass}");
+        }
+    }
+}

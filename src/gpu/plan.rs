@@ -1,0 +1,322 @@
+//! The step plan: the typed list of dispatches a step records, built from
+//! the solver's counts and the scene's features.
+//!
+//! Only what the scene uses is recorded: no fix-up passes without a
+//! constrained spring kind or with zero iterations; no torque passes for a
+//! pinned cloth; no per-spring pass on a grid (see [`super::grid`]: the
+//! kernels compute each spring's force, or its implicit linearisation,
+//! where they gather it); without fix-up an explicit step on a grid is one
+//! pass (a single-pass step, below), and the general kernels fuse
+//! integration and step end after their spring pass when there is no wind
+//! either; wind, ground, spheres, pins and damping are compiled out of the
+//! kernels when absent (see [`super::kernels`]); CG records the budget of
+//! iterations (see [`super::budget`]) and stops on the device, after which
+//! its per-particle passes are dispatched with zero workgroups. The
+//! fix-up, too, stops on the device once a pass moves nothing.
+//!
+//! A single-pass explicit step reads every particle's neighbours, so it
+//! cannot update the state in place: consecutive steps alternate between
+//! the x, v buffers and a snapshot in `work`
+//! ([`Variant::ToSnapshot`], [`Variant::FromSnapshot`]), two stores per
+//! particle and step. An odd number of steps starts with `explicit_seed`
+//! (a copy into the snapshot), so the last step always writes x and v.
+
+use super::kernel::{Dispatch, FixupPhase, Kernel, Launch, Variant};
+use super::kernels::Features;
+use crate::kernel_config::WORKGROUP;
+use crate::params::Integrator;
+
+/// What the plan depends on besides the features.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PlanInputs {
+    /// The integrator.
+    pub integrator: Integrator,
+    /// The features the kernels are specialised for.
+    pub features: Features,
+    /// Particles.
+    pub particles: u32,
+    /// Spring slots on the device.
+    pub spring_slots: u32,
+    /// Invocations of the kernels that gather from neighbours: grid blocks
+    /// on a grid, else particles.
+    pub gather: u32,
+    /// The coarse levels' level-1 and level-2 aggregates (zero without).
+    pub aggregates: [u32; 2],
+    /// Free particles of the dense semi-implicit filter (0: CG filter).
+    pub filter_count: u32,
+    /// The semi-implicit torque compensation applies.
+    pub torque: bool,
+    /// Fix-up passes per step.
+    pub fixup_iterations: u32,
+}
+
+/// One part of a step: a dispatch, or the CG iterations, which repeat
+/// their dispatches once per iteration of the budget.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) enum Part<T> {
+    /// Recorded once.
+    Once(T),
+    /// Recorded once per CG iteration, in order; the alpha and beta slots
+    /// launch from the iteration's slot.
+    CgIterations(Vec<T>),
+}
+
+/// The plan of a step, over entries `T` (a [`Dispatch`], or one with its
+/// pipeline).
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Plan<T> {
+    /// Recorded before the first of an odd number of single-pass steps.
+    pub seed: Option<T>,
+    /// A step whose state is in x and v (`[0]`) or in the snapshot
+    /// (`[1]`); the same unless the steps are single-pass.
+    pub steps: [Vec<Part<T>>; 2],
+    /// Single-pass steps: each moves the state between x, v and the
+    /// snapshot.
+    pub alternates: bool,
+}
+
+impl Plan<Dispatch> {
+    /// The plan of `inputs`.
+    pub fn new(inputs: &PlanInputs) -> Plan<Dispatch> {
+        if single_pass_explicit(inputs) {
+            let step = Dispatch::direct(Kernel::ExplicitIntegrate, inputs.gather);
+            return Plan {
+                seed: Some(Dispatch::direct(Kernel::ExplicitSeed, inputs.particles)),
+                steps: [
+                    vec![Part::Once(step.of(Variant::ToSnapshot))],
+                    vec![Part::Once(step.of(Variant::FromSnapshot))],
+                ],
+                alternates: true,
+            };
+        }
+        let step = step(inputs);
+        Plan {
+            seed: None,
+            steps: [step.clone(), step],
+            alternates: false,
+        }
+    }
+}
+
+impl<T> Plan<T> {
+    /// The same plan with each entry mapped by `f`, or `f`'s first error.
+    pub fn try_map<U, E>(&self, mut f: impl FnMut(&T) -> Result<U, E>) -> Result<Plan<U>, E> {
+        let mut part = |p: &Part<T>| -> Result<Part<U>, E> {
+            Ok(match p {
+                Part::Once(t) => Part::Once(f(t)?),
+                Part::CgIterations(ts) => {
+                    Part::CgIterations(ts.iter().map(&mut f).collect::<Result<_, _>>()?)
+                }
+            })
+        };
+        let steps = [
+            self.steps[0]
+                .iter()
+                .map(&mut part)
+                .collect::<Result<_, _>>()?,
+            self.steps[1]
+                .iter()
+                .map(&mut part)
+                .collect::<Result<_, _>>()?,
+        ];
+        Ok(Plan {
+            seed: self.seed.as_ref().map(&mut f).transpose()?,
+            steps,
+            alternates: self.alternates,
+        })
+    }
+
+    /// Visits the entries of `steps` steps in recording order, with the
+    /// CG iterations repeated `cg_budget` times; `f` gets each entry and
+    /// the CG iteration it belongs to (0 outside the iterations).
+    pub fn for_each<'a>(&'a self, steps: u32, cg_budget: u32, mut f: impl FnMut(&'a T, u32)) {
+        let mut in_snapshot = false;
+        if self.alternates && steps % 2 == 1 {
+            if let Some(seed) = &self.seed {
+                f(seed, 0);
+                in_snapshot = true;
+            }
+        }
+        for _ in 0..steps {
+            self.for_each_in_step(usize::from(in_snapshot), cg_budget, &mut f);
+            in_snapshot ^= self.alternates;
+        }
+    }
+
+    /// Visits the entries of step `which` (`0`: its state is in x and v;
+    /// `1`: in the snapshot) as [`Plan::for_each`] does.
+    pub fn for_each_in_step<'a>(
+        &'a self,
+        which: usize,
+        cg_budget: u32,
+        mut f: impl FnMut(&'a T, u32),
+    ) {
+        for part in &self.steps[which] {
+            match part {
+                Part::Once(t) => f(t, 0),
+                Part::CgIterations(ts) => {
+                    for iteration in 0..cg_budget {
+                        for t in ts {
+                            f(t, iteration);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Every entry of the plan, once each (for compiling its pipelines).
+    pub fn entries(&self) -> impl Iterator<Item = &T> {
+        let parts = self.steps.iter().flatten().flat_map(|p| match p {
+            Part::Once(t) => std::slice::from_ref(t),
+            Part::CgIterations(ts) => ts.as_slice(),
+        });
+        self.seed.iter().chain(parts)
+    }
+}
+
+impl<P> Plan<(Dispatch, P)> {
+    /// The dispatches of `steps` steps as [`Plan::for_each`] visits them
+    /// (`None`: one step of a long run, reading x and v, without the
+    /// seed), each CG iteration's launching from its own slots.
+    pub fn dispatches(&self, steps: Option<u32>, cg_budget: u32) -> Vec<Dispatch> {
+        let mut out = Vec::new();
+        let push = |(d, _): &(Dispatch, P), k| out.push(in_iteration(*d, k));
+        match steps {
+            Some(n) => self.for_each(n, cg_budget, push),
+            None => self.for_each_in_step(0, cg_budget, push),
+        }
+        out
+    }
+}
+
+/// A dispatch of the CG iterations in iteration `k`: the scalar kernels
+/// launch from their slot of the iteration.
+pub(super) fn in_iteration(d: Dispatch, k: u32) -> Dispatch {
+    match d.launch {
+        Launch::AlphaSlot(_) => d.launched(Launch::AlphaSlot(k)),
+        Launch::BetaSlot(_) => d.launched(Launch::BetaSlot(k)),
+        _ => d,
+    }
+}
+
+/// Explicit steps on a grid without fix-up integrate and finish in one
+/// kernel.
+fn single_pass_explicit(i: &PlanInputs) -> bool {
+    i.integrator == Integrator::Explicit && i.fixup_iterations == 0 && i.features.grid
+}
+
+/// The parts of a step that is not single-pass.
+fn step(i: &PlanInputs) -> Vec<Part<Dispatch>> {
+    let (n, s, gather) = (i.particles, i.spring_slots, i.gather);
+    let f = i.features;
+    let once = |k: Kernel, items: u32| Part::Once(Dispatch::direct(k, items));
+    let mut plan = Vec::new();
+    match i.integrator {
+        Integrator::Implicit => {
+            // On a grid the gathering kernels linearise the springs they
+            // use: no spring pass.
+            if !f.grid {
+                plan.push(once(Kernel::ImplicitSprings, s));
+            }
+            plan.push(once(Kernel::ImplicitPrepare, gather));
+            if f.coarse {
+                plan.push(once(Kernel::CoarseSetup, i.aggregates[0] + i.aggregates[1]));
+            }
+            cg(i, &mut plan);
+            plan.push(once(Kernel::ImplicitFinish, n));
+            return plan;
+        }
+        Integrator::Explicit if f.grid => {
+            plan.push(once(Kernel::ExplicitIntegrate, gather));
+        }
+        Integrator::Explicit => {
+            plan.push(once(Kernel::SpringForces, s));
+            if i.fixup_iterations == 0 && !f.wind {
+                let fused = Dispatch::direct(Kernel::ExplicitIntegrate, n).of(Variant::Fused);
+                plan.push(Part::Once(fused));
+                return plan;
+            }
+            plan.push(once(Kernel::ExplicitIntegrate, n));
+        }
+        Integrator::SemiImplicit => {
+            if !f.grid {
+                plan.push(once(Kernel::SpringForces, s));
+            }
+            if i.filter_count > 0 {
+                plan.push(once(Kernel::SemiRhs, n));
+                plan.push(once(Kernel::FilterDense, i.filter_count));
+            } else {
+                let keep = Dispatch::direct(Kernel::SemiRhs, n).of(Variant::KeepDv);
+                plan.push(Part::Once(keep));
+                plan.push(once(Kernel::SemiCgPrepare, n));
+                cg(i, &mut plan);
+            }
+            if i.torque {
+                plan.extend([
+                    once(Kernel::TorqueCentre, n),
+                    once(Kernel::TorqueMoments, n),
+                    once(Kernel::TorqueApply, n),
+                ]);
+            }
+            plan.push(once(Kernel::SemiIntegrate, n));
+        }
+    }
+    for k in 0..i.fixup_iterations {
+        let variant = if k == 0 {
+            Variant::FixupFirst
+        } else {
+            Variant::Fixup(FixupPhase::of_pass(k))
+        };
+        plan.push(Part::Once(
+            Dispatch::direct(Kernel::FixupJacobi, gather).of(variant),
+        ));
+    }
+    plan.push(once(Kernel::FinishStep, n));
+    plan
+}
+
+/// The CG solve.
+///
+/// The per-particle kernels leave their dot-product terms in their output
+/// vectors; δ0, α, β and the convergence test are each summed once, by a
+/// one-workgroup kernel — no workgroup barrier in any per-particle pass.
+/// With coarse levels the scalar kernels also restrict the residual and
+/// solve the level-2 aggregates' 3×3 systems, and the level-2 corrections
+/// are added to the search direction's source: by cg_apply as it loads it
+/// on a grid, else by a cg_prolong pass. With coarse levels cg_update and
+/// cg_prolong take a level-1 aggregate per invocation, and
+/// [`Variant::CgFirst`] preconditions the initial residual.
+///
+/// The per-iteration kernels are dispatched indirectly (see `cg_args` and
+/// `alpha_slots` in `shaders/common/cg.wgsl`): on lavapipe a dispatch
+/// whose invocations all return at once still costs about a third of a
+/// working one — the masked-off code runs — while an indirect dispatch of
+/// zero workgroups costs little more than its recording.
+fn cg(i: &PlanInputs, plan: &mut Vec<Part<Dispatch>>) {
+    let (n, gather) = (i.particles, i.gather);
+    let one = WORKGROUP;
+    let coarse = i.features.coarse;
+    let prolong = coarse && !i.features.grid;
+    let update = if coarse { i.aggregates[0] } else { n };
+    let prolong_pass = Dispatch::direct(Kernel::CgProlong, update).launched(Launch::UpdateArgs);
+    plan.push(Part::Once(Dispatch::direct(Kernel::CgInit, gather)));
+    if coarse {
+        let first = Dispatch::direct(Kernel::CgUpdate, update).of(Variant::CgFirst);
+        plan.push(Part::Once(first));
+    }
+    plan.push(Part::Once(Dispatch::direct(Kernel::CgStart, one)));
+    if prolong {
+        plan.push(Part::Once(prolong_pass));
+    }
+    let mut iteration = vec![
+        Dispatch::direct(Kernel::CgApply, gather).launched(Launch::ApplyArgs),
+        Dispatch::direct(Kernel::CgAlpha, one).launched(Launch::AlphaSlot(0)),
+        Dispatch::direct(Kernel::CgUpdate, update).launched(Launch::UpdateArgs),
+        Dispatch::direct(Kernel::CgBeta, one).launched(Launch::BetaSlot(0)),
+    ];
+    if prolong {
+        iteration.push(prolong_pass);
+    }
+    plan.push(Part::CgIterations(iteration));
+}

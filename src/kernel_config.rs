@@ -1,0 +1,311 @@
+//! Configuration the GPU kernels and the CPU reference share: the
+//! workgroup size (which is the block size of every reduction, so both sum
+//! in the same order), the sections of the scratch buffers, the slots of
+//! the reduction partials and the status words.
+//!
+//! This module is the one source of these numbers: [`wgsl`] writes them as
+//! the WGSL constants `shaders/common/bindings.wgsl` includes (as
+//! `generated/config.wgsl`), so the kernels and the host cannot disagree.
+
+use std::fmt::Write;
+
+/// Invocations per workgroup of every per-particle and per-spring kernel,
+/// and so the block size of every reduction (the CPU reference reduces in
+/// blocks of the same size to sum in the same order). 64 is a multiple of
+/// every GPU's SIMD width and, on lavapipe, keeps both CPU cores busy down
+/// to a 33 × 33 cloth (17 workgroups).
+pub const WORKGROUP: u32 = 64;
+
+/// Particles per block of a reduction (dot products in CG, torque sums):
+/// [`WORKGROUP`], so the CPU sums in the GPU's order.
+pub const REDUCTION_BLOCK: usize = WORKGROUP as usize;
+
+/// Invocations of the one-workgroup CG scalar kernels (cg_start, cg_alpha,
+/// cg_beta) on devices that allow it (the solver takes less where the
+/// device's limits are lower).
+pub const SUM_GROUP: u32 = 256;
+
+/// Most spheres the GPU solver takes (they live in the uniform block).
+pub const MAX_SPHERES: usize = 16;
+
+/// Sections of the per-particle `work` buffer: section `s` of particle `p`
+/// is `vec4<f32>` number `s × particles + p` (WGSL: `W_*`, `wi`).
+pub mod work {
+    /// Predicted positions \[m\] (explicit and semi-implicit fix-up input).
+    pub const X_PRED: u32 = 0;
+    /// Fix-up ping-pong positions \[m\].
+    pub const X_ALT: u32 = 1;
+    /// Velocity before the fix-up [m/s].
+    pub const V_NEW: u32 = 2;
+    /// CG unknown Δv [m/s]; w: the particle's filter kind from the CG
+    /// set-up (implicit_prepare or semi_cg_prepare) to the step's end.
+    pub const DV: u32 = 3;
+    /// CG residual r; w: the particle's term of ρ.
+    pub const R: u32 = 4;
+    /// CG search direction c.
+    pub const C: u32 = 5;
+    /// CG product q = A c; w: the particle's term of cᵀq.
+    pub const Q: u32 = 6;
+    /// CG preconditioned residual s; w: the filter kind (from cg_init and
+    /// cg_update).
+    pub const S: u32 = 7;
+    /// CG right-hand side; w: the particle's term of δ0.
+    pub const RHS: u32 = 8;
+    /// The filter's constraint direction (w: filter kind).
+    pub const Z: u32 = 9;
+    /// The filter of each particle.
+    pub const FILTER: u32 = 10;
+    /// Block-Jacobi preconditioner: diagonal.
+    pub const PRE_DIAG: u32 = 11;
+    /// Block-Jacobi preconditioner: off-diagonal.
+    pub const PRE_OFF: u32 = 12;
+    /// Δv of the step before the last (CG warm start: 2 Δv − Δv_prev).
+    pub const DV_PREV: u32 = 13;
+    /// Coarse levels (`cpu/coarse.rs`), by aggregate: D⁻¹'s diagonal.
+    pub const COARSE_INV_D: u32 = 14;
+    /// Coarse levels: D⁻¹'s off-diagonal.
+    pub const COARSE_INV_O: u32 = 15;
+    /// Coarse levels: the correction z = D⁻¹ Πᵀr (w: the coarse terms of
+    /// δ, level-2 aggregates only).
+    pub const COARSE_Z: u32 = 16;
+    /// Number of sections.
+    pub const COUNT: u32 = 17;
+
+    /// The start-of-step positions of an implicit step on a grid with
+    /// colliders, from which implicit_finish computes the spring blocks
+    /// of its contact particles while x is being overwritten (the explicit
+    /// integrator's predicted positions, unused by the implicit one).
+    pub const X_START: u32 = X_PRED;
+    /// Where single-pass explicit steps alternate the state (x, then v)
+    /// with the x and v buffers: the CG sections R and C, which the
+    /// explicit integrator does not use.
+    pub const SNAPSHOT: u32 = R;
+    /// Each particle's contribution to its level-1 aggregate's D
+    /// (diagonal), from implicit_prepare to coarse_setup: a CG section
+    /// cg_init writes afterwards.
+    pub const LEVEL1_D: u32 = R;
+    /// The same, off-diagonal (w: the trace of the particle's
+    /// block-Jacobi block).
+    pub const LEVEL1_O: u32 = C;
+    /// The same for the level-2 aggregate (diagonal).
+    pub const LEVEL2_D: u32 = Q;
+    /// The same for the level-2 aggregate (off-diagonal).
+    pub const LEVEL2_O: u32 = S;
+
+    /// The name of each of the [`COUNT`] sections, by index (without the
+    /// WGSL prefix `W_`).
+    pub const NAMES: [&str; COUNT as usize] = [
+        "X_PRED",
+        "X_ALT",
+        "V_NEW",
+        "DV",
+        "R",
+        "C",
+        "Q",
+        "S",
+        "RHS",
+        "Z",
+        "FILTER",
+        "PRE_DIAG",
+        "PRE_OFF",
+        "DV_PREV",
+        "COARSE_INV_D",
+        "COARSE_INV_O",
+        "COARSE_Z",
+    ];
+}
+
+/// Sections of the per-spring `spring_work` buffer: section `s` of spring
+/// slot `k` is `vec4<f32>` number `s × spring slots + k` (WGSL: `S_*`,
+/// `si`).
+pub mod spring_work {
+    /// The implicit block (m, a) with B = a I + m mᵀ.
+    pub const BLOCK: u32 = 0;
+    /// K_s u.
+    pub const KV: u32 = 1;
+    /// The spring force on end i \[N\].
+    pub const FORCE: u32 = 2;
+    /// Number of sections.
+    pub const COUNT: u32 = 3;
+}
+
+/// The `partials` buffer: slot `k` holds one `f32` per reduction block
+/// (`k × blocks + block`; blocks = ⌈particles / WORKGROUP⌉), then the
+/// [`CG_SCALARS`](partials::CG_SCALARS) CG scalars (WGSL: `P_*`, `C_*`, `scalar_index`).
+pub mod partials {
+    /// cᵀq, per block.
+    pub const CQ: u32 = 0;
+    /// ρ = rᵀs, per block.
+    pub const RS: u32 = 1;
+    /// δ0, per block.
+    pub const D0: u32 = 2;
+    /// The first of the [`TORQUE_SLOTS`] torque-compensation sums.
+    pub const TORQUE: u32 = 3;
+    /// Torque-compensation sums (`shaders/common/torque.wgsl`).
+    pub const TORQUE_SLOTS: u32 = 16;
+    /// Number of per-block slots.
+    pub const SLOTS: u32 = TORQUE + TORQUE_SLOTS;
+    /// CG scalar: δ0, after the slots.
+    pub const DELTA0: u32 = 0;
+    /// CG scalar: δ, the current rᵀM⁻¹r.
+    pub const DELTA: u32 = 1;
+    /// CG scalar: α.
+    pub const ALPHA: u32 = 2;
+    /// CG scalar: β.
+    pub const BETA: u32 = 3;
+    /// Number of CG scalars after the slots.
+    pub const CG_SCALARS: u32 = 4;
+}
+
+/// Words of the `status` buffer.
+pub mod status {
+    /// Steps taken on the device.
+    pub const STEP: usize = 0;
+    /// First step whose state was not finite (`u32::MAX`: none).
+    pub const BAD_STEP: usize = 1;
+    /// First non-finite particle at that step.
+    pub const BAD_PARTICLE: usize = 2;
+    /// The fix-up moved something this step.
+    pub const FIXUP_MOVED: usize = 3;
+    /// CG iterations of the last step.
+    pub const CG_ITERATIONS: usize = 4;
+    /// CG has stopped this step (converged or broke down).
+    pub const CG_STOPPED: usize = 5;
+    /// Largest CG iteration count of any step.
+    pub const CG_MAX_ITERATIONS: usize = 6;
+    /// The fix-up stopped early this step.
+    pub const FIXUP_STOPPED: usize = 7;
+    /// Section holding the fix-up's result.
+    pub const FIXUP_RESULT: usize = 8;
+    /// Fix-up passes run in the last step (the last one found nothing to
+    /// move when it stopped early).
+    pub const FIXUP_PASSES: usize = 9;
+    /// The first of three rotating "this fix-up pass moved something"
+    /// flags.
+    pub const FIXUP_FLAG: usize = 10;
+    /// The CG iteration whose `cg_alpha` was last enabled (its slot may
+    /// still hold a workgroup; `cg_start` clears it).
+    pub const ALPHA_SLOT: usize = 13;
+    /// The same for `cg_beta`.
+    pub const BETA_SLOT: usize = 14;
+    /// Number of status words.
+    pub const COUNT: usize = 16;
+}
+
+/// Filter kinds, in the w of the CG vectors `work::DV` and `work::S`.
+pub mod filter_kind {
+    /// The particle is free.
+    pub const FREE: f32 = 0.0;
+    /// The particle is fixed (pinned).
+    pub const FIXED: f32 = 1.0;
+    /// The particle may only move in a plane (a contact).
+    pub const PLANE: f32 = 2.0;
+}
+
+// The slots fit their buffers, and the fix-up's three flags the words
+// between their first and the CG slots.
+const _: () = assert!(status::BETA_SLOT < status::COUNT);
+const _: () = assert!(status::FIXUP_FLAG + 3 <= status::ALPHA_SLOT);
+const _: () = assert!(work::COARSE_Z < work::COUNT);
+
+/// `(WGSL name, value)` of every unsigned constant.
+fn wgsl_u32() -> Vec<(String, u32)> {
+    let mut out = vec![("MAX_SPHERES".to_string(), MAX_SPHERES as u32)];
+    out.extend(
+        work::NAMES
+            .iter()
+            .zip(0u32..)
+            .map(|(n, k)| (format!("W_{n}"), k)),
+    );
+    let named: [(&str, u32); 30] = [
+        ("W_X_START", work::X_START),
+        ("W_LEVEL1_D", work::LEVEL1_D),
+        ("W_LEVEL1_O", work::LEVEL1_O),
+        ("W_LEVEL2_D", work::LEVEL2_D),
+        ("W_LEVEL2_O", work::LEVEL2_O),
+        ("S_BLOCK", spring_work::BLOCK),
+        ("S_KV", spring_work::KV),
+        ("S_FORCE", spring_work::FORCE),
+        ("P_CQ", partials::CQ),
+        ("P_RS", partials::RS),
+        ("P_D0", partials::D0),
+        ("P_TORQUE", partials::TORQUE),
+        ("P_SLOTS", partials::SLOTS),
+        ("C_DELTA0", partials::DELTA0),
+        ("C_DELTA", partials::DELTA),
+        ("C_ALPHA", partials::ALPHA),
+        ("C_BETA", partials::BETA),
+        ("STATUS_STEP", status::STEP as u32),
+        ("STATUS_BAD_STEP", status::BAD_STEP as u32),
+        ("STATUS_BAD_PARTICLE", status::BAD_PARTICLE as u32),
+        ("STATUS_FIXUP_MOVED", status::FIXUP_MOVED as u32),
+        ("STATUS_CG_ITERATIONS", status::CG_ITERATIONS as u32),
+        ("STATUS_CG_STOPPED", status::CG_STOPPED as u32),
+        ("STATUS_CG_MAX_ITERATIONS", status::CG_MAX_ITERATIONS as u32),
+        ("STATUS_FIXUP_STOPPED", status::FIXUP_STOPPED as u32),
+        ("STATUS_FIXUP_RESULT", status::FIXUP_RESULT as u32),
+        ("STATUS_FIXUP_PASSES", status::FIXUP_PASSES as u32),
+        ("STATUS_FIXUP_FLAG", status::FIXUP_FLAG as u32),
+        ("STATUS_ALPHA_SLOT", status::ALPHA_SLOT as u32),
+        ("STATUS_BETA_SLOT", status::BETA_SLOT as u32),
+    ];
+    out.extend(named.iter().map(|&(n, v)| (n.to_string(), v)));
+    out
+}
+
+/// `(WGSL name, value)` of every `f32` constant.
+const WGSL_F32: [(&str, f32); 3] = [
+    ("FILTER_FREE", filter_kind::FREE),
+    ("FILTER_FIXED", filter_kind::FIXED),
+    ("FILTER_PLANE", filter_kind::PLANE),
+];
+
+/// Every constant of this module as WGSL (`generated/config.wgsl`): the
+/// workgroup sizes as `override` defaults (the solver sets them per
+/// pipeline), the rest as `const`.
+pub fn wgsl() -> String {
+    let mut s = String::from(
+        "// Generated by wgcloth::kernel_config::wgsl (src/kernel_config.rs, \
+         where each constant is documented).\n",
+    );
+    // Writing to a String cannot fail; `let _` keeps no unwrap here.
+    let _ = writeln!(s, "override WORKGROUP: u32 = {WORKGROUP}u;");
+    let _ = writeln!(s, "override SUM_GROUP: u32 = {SUM_GROUP}u;");
+    for (name, value) in wgsl_u32() {
+        let _ = writeln!(s, "const {name}: u32 = {value}u;");
+    }
+    for (name, value) in WGSL_F32 {
+        let _ = writeln!(s, "const {name}: f32 = {value:?};");
+    }
+    s
+}
+
+/// Every `(WGSL name, value as f64)` that [`wgsl`] writes, for the test
+/// that reads them back through naga.
+#[doc(hidden)]
+pub fn wgsl_values() -> Vec<(String, f64)> {
+    let mut out = vec![
+        ("WORKGROUP".to_string(), f64::from(WORKGROUP)),
+        ("SUM_GROUP".to_string(), f64::from(SUM_GROUP)),
+    ];
+    out.extend(wgsl_u32().into_iter().map(|(n, v)| (n, f64::from(v))));
+    out.extend(WGSL_F32.iter().map(|&(n, v)| (n.to_string(), f64::from(v))));
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_wgsl_name_is_written_once() {
+        let values = wgsl_values();
+        for (k, (name, _)) in values.iter().enumerate() {
+            assert!(
+                values[..k].iter().all(|(n, _)| n != name),
+                "{name} written twice"
+            );
+        }
+        assert_eq!(work::NAMES.len(), work::COUNT as usize);
+    }
+}
