@@ -59,7 +59,9 @@ pub mod implicit {
 
 /// The CG kernels' twins and their scalars.
 pub mod cg {
-    pub use crate::cpu::cg::{alpha, apply, beta, init, prolong, start, update, Scalars};
+    pub use crate::cpu::cg::{
+        alpha, apply, beta, block_partials, init, prolong, start, update, Scalars,
+    };
 }
 
 /// The semi-implicit step's twins, but the torque passes'.
