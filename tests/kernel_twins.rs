@@ -91,14 +91,39 @@ fn general_at(integrator: Integrator, pinned: bool, kernel: Kernel, nth: usize) 
     (t, i)
 }
 
-/// Runs `check` at the `nth` dispatch of `kernel` in the busy implicit
-/// scene on the general kernels, then in `other`.
-fn in_general_and(other: fn() -> Twins, kernel: Kernel, nth: usize, check: fn(&mut Twins, usize)) {
-    let (mut t, i) = general_at(Integrator::Implicit, true, kernel, nth);
+/// Runs `check` at the `nth` dispatch of `kernel` in the busy scene for
+/// `integrator` on the general kernels, then in `other`.
+fn in_general_and(
+    integrator: Integrator,
+    other: fn() -> Twins,
+    kernel: Kernel,
+    nth: usize,
+    check: fn(&mut Twins, usize),
+) {
+    let (mut t, i) = general_at(integrator, true, kernel, nth);
     check(&mut t, i);
     let mut t = other();
     let i = t.run_to(kernel, nth);
     check(&mut t, i);
+}
+
+/// The busy scene for `integrator` on the grid kernels, pinned at two
+/// corners.
+fn on_grid(integrator: Integrator) -> Twins {
+    let p = params(integrator);
+    let model = grid(NX, NY, corners(), &p);
+    Twins::new(&model, &p, true, WARM_STEPS)
+}
+
+/// The busy explicit scene on the grid kernels (with fix-up: not single
+/// pass).
+fn explicit_grid() -> Twins {
+    on_grid(Integrator::Explicit)
+}
+
+/// The busy semi-implicit scene on the grid kernels.
+fn semi_grid() -> Twins {
+    on_grid(Integrator::SemiImplicit)
 }
 
 /// The busy implicit scene with coarse levels on the general kernels.
@@ -307,17 +332,36 @@ fn spring_forces_matches_its_twin() {
     );
 }
 
-#[test]
-fn explicit_integrate_matches_its_twin() {
-    let (mut t, i) = general_at(Integrator::Explicit, true, Kernel::ExplicitIntegrate, 0);
+/// Loads the spring forces into the mirror: the device's spring pass's,
+/// or on a grid, whose kernels compute each force where they sum it, the
+/// spring pass's twin's on the mirror's state.
+fn load_forces(t: &mut Twins) {
+    let forces = (!t.grid).then(|| springs_xyz(t, spring_work::FORCE));
+    let (sys, st, wk) = t.parts();
+    match forces {
+        Some(f) => wk.per_spring = f,
+        None => cpu::forces::spring_forces(sys, &st.x, &st.v, &mut wk.per_spring),
+    }
+}
+
+/// explicit_integrate's outputs against its twin's, in `t` at dispatch `i`
+/// (on a grid: the twins of spring_forces and explicit_integrate).
+fn check_explicit_integrate(t: &mut Twins, i: usize) {
     assert_eq!(t.plan()[i].variant, Variant::Plain);
     t.load_state();
-    let forces = springs_xyz(&t, spring_work::FORCE);
-    check_prediction(
-        &mut t,
-        i,
-        |wk| wk.per_spring = forces,
-        cpu::explicit::integrate,
+    load_forces(t);
+    check_prediction(t, i, |_| (), cpu::explicit::integrate);
+}
+
+#[test]
+fn explicit_integrate_matches_its_twin() {
+    let k = Kernel::ExplicitIntegrate;
+    in_general_and(
+        Integrator::Explicit,
+        explicit_grid,
+        k,
+        0,
+        check_explicit_integrate,
     );
 }
 
@@ -372,10 +416,9 @@ fn explicit_seed_matches_its_twin() {
     }
 }
 
-#[test]
-fn fixup_jacobi_matches_its_twin() {
-    let mut t = general(Integrator::Explicit, true);
-    let first = t.run_to(Kernel::FixupJacobi, 0);
+/// The first two fix-up passes' outputs against the twin's, in `t` from
+/// dispatch `first`.
+fn check_fixup_jacobi(t: &mut Twins, first: usize) {
     let plan = t.plan();
     // The first two passes: each reads one section and writes the other.
     for i in [first, first + 1] {
@@ -393,7 +436,7 @@ fn fixup_jacobi_matches_its_twin() {
             "pass {i}: the test scene's fix-up moves every pass"
         );
         let what = format!("pass at {i}: section {dst}");
-        assert_same(&what, &work_section(&t, &out, dst), &vectors(&x));
+        assert_same(&what, &work_section(t, &out, dst), &vectors(&x));
         assert_eq!(flags[status::FIXUP_MOVED], moved, "{what}: moved");
         assert_eq!(flags[status::FIXUP_RESULT], dst, "{what}: result");
         assert_eq!(
@@ -402,6 +445,18 @@ fn fixup_jacobi_matches_its_twin() {
             "{what}: passes"
         );
     }
+}
+
+#[test]
+fn fixup_jacobi_matches_its_twin() {
+    let k = Kernel::FixupJacobi;
+    in_general_and(
+        Integrator::Explicit,
+        explicit_grid,
+        k,
+        0,
+        check_fixup_jacobi,
+    );
 }
 
 #[test]
@@ -542,6 +597,7 @@ fn check_implicit_prepare(t: &mut Twins, i: usize) {
 fn implicit_prepare_matches_its_twin() {
     // On a grid the kernel linearises the springs itself.
     in_general_and(
+        Integrator::Implicit,
         coarse_grid,
         Kernel::ImplicitPrepare,
         0,
@@ -574,9 +630,11 @@ fn coarse_setup_matches_its_twin() {
     assert_same("W_COARSE_INV_O", &sec(work::COARSE_INV_O), &off);
 }
 
-/// cg_init's outputs against its twin's, in `t` at dispatch `i`.
+/// cg_init's outputs against its twin's, in `t` at dispatch `i` (on a
+/// grid, whose kernel computes the spring blocks from the positions: the
+/// twins of implicit_springs and cg_init).
 fn check_cg_init(t: &mut Twins, i: usize) {
-    load_cg_setup(t, false);
+    load_cg_setup(t, t.grid);
     let dv = t.work_xyz(at(work::DV));
     t.run_alone(i);
     let out = t.read(DebugBuffer::Work);
@@ -597,8 +655,13 @@ fn check_cg_init(t: &mut Twins, i: usize) {
 
 #[test]
 fn cg_init_matches_its_twin() {
-    let (mut t, i) = general_at(Integrator::Implicit, true, Kernel::CgInit, 0);
-    check_cg_init(&mut t, i);
+    in_general_and(
+        Integrator::Implicit,
+        coarse_grid,
+        Kernel::CgInit,
+        0,
+        check_cg_init,
+    );
 }
 
 /// Loads the coarse levels' sums the device holds (level 1's `Πᵀr` and
@@ -701,7 +764,13 @@ fn check_cg_start(t: &mut Twins, i: usize) {
 
 #[test]
 fn cg_start_matches_its_twin() {
-    in_general_and(coarse_general, Kernel::CgStart, 0, check_cg_start);
+    in_general_and(
+        Integrator::Implicit,
+        coarse_general,
+        Kernel::CgStart,
+        0,
+        check_cg_start,
+    );
 }
 
 #[test]
@@ -767,7 +836,13 @@ fn check_cg_apply(t: &mut Twins, i: usize) {
 
 #[test]
 fn cg_apply_matches_its_twin() {
-    in_general_and(coarse_grid, Kernel::CgApply, 1, check_cg_apply);
+    in_general_and(
+        Integrator::Implicit,
+        coarse_grid,
+        Kernel::CgApply,
+        1,
+        check_cg_apply,
+    );
 }
 
 #[test]
@@ -871,13 +946,21 @@ fn check_cg_beta(t: &mut Twins, i: usize) {
 
 #[test]
 fn cg_beta_matches_its_twin() {
-    in_general_and(coarse_general, Kernel::CgBeta, 1, check_cg_beta);
+    in_general_and(
+        Integrator::Implicit,
+        coarse_general,
+        Kernel::CgBeta,
+        1,
+        check_cg_beta,
+    );
 }
 
-#[test]
-fn implicit_finish_matches_its_twin() {
-    let (mut t, i) = general_at(Integrator::Implicit, true, Kernel::ImplicitFinish, 0);
-    load_cg_setup(&mut t, false);
+/// implicit_finish's outputs against its twin's, in `t` at dispatch `i`
+/// (on a grid, whose kernel computes the blocks its contacts need from the
+/// start-of-step positions: the twins of implicit_springs and
+/// implicit_finish).
+fn check_implicit_finish(t: &mut Twins, i: usize) {
+    load_cg_setup(t, t.grid);
     let dv = t.work_xyz(at(work::DV));
     t.run_alone(i);
     let (x, v) = (t.read(DebugBuffer::X), t.read(DebugBuffer::V));
@@ -899,23 +982,42 @@ fn implicit_finish_matches_its_twin() {
 }
 
 #[test]
-fn semi_rhs_matches_its_twin() {
-    let (mut t, i) = general_at(Integrator::SemiImplicit, true, Kernel::SemiRhs, 0);
-    assert_eq!(
-        t.plan()[i].variant,
-        Variant::Plain,
-        "the dense filter's variant"
+fn implicit_finish_matches_its_twin() {
+    let k = Kernel::ImplicitFinish;
+    in_general_and(
+        Integrator::Implicit,
+        coarse_grid,
+        k,
+        0,
+        check_implicit_finish,
     );
+}
+
+/// semi_rhs's outputs against its twin's, in `t` at dispatch `i` (on a
+/// grid: the twins of spring_forces and semi_rhs).
+fn check_semi_rhs(t: &mut Twins, i: usize) {
+    let variant = t.plan()[i].variant;
+    assert_eq!(variant, Variant::Plain, "the dense filter's variant");
     t.load_state();
-    let forces = springs_xyz(&t, spring_work::FORCE);
+    load_forces(t);
     t.run_alone(i);
     let out = t.read(DebugBuffer::Work);
     let n = t.n;
     let (sys, st, wk) = t.parts();
-    wk.per_spring = forces;
     cpu::semi_implicit::rhs(sys, st, wk, true);
     assert_same("W_RHS", section(&out, at(work::RHS), n), &vectors(&wk.rhs));
     assert_same("W_DV", section(&out, at(work::DV), n), &vectors(&wk.dv));
+}
+
+#[test]
+fn semi_rhs_matches_its_twin() {
+    in_general_and(
+        Integrator::SemiImplicit,
+        semi_grid,
+        Kernel::SemiRhs,
+        0,
+        check_semi_rhs,
+    );
 }
 
 #[test]
