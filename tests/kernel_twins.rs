@@ -27,7 +27,7 @@ use wgcloth::cpu::twins as cpu;
 use wgcloth::cpu::twins::Filter;
 use wgcloth::gpu::{DebugBuffer, Dispatch, Kernel, Variant};
 use wgcloth::kernel_config::{partials, spring_work, status, work};
-use wgcloth::params::{FilterMethod, Integrator};
+use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
 use wgcloth::{Model, Params, Vec3};
 
 /// Columns and rows of the test cloths: 132 particles, three reduction
@@ -124,6 +124,18 @@ fn explicit_grid() -> Twins {
 /// The busy semi-implicit scene on the grid kernels.
 fn semi_grid() -> Twins {
     on_grid(Integrator::SemiImplicit)
+}
+
+/// A twin test, `$test`, that runs `$check` at the `$nth` dispatch of
+/// `$kernel` in the busy scene for `$integrator` on the general kernels,
+/// then in the scene `$other` makes.
+macro_rules! general_and {
+    ($test:ident: $integrator:ident, $other:ident, $kernel:ident, $nth:literal, $check:ident) => {
+        #[test]
+        fn $test() {
+            in_general_and($integrator, $other, Kernel::$kernel, $nth, $check);
+        }
+    };
 }
 
 /// The busy implicit scene with coarse levels on the general kernels.
@@ -353,17 +365,7 @@ fn check_explicit_integrate(t: &mut Twins, i: usize) {
     check_prediction(t, i, |_| (), cpu::explicit::integrate);
 }
 
-#[test]
-fn explicit_integrate_matches_its_twin() {
-    let k = Kernel::ExplicitIntegrate;
-    in_general_and(
-        Integrator::Explicit,
-        explicit_grid,
-        k,
-        0,
-        check_explicit_integrate,
-    );
-}
+general_and!(explicit_integrate_matches_its_twin: Explicit, explicit_grid, ExplicitIntegrate, 0, check_explicit_integrate);
 
 /// Runs dispatch `i` alone and the integration twin `integrate` on the
 /// mirror (its workspace given its inputs by `load`), and compares the
@@ -447,17 +449,7 @@ fn check_fixup_jacobi(t: &mut Twins, first: usize) {
     }
 }
 
-#[test]
-fn fixup_jacobi_matches_its_twin() {
-    let k = Kernel::FixupJacobi;
-    in_general_and(
-        Integrator::Explicit,
-        explicit_grid,
-        k,
-        0,
-        check_fixup_jacobi,
-    );
-}
+general_and!(fixup_jacobi_matches_its_twin: Explicit, explicit_grid, FixupJacobi, 0, check_fixup_jacobi);
 
 #[test]
 fn finish_step_matches_its_twin() {
@@ -593,17 +585,8 @@ fn check_implicit_prepare(t: &mut Twins, i: usize) {
     }
 }
 
-#[test]
-fn implicit_prepare_matches_its_twin() {
-    // On a grid the kernel linearises the springs itself.
-    in_general_and(
-        Integrator::Implicit,
-        coarse_grid,
-        Kernel::ImplicitPrepare,
-        0,
-        check_implicit_prepare,
-    );
-}
+// On a grid the kernel linearises the springs itself.
+general_and!(implicit_prepare_matches_its_twin: Implicit, coarse_grid, ImplicitPrepare, 0, check_implicit_prepare);
 
 #[test]
 fn coarse_setup_matches_its_twin() {
@@ -653,16 +636,7 @@ fn check_cg_init(t: &mut Twins, i: usize) {
     assert_same("W_Q", &sec(work::Q), &vectors(&wk.q));
 }
 
-#[test]
-fn cg_init_matches_its_twin() {
-    in_general_and(
-        Integrator::Implicit,
-        coarse_grid,
-        Kernel::CgInit,
-        0,
-        check_cg_init,
-    );
-}
+general_and!(cg_init_matches_its_twin: Implicit, coarse_grid, CgInit, 0, check_cg_init);
 
 /// Loads the coarse levels' sums the device holds (level 1's `Πᵀr` and
 /// terms, both levels' `θ D⁻¹`) into the mirror.
@@ -733,17 +707,34 @@ fn check_cg_args(t: &Twins, stopped: bool) {
     );
 }
 
+/// What a CG scalar kernel writes: in `work` (the coarse terms),
+/// `partials`, `status`, and the scalar kernels' indirect slots.
+struct Scalar {
+    work: Vec<u32>,
+    partials: Vec<u32>,
+    status: Vec<u32>,
+    alpha_slots: Vec<u32>,
+    beta_slots: Vec<u32>,
+}
+
+/// Runs the CG scalar kernel at dispatch `i` of `t` alone and reads what
+/// it writes.
+fn run_scalar_kernel(t: &mut Twins, i: usize) -> Scalar {
+    t.run_alone(i);
+    Scalar {
+        work: t.read(DebugBuffer::Work),
+        partials: t.read(DebugBuffer::Partials),
+        status: t.read(DebugBuffer::Status),
+        alpha_slots: t.read(DebugBuffer::AlphaSlots),
+        beta_slots: t.read(DebugBuffer::BetaSlots),
+    }
+}
+
 /// cg_start's outputs against its twin's, in `t` at dispatch `i`.
 fn check_cg_start(t: &mut Twins, i: usize) {
     load_coarse(t);
     let before = t.read(DebugBuffer::Work);
-    t.run_alone(i);
-    let (out, p, flags) = (
-        t.read(DebugBuffer::Work),
-        t.read(DebugBuffer::Partials),
-        t.read(DebugBuffer::Status),
-    );
-    let alpha_slots = t.read(DebugBuffer::AlphaSlots);
+    let after = run_scalar_kernel(t, i);
     let n = t.n;
     let (sys, _, wk) = t.parts();
     wk.delta0_terms = w(&before, at(work::RHS), n);
@@ -754,24 +745,16 @@ fn check_cg_start(t: &mut Twins, i: usize) {
         block_words(&wk.delta0_terms),
         block_words(&wk.rho_terms),
     );
-    check_level2(t, &out);
-    assert_same("P_D0", &partial_slot(t, &p, partials::D0), &d0);
-    assert_same("P_RS", &partial_slot(t, &p, partials::RS), &rs);
-    let scalars = [partials::DELTA0, partials::DELTA, partials::BETA].map(|k| cg_scalar(t, &p, k));
+    check_level2(t, &after.work);
+    assert_same("P_D0", &partial_slot(t, &after.partials, partials::D0), &d0);
+    assert_same("P_RS", &partial_slot(t, &after.partials, partials::RS), &rs);
+    let scalars = [partials::DELTA0, partials::DELTA, partials::BETA]
+        .map(|k| cg_scalar(t, &after.partials, k));
     assert_same("δ0, δ, β", &scalars, &bits(&[cg.delta0, cg.delta, cg.beta]));
-    assert_running(t, &flags, &cg, &alpha_slots, 0);
+    assert_running(t, &after.status, &cg, &after.alpha_slots, 0);
 }
 
-#[test]
-fn cg_start_matches_its_twin() {
-    in_general_and(
-        Integrator::Implicit,
-        coarse_general,
-        Kernel::CgStart,
-        0,
-        check_cg_start,
-    );
-}
+general_and!(cg_start_matches_its_twin: Implicit, coarse_general, CgStart, 0, check_cg_start);
 
 #[test]
 fn cg_prolong_matches_its_twin() {
@@ -834,37 +817,36 @@ fn check_cg_apply(t: &mut Twins, i: usize) {
     );
 }
 
-#[test]
-fn cg_apply_matches_its_twin() {
-    in_general_and(
-        Integrator::Implicit,
-        coarse_grid,
-        Kernel::CgApply,
-        1,
-        check_cg_apply,
-    );
-}
+general_and!(cg_apply_matches_its_twin: Implicit, coarse_grid, CgApply, 1, check_cg_apply);
 
 #[test]
 fn cg_alpha_matches_its_twin() {
     let (mut t, i) = general_at(Integrator::Implicit, true, Kernel::CgAlpha, 1);
     let scalars = device_scalars(&t);
     let cq = w(&t.read(DebugBuffer::Work), at(work::Q), t.n);
-    t.run_alone(i);
-    let (p, flags) = (t.read(DebugBuffer::Partials), t.read(DebugBuffer::Status));
-    let beta_slots = t.read(DebugBuffer::BetaSlots);
+    let after = run_scalar_kernel(&mut t, i);
     let (_, _, wk) = t.parts();
     wk.cg = scalars;
     wk.cq_terms = cq;
     cpu::cg::alpha(wk);
     let (cg, cq) = (wk.cg, block_words(&wk.cq_terms));
-    assert_same("P_CQ", &partial_slot(&t, &p, partials::CQ), &cq);
+    assert_same(
+        "P_CQ",
+        &partial_slot(&t, &after.partials, partials::CQ),
+        &cq,
+    );
     assert_same(
         "α",
-        &[cg_scalar(&t, &p, partials::ALPHA)],
+        &[cg_scalar(&t, &after.partials, partials::ALPHA)],
         &bits(&[cg.alpha]),
     );
-    assert_running(&t, &flags, &cg, &beta_slots, cg.iterations as usize);
+    assert_running(
+        &t,
+        &after.status,
+        &cg,
+        &after.beta_slots,
+        cg.iterations as usize,
+    );
 }
 
 /// cg_update's outputs against its twin's, in `t` at dispatch `i`.
@@ -923,37 +905,32 @@ fn check_cg_beta(t: &mut Twins, i: usize) {
     load_coarse(t);
     let scalars = device_scalars(t);
     let rho = w(&t.read(DebugBuffer::Work), at(work::R), t.n);
-    t.run_alone(i);
-    let (out, p, flags) = (
-        t.read(DebugBuffer::Work),
-        t.read(DebugBuffer::Partials),
-        t.read(DebugBuffer::Status),
-    );
-    let alpha_slots = t.read(DebugBuffer::AlphaSlots);
+    let after = run_scalar_kernel(t, i);
     let (sys, _, wk) = t.parts();
     wk.cg = scalars;
     wk.rho_terms = rho;
     cpu::cg::beta(sys, wk);
     let cg = wk.cg;
     let rs = block_words(&wk.rho_terms);
-    check_level2(t, &out);
-    assert_same("P_RS", &partial_slot(t, &p, partials::RS), &rs);
-    let scalars = [partials::DELTA, partials::BETA].map(|k| cg_scalar(t, &p, k));
+    check_level2(t, &after.work);
+    assert_same("P_RS", &partial_slot(t, &after.partials, partials::RS), &rs);
+    let scalars = [partials::DELTA, partials::BETA].map(|k| cg_scalar(t, &after.partials, k));
     assert_same("δ, β", &scalars, &bits(&[cg.delta, cg.beta]));
-    assert_eq!(flags[status::CG_ITERATIONS], cg.iterations, "iterations");
-    assert_running(t, &flags, &cg, &alpha_slots, cg.iterations as usize);
-}
-
-#[test]
-fn cg_beta_matches_its_twin() {
-    in_general_and(
-        Integrator::Implicit,
-        coarse_general,
-        Kernel::CgBeta,
-        1,
-        check_cg_beta,
+    assert_eq!(
+        after.status[status::CG_ITERATIONS],
+        cg.iterations,
+        "iterations"
+    );
+    assert_running(
+        t,
+        &after.status,
+        &cg,
+        &after.alpha_slots,
+        cg.iterations as usize,
     );
 }
+
+general_and!(cg_beta_matches_its_twin: Implicit, coarse_general, CgBeta, 1, check_cg_beta);
 
 /// implicit_finish's outputs against its twin's, in `t` at dispatch `i`
 /// (on a grid, whose kernel computes the blocks its contacts need from the
@@ -981,17 +958,7 @@ fn check_implicit_finish(t: &mut Twins, i: usize) {
     assert_same("v", &v, &pack(&st.v, |p| mass[p]));
 }
 
-#[test]
-fn implicit_finish_matches_its_twin() {
-    let k = Kernel::ImplicitFinish;
-    in_general_and(
-        Integrator::Implicit,
-        coarse_grid,
-        k,
-        0,
-        check_implicit_finish,
-    );
-}
+general_and!(implicit_finish_matches_its_twin: Implicit, coarse_grid, ImplicitFinish, 0, check_implicit_finish);
 
 /// semi_rhs's outputs against its twin's, in `t` at dispatch `i` (on a
 /// grid: the twins of spring_forces and semi_rhs).
@@ -1009,16 +976,7 @@ fn check_semi_rhs(t: &mut Twins, i: usize) {
     assert_same("W_DV", section(&out, at(work::DV), n), &vectors(&wk.dv));
 }
 
-#[test]
-fn semi_rhs_matches_its_twin() {
-    in_general_and(
-        Integrator::SemiImplicit,
-        semi_grid,
-        Kernel::SemiRhs,
-        0,
-        check_semi_rhs,
-    );
-}
+general_and!(semi_rhs_matches_its_twin: SemiImplicit, semi_grid, SemiRhs, 0, check_semi_rhs);
 
 #[test]
 fn filter_dense_matches_its_twin() {
