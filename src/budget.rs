@@ -301,12 +301,14 @@ pub fn cpu_solver_bytes<R: Real>(counts: Counts) -> u64 {
         array::<u32>(3 * t),
         array::<R>(2 * n),
     ]);
-    // Positions and velocities; ten per-particle vectors of the workspace
-    // (force … z) and its per-spring and per-triangle ones.
+    // Positions and velocities; eleven per-particle vectors of the
+    // workspace (force … z), its CG terms (three per particle) and its
+    // per-spring and per-triangle ones.
     let state = array::<Vec3<R>>(2 * n);
     let workspace = total(&[
-        array::<Vec3<R>>(10 * n),
-        array::<Vec3<R>>(s),
+        array::<Vec3<R>>(11 * n),
+        array::<R>(3 * n),
+        array::<Vec3<R>>(2 * s),
         array::<bool>(s),
         array::<Vec3<R>>(t),
         array::<Filter<R>>(n),

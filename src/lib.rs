@@ -23,6 +23,8 @@
 //! Units are SI throughout (m, kg, s, N), y is up.
 #![deny(missing_docs)]
 
+// The coarse levels' aggregates, shared by the CPU and GPU solvers.
+pub(crate) mod aggregation;
 pub mod atomic_file;
 pub mod budget;
 pub mod cpu;

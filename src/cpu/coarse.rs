@@ -4,7 +4,8 @@
 //! Block Jacobi removes the error of each particle against its neighbours
 //! quickly and the smooth error (a whole region moving together) slowly:
 //! CG needs more iterations the stiffer the springs are against the mass.
-//! Grouping the particles into square *aggregates* of [`LEVEL_SIDES`]
+//! Grouping the particles into square *aggregates* of
+//! [`LEVEL_SIDES`](crate::aggregation::LEVEL_SIDES)
 //! particles a side gives each level one unknown 3-vector per aggregate
 //! (the aggregate moving rigidly), and the preconditioner becomes
 //!
@@ -33,9 +34,11 @@
 //! at two, each corrected through its diagonal block.
 //!
 //! Everything is summed in a fixed order that the GPU reproduces (twins:
-//! `coarse_setup.wgsl`; the per-aggregate `cg_update.wgsl` for level 1;
-//! `cg_coarse` and `near_correction` (for `cg_apply`) in
-//! `shaders/common/coarse.wgsl`, or `cg_prolong.wgsl`, for level 2): an
+//! [`Coarse::setup`] of `coarse_setup.wgsl`; [`Coarse::level1`] of the
+//! per-aggregate `cg_update.wgsl`; [`Coarse::level2`] of `cg_coarse` in
+//! `shaders/common/coarse.wgsl`, which `cg_start` and `cg_beta` call;
+//! [`Coarse::prolong`] of `cg_prolong.wgsl`, or on a grid of
+//! `near_correction`, which `cg_apply` adds to each `s` it loads): an
 //! aggregate's particles in row-major order; a level-2
 //! aggregate's residual as the sum of its level-1 aggregates' (row-major);
 //! the coarse terms of `rᵀM⁻¹r` level-2 aggregate by level-2 aggregate,
@@ -44,112 +47,40 @@
 
 use super::implicit::Filter;
 use super::mat3::Sym3;
-use crate::model::Model;
-use crate::params::{Integrator, Params};
+pub use crate::aggregation::Aggregation;
+use crate::aggregation::RATIO;
 use crate::real::{Real, Vec3};
-
-/// Particles per aggregate side, level by level. Level 2's side is a
-/// multiple of level 1's, so each level-2 aggregate is a whole number of
-/// level-1 aggregates (at most 4 × 4).
-pub const LEVEL_SIDES: [usize; 2] = [4, 16];
-
-/// Level-1 aggregates per level-2 aggregate side.
-const RATIO: usize = LEVEL_SIDES[1] / LEVEL_SIDES[0];
-
-/// How an `nx × ny` grid is cut into aggregates (the last row and column
-/// of aggregates may be partial).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Aggregation {
-    /// Columns of particles.
-    pub nx: usize,
-    /// Rows of particles.
-    pub ny: usize,
-}
-
-impl Aggregation {
-    /// The aggregation of a grid of `(nx, ny)` particles, or `None` without
-    /// a grid or where the aggregates outnumber the particles (a grid
-    /// thinner than two particles: the GPU keeps the aggregates in
-    /// per-particle storage).
-    pub fn for_grid(grid: Option<(usize, usize)>) -> Option<Self> {
-        let (nx, ny) = grid?;
-        let agg = Aggregation { nx, ny };
-        (nx >= 2 && ny >= 2 && agg.total() <= nx * ny).then_some(agg)
-    }
-
-    /// The aggregation both backends use for `model` under `params`: an
-    /// implicit grid cloth with [`crate::params::ImplicitParams::coarse_levels`].
-    pub fn for_scene(model: &Model, params: &Params) -> Option<Self> {
-        if params.integrator != Integrator::Implicit || !params.implicit.coarse_levels {
-            return None;
-        }
-        Self::for_grid(model.grid.as_ref().map(|g| (g.nx, g.ny)))
-    }
-
-    /// Aggregates per row at `level`.
-    pub fn across(&self, level: usize) -> usize {
-        self.nx.div_ceil(LEVEL_SIDES[level])
-    }
-
-    /// Aggregates per column at `level`.
-    pub fn down(&self, level: usize) -> usize {
-        self.ny.div_ceil(LEVEL_SIDES[level])
-    }
-
-    /// Aggregates at `level`.
-    pub fn count(&self, level: usize) -> usize {
-        self.across(level) * self.down(level)
-    }
-
-    /// Aggregates of both levels: level 1's, then level 2's.
-    pub fn total(&self) -> usize {
-        self.count(0) + self.count(1)
-    }
-
-    /// Index, among both levels' aggregates, of aggregate `(row, col)` of
-    /// `level`.
-    pub fn index(&self, level: usize, row: usize, col: usize) -> usize {
-        let offset = if level == 0 { 0 } else { self.count(0) };
-        offset + row * self.across(level) + col
-    }
-
-    /// Index, among both levels' aggregates, of the level-`level` aggregate
-    /// of particle `p`.
-    pub fn of(&self, level: usize, p: usize) -> usize {
-        let side = LEVEL_SIDES[level];
-        self.index(level, (p / self.nx) / side, (p % self.nx) / side)
-    }
-
-    /// Particles of aggregate `(row, col)` of `level`, row-major.
-    fn particles(&self, level: usize, row: usize, col: usize) -> impl Iterator<Item = usize> + '_ {
-        let side = LEVEL_SIDES[level];
-        let rows = row * side..((row + 1) * side).min(self.ny);
-        let cols = col * side..((col + 1) * side).min(self.nx);
-        rows.flat_map(move |r| cols.clone().map(move |c| r * self.nx + c))
-    }
-}
 
 /// The coarse levels' per-step state.
 #[derive(Clone, Debug)]
 pub struct Coarse<R> {
     /// How the grid is aggregated.
     pub agg: Aggregation,
-    /// Each particle's aggregate at both levels ([`Aggregation::of`]).
+    /// Each particle's aggregate at both levels (`Aggregation::of`).
     pub of: Vec<[u32; 2]>,
     /// Per particle and level: its mass times `I` plus the blocks of its
     /// springs whose other end lies in another aggregate of that level
-    /// (filled by the implicit step's particle loop).
+    /// (filled by `implicit::prepare`; the GPU's `W_LEVEL1_D` … `W_LEVEL2_O`).
     pub contrib: Vec<[Sym3<R>; 2]>,
     /// Per particle: the trace of its block-Jacobi block (of `A`'s
-    /// diagonal block) \[kg\], for the weight θ.
+    /// diagonal block) \[kg\], for the weight θ (the GPU's w of
+    /// `W_LEVEL1_O`).
     pub trace: Vec<R>,
-    /// `D⁻¹` of each aggregate (zero where `D` is not invertible, which
-    /// drops that aggregate's correction).
+    /// `θ D⁻¹` of each aggregate, both levels (zero where `D` is not
+    /// invertible, which drops that aggregate's correction; the GPU's
+    /// `W_COARSE_INV_D`, `W_COARSE_INV_O`).
     pub inv: Vec<Sym3<R>>,
-    /// `Πᵀr` of each level-1 aggregate.
+    /// `Πᵀr` of each level-1 aggregate (the GPU's xyz of `W_COARSE_Z`).
     pub r1: Vec<Vec3<R>>,
-    /// `(Πᵀr)·D⁻¹Πᵀr` of each level-1 aggregate.
+    /// `(Πᵀr)·D⁻¹Πᵀr` of each level-1 aggregate (the GPU's w of
+    /// `W_COARSE_Z`).
     pub term1: Vec<R>,
+    /// The correction `z = D⁻¹ Πᵀr` of each level-2 aggregate (the GPU's
+    /// xyz of `W_COARSE_Z` past the level-1 aggregates).
+    pub z2: Vec<Vec3<R>>,
+    /// Both levels' terms of `rᵀM⁻¹r` of each level-2 aggregate, its
+    /// level-1 terms then its own (the GPU's w of `W_COARSE_Z` there).
+    pub term2: Vec<R>,
 }
 
 impl<R: Real> Coarse<R> {
@@ -165,13 +96,16 @@ impl<R: Real> Coarse<R> {
             inv: vec![Sym3::default(); agg.total()],
             r1: vec![Vec3::ZERO; agg.count(0)],
             term1: vec![R::ZERO; agg.count(0)],
+            z2: vec![Vec3::ZERO; agg.count(1)],
+            term2: vec![R::ZERO; agg.count(1)],
         }
     }
 
-    /// Sums each aggregate's `D` from the particles' contributions and
-    /// stores `θ D⁻¹` (see the module docs for the weight θ); `mass`: the
-    /// particles' masses \[kg\].
-    pub fn set_up(&mut self, mass: &[R]) {
+    /// Twin of `shaders/coarse_setup.wgsl`: sums each aggregate's `D` from
+    /// the particles' contributions and stores `θ D⁻¹` (see the module
+    /// docs for the weight θ). Reads `contrib`, `trace` and `mass`, the
+    /// particles' masses \[kg\]; writes `inv`.
+    pub fn setup(&mut self, mass: &[R]) {
         for level in 0..2 {
             for row in 0..self.agg.down(level) {
                 for col in 0..self.agg.across(level) {
@@ -202,7 +136,8 @@ impl<R: Real> Coarse<R> {
     /// Level 1 of the coarse terms, per level-1 aggregate: `Πᵀr`, its
     /// correction `z = D⁻¹ Πᵀr` added to `s` as `S z` (after the block
     /// Jacobi term already there), and the term `(Πᵀr)·z` of `rᵀM⁻¹r`.
-    /// The GPU does this in its per-aggregate `cg_update`.
+    /// The GPU does this in its per-aggregate `cg_update`
+    /// (`update_aggregate`).
     pub fn level1(&mut self, r: &[Vec3<R>], filter: &[Filter<R>], s: &mut [Vec3<R>]) {
         let agg = self.agg;
         for row in 0..agg.down(0) {
@@ -222,11 +157,13 @@ impl<R: Real> Coarse<R> {
         }
     }
 
-    /// Level 2, after [`Coarse::level1`]: each level-2 aggregate's `Πᵀr`
-    /// summed from its level-1 aggregates' and its correction added to
-    /// `s`; returns both levels' terms of `rᵀM⁻¹r`, level-2 aggregate by
-    /// level-2 aggregate (its level-1 terms, then its own).
-    pub fn level2(&mut self, filter: &[Filter<R>], s: &mut [Vec3<R>]) -> R {
+    /// Level 2, after [`Coarse::level1`] (twin of `cg_coarse` in
+    /// `shaders/common/coarse.wgsl`): each level-2 aggregate's `Πᵀr` summed
+    /// from its level-1 aggregates', its correction into `z2` and its
+    /// terms into `term2`; returns both levels' terms of `rᵀM⁻¹r`, level-2
+    /// aggregate by level-2 aggregate (its level-1 terms, then its own).
+    /// [`Coarse::prolong`] adds the corrections to `s`.
+    pub fn level2(&mut self) -> R {
         let agg = self.agg;
         let mut total = R::ZERO;
         for row2 in 0..agg.down(1) {
@@ -243,42 +180,28 @@ impl<R: Real> Coarse<R> {
                 let b = agg.index(1, row2, col2);
                 let z = self.inv[b].mul(r2);
                 term += r2.dot(z);
+                let k = b - agg.count(0);
+                self.z2[k] = z;
+                self.term2[k] = term;
                 total += term;
+            }
+        }
+        total
+    }
+
+    /// Adds each level-2 aggregate's correction `S z` to its particles'
+    /// `s` (after the block-Jacobi and level-1 terms already there): twin
+    /// of `shaders/cg_prolong.wgsl`, and of `near_correction`, which the
+    /// grid kernel `cg_apply` adds to each `s` it loads instead.
+    pub fn prolong(&self, filter: &[Filter<R>], s: &mut [Vec3<R>]) {
+        let agg = self.agg;
+        for row2 in 0..agg.down(1) {
+            for col2 in 0..agg.across(1) {
+                let z = self.z2[row2 * agg.across(1) + col2];
                 for p in agg.particles(1, row2, col2) {
                     s[p] += filter[p].apply(z);
                 }
             }
         }
-        total
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn aggregates_cover_the_grid_once_per_level() {
-        let agg = Aggregation::for_grid(Some((37, 21))).expect("a grid");
-        for level in 0..2 {
-            let mut seen = vec![0; agg.nx * agg.ny];
-            for row in 0..agg.down(level) {
-                for col in 0..agg.across(level) {
-                    for p in agg.particles(level, row, col) {
-                        seen[p] += 1;
-                        assert_eq!(agg.of(level, p), agg.index(level, row, col));
-                    }
-                }
-            }
-            assert!(seen.iter().all(|&c| c == 1), "level {level}");
-        }
-        assert_eq!(agg.count(0), 10 * 6);
-        assert_eq!(agg.count(1), 3 * 2);
-    }
-
-    #[test]
-    fn no_aggregation_without_a_grid_or_on_a_line() {
-        assert_eq!(Aggregation::for_grid(None), None);
-        assert_eq!(Aggregation::for_grid(Some((1, 50))), None);
     }
 }

@@ -13,7 +13,8 @@
 //! Both stop early once a pass finds no spring over its limit, and return
 //! the number of passes that moved something.
 
-use super::System;
+use super::{System, Workspace};
+use crate::params::FixupMethod;
 use crate::real::{Real, Vec3};
 
 /// Relative amount, in units of the scalar's epsilon, by which a spring may
@@ -45,6 +46,24 @@ fn correction<R: Real>(sys: &System<R>, s: usize, x: &[Vec3<R>]) -> Option<Vec3<
     }
 }
 
+/// The fix-up `sys` asks for on `x` in place (none without a constrained
+/// spring kind); `w.per_spring` and `w.active` are scratch. Returns the
+/// passes that corrected at least one spring.
+pub(crate) fn run<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], w: &mut Workspace<R>) -> u32 {
+    match sys.fixup_method {
+        _ if sys.constrained_ranges.is_empty() => 0,
+        FixupMethod::GaussSeidel => gauss_seidel(sys, x, sys.fixup_iterations),
+        FixupMethod::Jacobi => jacobi(
+            sys,
+            x,
+            sys.fixup_iterations,
+            sys.fixup_omega,
+            &mut w.per_spring,
+            &mut w.active,
+        ),
+    }
+}
+
 /// Gauss–Seidel fix-up of `x` in place: at most `iterations` passes over the
 /// constrained springs. Returns the passes that corrected at least one
 /// spring.
@@ -73,9 +92,14 @@ pub fn gauss_seidel<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], iterations: u32
 
 /// Jacobi fix-up of `x` in place: each pass computes every spring's
 /// correction from the same snapshot, then moves each particle by `ω` times
-/// the mean of its over-stretched springs' corrections. `per_spring` is
-/// scratch (one entry per spring). Returns the passes that corrected at
-/// least one spring.
+/// the mean of its over-stretched springs' corrections. `per_spring` and
+/// `active` are scratch (one entry per spring). Returns the passes that
+/// corrected at least one spring.
+///
+/// Twin of `shaders/fixup_jacobi.wgsl`, one dispatch per pass: it reads
+/// the positions from one `work` section and writes them to another, and
+/// stops on the device once a pass moved nothing (the `break` here), the
+/// passes counted in a status word. `iterations = 1` is one dispatch.
 pub fn jacobi<R: Real>(
     sys: &System<R>,
     x: &mut [Vec3<R>],

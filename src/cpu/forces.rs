@@ -90,40 +90,69 @@ pub fn wind_triangle_force<R: Real>(
     f * third
 }
 
-/// Every particle's total force \[N\]: `m g`, then springs, then wind, summed
-/// in the fixed order described in the module docs. `per_spring` and
-/// `per_triangle` are scratch buffers (one entry per spring / triangle).
-pub fn total_forces<R: Real>(
+/// Twin of `shaders/spring_forces.wgsl`: every spring's force on its end
+/// `i` \[N\] (end `j` receives the negative). Reads `x`, `v`; writes
+/// `per_spring` (the GPU's `S_FORCE` section, whose w is 0).
+pub fn spring_forces<R: Real>(
     sys: &System<R>,
     x: &[Vec3<R>],
     v: &[Vec3<R>],
     per_spring: &mut [Vec3<R>],
-    per_triangle: &mut [Vec3<R>],
-    f: &mut [Vec3<R>],
 ) {
     for (s, out) in per_spring.iter_mut().enumerate() {
         *out = spring_force(sys, s, x, v);
     }
+}
+
+/// Every triangle's wind force share \[N\] into `per_triangle` (nothing
+/// without wind). The GPU keeps no per-triangle array: each particle
+/// recomputes its triangles' shares where it sums them (`add_wind` in
+/// `shaders/common/physics.wgsl`), with the same arithmetic.
+pub fn wind_forces<R: Real>(
+    sys: &System<R>,
+    x: &[Vec3<R>],
+    v: &[Vec3<R>],
+    per_triangle: &mut [Vec3<R>],
+) {
     if sys.wind.is_some() {
         for (t, out) in per_triangle.iter_mut().enumerate() {
             *out = wind_triangle_force(sys, t, x, v);
         }
     }
-    for (p, out) in f.iter_mut().enumerate() {
-        let mut acc = sys.gravity * sys.mass[p];
-        acc += gather_signed(&sys.spring_adj, per_spring, p);
-        if sys.wind.is_some() {
-            for &t in sys.triangle_adj.of(p) {
-                acc += per_triangle[t as usize];
-            }
-        }
-        *out = acc;
-    }
 }
 
-/// External (non-spring) force on each particle \[N\]: gravity and wind.
-/// Used by the semi-implicit torque compensation, which must not remove the
-/// torque that external forces legitimately apply.
+/// `f` plus the wind shares of particle `p`'s triangles, in adjacency
+/// order (twin: `add_wind` in `shaders/common/physics.wgsl`).
+#[inline]
+fn add_wind<R: Real>(sys: &System<R>, per_triangle: &[Vec3<R>], p: usize, f: Vec3<R>) -> Vec3<R> {
+    let mut acc = f;
+    if sys.wind.is_some() {
+        for &t in sys.triangle_adj.of(p) {
+            acc += per_triangle[t as usize];
+        }
+    }
+    acc
+}
+
+/// Particle `p`'s total force \[N\] from the spring and triangle passes:
+/// `m g`, then its springs, then its triangles' wind (twin: `total_force`
+/// in `shaders/common/physics.wgsl`).
+#[inline]
+pub fn total_force<R: Real>(
+    sys: &System<R>,
+    per_spring: &[Vec3<R>],
+    per_triangle: &[Vec3<R>],
+    p: usize,
+) -> Vec3<R> {
+    let mut acc = sys.gravity * sys.mass[p];
+    acc += gather_signed(&sys.spring_adj, per_spring, p);
+    add_wind(sys, per_triangle, p, acc)
+}
+
+/// External (non-spring) force on each particle \[N\]: gravity and wind
+/// (twin: `external_force` in `shaders/common/physics.wgsl`). Used by the
+/// semi-implicit torque compensation, which must not remove the torque
+/// that external forces legitimately apply.
 pub fn external_forces<R: Real>(
     sys: &System<R>,
     x: &[Vec3<R>],
@@ -131,18 +160,8 @@ pub fn external_forces<R: Real>(
     per_triangle: &mut [Vec3<R>],
     f: &mut [Vec3<R>],
 ) {
-    if sys.wind.is_some() {
-        for (t, out) in per_triangle.iter_mut().enumerate() {
-            *out = wind_triangle_force(sys, t, x, v);
-        }
-    }
+    wind_forces(sys, x, v, per_triangle);
     for (p, out) in f.iter_mut().enumerate() {
-        let mut acc = sys.gravity * sys.mass[p];
-        if sys.wind.is_some() {
-            for &t in sys.triangle_adj.of(p) {
-                acc += per_triangle[t as usize];
-            }
-        }
-        *out = acc;
+        *out = add_wind(sys, per_triangle, p, sys.gravity * sys.mass[p]);
     }
 }

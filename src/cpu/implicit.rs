@@ -27,11 +27,18 @@
 //! CG starts from the last two steps' `Δv` extrapolated, `2 Δv₁ − Δv₂`
 //! (filtered) — a warm start that cuts iterations for smooth motion
 //! without changing the answer beyond the tolerance.
+//!
+//! A step is the GPU's sequence of kernels, each a function here or in
+//! [`super::cg`]: [`springs`], [`prepare`], with coarse levels
+//! [`Coarse::setup`](super::coarse::Coarse::setup), [`cg::solve`], [`finish`].
+//! On a grid the GPU has no `implicit_springs` pass: its gathering kernels
+//! linearise each spring where they use it, with the same arithmetic.
 
+use super::cg::{self, apply_a_unfiltered};
 use super::collide::{collide, contact, CONTACT_SLOP};
-use super::forces::{gather_signed, spring_frame};
+use super::forces::{gather_signed, spring_force, spring_frame, total_force, wind_forces};
 use super::mat3::Sym3;
-use super::{State, StepStats, System, Workspace, REDUCTION_BLOCK};
+use super::{State, StepStats, System, Workspace};
 use crate::real::{Real, Vec3};
 
 /// Per-particle constraint: what `S_p` keeps free.
@@ -79,28 +86,6 @@ impl<R: Real> SpringBlock<R> {
     }
 }
 
-/// `out = S (A p)` over all particles.
-///
-/// Unlike the force evaluation, this product *scatters* over the springs in
-/// one pass (each spring adds to both ends): it is CG's inner loop, and one
-/// pass halves its memory traffic against a spring pass plus a gather. It
-/// still sums as the GPU's gather (`apply_a` in `shaders/common/cg.wgsl`)
-/// does, bit for bit: each particle starts from `m p` and receives its
-/// springs' terms in ascending spring index, the order of its adjacency
-/// list, which the GPU walks.
-pub fn apply_a<R: Real>(
-    sys: &System<R>,
-    blocks: &[SpringBlock<R>],
-    filter: &[Filter<R>],
-    p: &[Vec3<R>],
-    out: &mut [Vec3<R>],
-) {
-    apply_a_unfiltered(sys, blocks, p, out);
-    for (o, f) in out.iter_mut().zip(filter) {
-        *o = f.apply(*o);
-    }
-}
-
 /// Coulomb friction at the contacts the filter constrained.
 ///
 /// The filter removed the contacts' normal motion before anything could
@@ -132,82 +117,13 @@ fn contact_friction<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspa
     }
 }
 
-/// `out = A p` without the constraint filter.
-fn apply_a_unfiltered<R: Real>(
-    sys: &System<R>,
-    blocks: &[SpringBlock<R>],
-    p: &[Vec3<R>],
-    out: &mut [Vec3<R>],
-) {
-    for ((o, &m), &pp) in out.iter_mut().zip(&sys.mass).zip(p) {
-        *o = pp * m;
-    }
-    for blk in blocks {
-        let (i, j) = (blk.ends[0] as usize, blk.ends[1] as usize);
-        let y = blk.apply(p[i] - p[j]);
-        out[i] += y;
-        out[j] -= y;
-    }
-}
-
-/// `Σ terms(p)` over `n` particles in the GPU's reduction order: a running
-/// sum inside each block of [`REDUCTION_BLOCK`] particles, then the block
-/// sums in sequence. Summing in the GPU's order lets the `f32` mirror
-/// reproduce the GPU's CG iterates bit for bit. A running sum rather than a
-/// tree because on the GPU a tree needs a workgroup barrier per level, which
-/// on a CPU adapter costs more than the additions it saves.
-pub fn block_sum<R: Real>(n: usize, mut terms: impl FnMut(usize) -> R) -> R {
-    let mut total = R::ZERO;
-    for start in (0..n).step_by(REDUCTION_BLOCK) {
-        let mut block = R::ZERO;
-        for p in start..(start + REDUCTION_BLOCK).min(n) {
-            block += terms(p);
-        }
-        total += block;
-    }
-    total
-}
-
-/// Sum of `a[p]·b[p]` in the GPU's order.
-#[inline]
-fn dot<R: Real>(a: &[Vec3<R>], b: &[Vec3<R>]) -> R {
-    block_sum(a.len(), |p| a[p].dot(b[p]))
-}
-
-/// Particle p's block-Jacobi term: `w.t = P r` (ρ's term before the
-/// filter: r is filtered already) and `w.s = S P r`.
-#[inline]
-fn precondition_at<R: Real>(w: &mut Workspace<R>, p: usize) {
-    let s = w.precond[p].mul(w.r[p]);
-    w.t[p] = s;
-    w.s[p] = w.filter[p].apply(s);
-}
-
-/// δ = rᵀM⁻¹r from ρ = rᵀP⁻¹r once every particle's block-Jacobi term is
-/// in `w.s`: with coarse levels, their corrections added to `w.s` and
-/// their terms to ρ; without, ρ. (On the GPU: the end of cg_update,
-/// cg_beta's sums, and level 2's corrections added by cg_apply to each s
-/// it loads — by a cg_prolong pass off the grid kernels.)
-fn coarse_terms<R: Real>(w: &mut Workspace<R>, rho: R) -> R {
-    match &mut w.coarse {
-        Some(coarse) => {
-            coarse.level1(&w.r, &w.filter, &mut w.s);
-            rho + coarse.level2(&w.filter, &mut w.s)
-        }
-        None => rho,
-    }
-}
-
-/// One implicit step.
-pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -> StepStats {
-    let n = st.x.len();
+/// Twin of `shaders/implicit_springs.wgsl`: every spring linearised at
+/// the start of the step. Reads `x`, `v`; writes `blocks` (the GPU's
+/// `S_BLOCK`: xyz `m`, w `a`), `kv`, `K_s (v_i − v_j)` on end `i` (`S_KV`),
+/// and `per_spring`, the spring's force on end `i` (`S_FORCE`).
+pub fn springs<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
     let dt = sys.dt;
     let dt2 = dt * dt;
-
-    // Forces at the start of the step.
-    w.compute_forces(sys, st);
-
-    // Linearise every spring; `w.per_spring` gets K_s (v_i − v_j).
     for (s, sp) in sys.springs.iter().enumerate() {
         let (i, j) = (sp.i as usize, sp.j as usize);
         let (dir, l) = spring_frame(st.x[i], st.x[j]);
@@ -226,11 +142,28 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         // K_s u = −k (c u + (1 − c) n (n·u)), u = v_i − v_j.
         let u = st.v[i] - st.v[j];
         let k_long = sp.k * (R::ONE - transverse);
-        w.per_spring[s] = -(u * (sp.k * transverse) + dir * (k_long * dir.dot(u)));
+        w.kv[s] = -(u * (sp.k * transverse) + dir * (k_long * dir.dot(u)));
+        w.per_spring[s] = spring_force(sys, s, &st.x, &st.v);
     }
+}
 
-    // Constraints, right-hand side and block-diagonal preconditioner.
-    for p in 0..n {
+/// Twin of `shaders/implicit_prepare.wgsl`, per particle: the total force,
+/// the constraint filter and `z`, the right-hand side, the block-diagonal
+/// preconditioner, with coarse levels the particle's contributions to its
+/// aggregates' `D`, the warm-started `Δv` and δ0's term; CG's count and
+/// stop are reset. Reads `x`, `v`, `per_spring`, `kv`, `blocks`, `dv`,
+/// `dv_prev`; writes `force`, `per_triangle` (wind), `filter` and `z` (the
+/// GPU's `W_FILTER` and `W_Z`, whose w is the filter kind), `rhs`,
+/// `delta0_terms` (`W_RHS`'s w), `precond` (`W_PRE_DIAG`, `W_PRE_OFF`),
+/// `dv` (`W_DV`, w the filter kind), `dv_prev`, the coarse levels'
+/// `contrib` and `trace`, and `cg`.
+pub fn prepare<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
+    let dt = sys.dt;
+    wind_forces(sys, &st.x, &st.v, &mut w.per_triangle);
+    w.cg.iterations = 0;
+    w.cg.stopped = false;
+    for p in 0..st.x.len() {
+        w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, p);
         w.filter[p] = if sys.inv_mass[p] <= R::ZERO {
             Filter::Fixed
         } else {
@@ -251,7 +184,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
             Filter::Fixed => -st.v[p],
             Filter::Free => Vec3::ZERO,
         };
-        let kv = gather_signed(&sys.spring_adj, &w.per_spring, p);
+        let kv = gather_signed(&sys.spring_adj, &w.kv, p);
         w.rhs[p] = (w.force[p] + kv * dt) * dt;
         let mut diag = Sym3::scaled_identity(sys.mass[p]);
         let mut levels = [diag; 2];
@@ -276,98 +209,59 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
         w.precond[p] = diag
             .inverse()
             .unwrap_or(Sym3::scaled_identity(R::ONE / sys.mass[p]));
-    }
-
-    if let Some(coarse) = &mut w.coarse {
-        coarse.set_up(&sys.mass);
-    }
-
-    // MPCG, warm-started from the last two steps' Δv extrapolated
-    // linearly (2 Δv₁ − Δv₂): on smooth motion a closer guess than the last
-    // Δv alone, so fewer iterations, and CG corrects it either way.
-    for p in 0..n {
-        let guess = w.dv[p] * R::from_f64(2.0) - w.dv_prev[p];
-        w.dv_prev[p] = w.dv[p];
-        w.dv[p] = w.filter[p].apply(guess) + w.z[p];
-    }
-    let delta0 = block_sum(n, |p| {
+        w.dv[p] = w.filter[p].apply(warm_start(w, p)) + w.z[p];
         let sb = w.filter[p].apply(w.rhs[p]);
-        sb.dot(w.precond[p].mul(sb))
-    });
-    apply_a(sys, &w.blocks, &w.filter, &w.dv, &mut w.q);
-    for p in 0..n {
-        w.r[p] = w.filter[p].apply(w.rhs[p]) - w.q[p];
-        w.s[p] = w.filter[p].apply(w.precond[p].mul(w.r[p]));
-        // The "previous" direction and its product, for β = 0.
-        w.c[p] = Vec3::ZERO;
-        w.q[p] = Vec3::ZERO;
+        w.delta0_terms[p] = sb.dot(w.precond[p].mul(sb));
     }
-    // ρ = rᵀP⁻¹r with the block-Jacobi P alone decides convergence (the
-    // coarse levels change the iterates, not what "converged" means); δ =
-    // rᵀM⁻¹r with the coarse terms drives CG.
-    let mut rho = dot(&w.r, &w.s);
-    if w.coarse.is_some() {
-        // The GPU preconditions r again, as each iteration does (its
-        // cg_update.first).
-        for p in 0..n {
-            precondition_at(w, p);
-        }
-        rho = dot(&w.r, &w.t);
-    }
-    let mut delta = coarse_terms(w, rho);
-    let mut beta = R::ZERO;
-    let tol2 = R::from_f64(sys.cg_tolerance * sys.cg_tolerance);
-    let mut iterations = 0;
-    // Baraff and Witkin's modified PCG, with the direction update folded
-    // into the matrix product: c = S P r + β c, so S A c = S A (S P r) +
-    // β S A c_old — the product of the filtered preconditioned residual
-    // plus the old product. On the GPU this saves the direction pass (its
-    // neighbours' c would otherwise have to be complete before the
-    // product). The same iterates in exact arithmetic.
-    while rho > tol2 * delta0 && iterations < sys.cg_max_iterations {
-        apply_a(sys, &w.blocks, &w.filter, &w.s, &mut w.t);
-        for p in 0..n {
-            w.c[p] = w.s[p] + w.c[p] * beta;
-            w.q[p] = w.t[p] + w.q[p] * beta;
-        }
-        let cq = dot(&w.c, &w.q);
-        // A is positive definite on the filtered subspace, so cq > 0 unless
-        // c vanished to rounding: then the solve is as good as it gets.
-        if !(cq.is_finite() && cq > R::ZERO) {
-            break;
-        }
-        let alpha = delta / cq;
-        let delta_old = delta;
-        for p in 0..n {
-            w.dv[p] += w.c[p] * alpha;
-            w.r[p] -= w.q[p] * alpha;
-            precondition_at(w, p);
-        }
-        rho = dot(&w.r, &w.t);
-        delta = coarse_terms(w, rho);
-        beta = delta / delta_old;
-        iterations += 1;
-    }
-    let residual = if delta0 > R::ZERO {
-        (rho / delta0).to_f64().max(0.0).sqrt()
-    } else {
-        0.0
-    };
+}
 
-    for p in 0..n {
+/// CG's start for particle `p`, unfiltered: the last two steps' `Δv`
+/// extrapolated linearly (2 Δv₁ − Δv₂) — on smooth motion a closer guess
+/// than the last `Δv` alone, so fewer iterations, and CG corrects it
+/// either way; the last `Δv` becomes `dv_prev` (twin: `warm_start` in
+/// `shaders/common/cg.wgsl`).
+pub(crate) fn warm_start<R: Real>(w: &mut Workspace<R>, p: usize) -> Vec3<R> {
+    let guess = w.dv[p] * R::from_f64(2.0) - w.dv_prev[p];
+    w.dv_prev[p] = w.dv[p];
+    guess
+}
+
+/// Twin of `shaders/implicit_finish.wgsl`: `v += Δv`, friction at the
+/// filtered contacts (`contact_friction`), `x += dt v`, collisions.
+/// Reads `dv`, `filter`, `rhs`, `blocks`; writes `x`, `v` (and `q`,
+/// scratch).
+pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) {
+    for p in 0..st.x.len() {
         st.v[p] += w.dv[p];
     }
     if w.filter.iter().any(|f| matches!(f, Filter::Plane(..))) {
         contact_friction(sys, st, w);
     }
-    for p in 0..n {
-        st.x[p] += st.v[p] * dt;
+    for p in 0..st.x.len() {
+        st.x[p] += st.v[p] * sys.dt;
     }
     // Particles that were not touching at the start of the step can still
     // end it inside a collider.
     collide(sys, &mut st.x, &mut st.v);
+}
+
+/// One implicit step: the GPU's kernels in its order.
+pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -> StepStats {
+    springs(sys, st, w);
+    prepare(sys, st, w);
+    if let Some(coarse) = &mut w.coarse {
+        coarse.setup(&sys.mass);
+    }
+    cg::solve(sys, w);
+    finish(sys, st, w);
+    let (rho, delta0) = (w.cg.rho, w.cg.delta0);
+    let residual = if delta0 > R::ZERO {
+        (rho / delta0).to_f64().max(0.0).sqrt()
+    } else {
+        0.0
+    };
     StepStats {
-        cg_iterations: iterations,
+        cg_iterations: w.cg.iterations,
         cg_residual: residual,
         ..StepStats::default()
     }

@@ -16,6 +16,7 @@
 //! # Ok(()) }
 //! ```
 
+pub(crate) mod cg;
 pub(crate) mod coarse;
 pub(crate) mod collide;
 pub(crate) mod explicit;
@@ -29,6 +30,9 @@ pub(crate) mod forces;
 pub(crate) mod implicit;
 pub(crate) mod mat3;
 pub(crate) mod semi_implicit;
+pub(crate) mod torque;
+#[doc(hidden)]
+pub mod twins;
 
 use std::ops::Range;
 
@@ -274,8 +278,11 @@ impl<R: Real> System<R> {
 #[derive(Clone, Debug)]
 #[doc(hidden)]
 pub struct Workspace<R> {
-    /// Per-spring vectors.
+    /// Per-spring vectors: spring forces on end `i`, or Jacobi fix-up
+    /// corrections.
     pub per_spring: Vec<Vec3<R>>,
+    /// Per spring: the implicit step's `K_s (v_i − v_j)` on end `i`.
+    pub kv: Vec<Vec3<R>>,
     /// Per-spring flags (Jacobi fix-up).
     pub active: Vec<bool>,
     /// Per-triangle vectors.
@@ -305,10 +312,22 @@ pub struct Workspace<R> {
     pub z: Vec<Vec3<R>>,
     /// CG constraint filter.
     pub filter: Vec<Filter<R>>,
+    /// Per particle: its term of CG's δ0 (the GPU keeps it in the w of
+    /// `W_RHS`).
+    pub delta0_terms: Vec<R>,
+    /// Per particle: its term of CG's ρ (the w of `W_R`).
+    pub rho_terms: Vec<R>,
+    /// Per particle: its term of CG's cᵀq (the w of `W_Q`).
+    pub cq_terms: Vec<R>,
+    /// CG's scalars between its kernels.
+    pub cg: cg::Scalars<R>,
     /// CG block-diagonal preconditioner.
     pub precond: Vec<Sym3<R>>,
     /// Per-spring linearisation.
     pub blocks: Vec<SpringBlock<R>>,
+    /// The torque compensation's per-block partial sums, slot-major as the
+    /// GPU's `partials` from `P_TORQUE` (see [`torque`]).
+    pub torque: Vec<R>,
     /// The semi-implicit constant filter (built on demand).
     pub constant_filter: Option<ConstantFilter<R>>,
     /// Scratch for the constant filter.
@@ -319,24 +338,12 @@ pub struct Workspace<R> {
 }
 
 impl<R: Real> Workspace<R> {
-    /// Every particle's total force at the state `st` into `self.force`
-    /// (see `forces::total_forces`).
-    pub fn compute_forces(&mut self, sys: &System<R>, st: &State<R>) {
-        forces::total_forces(
-            sys,
-            &st.x,
-            &st.v,
-            &mut self.per_spring,
-            &mut self.per_triangle,
-            &mut self.force,
-        );
-    }
-
     fn new(particles: usize, springs: usize, triangles: usize) -> Result<Self> {
         const WHAT: &str = "the CPU solver's workspace";
         let pv = || try_vec(particles, Vec3::ZERO, WHAT);
         Ok(Workspace {
             per_spring: try_vec(springs, Vec3::ZERO, WHAT)?,
+            kv: try_vec(springs, Vec3::ZERO, WHAT)?,
             active: try_vec(springs, false, WHAT)?,
             per_triangle: try_vec(triangles, Vec3::ZERO, WHAT)?,
             force: pv()?,
@@ -351,8 +358,17 @@ impl<R: Real> Workspace<R> {
             t: pv()?,
             z: pv()?,
             filter: try_vec(particles, Filter::Free, WHAT)?,
+            delta0_terms: try_vec(particles, R::ZERO, WHAT)?,
+            rho_terms: try_vec(particles, R::ZERO, WHAT)?,
+            cq_terms: try_vec(particles, R::ZERO, WHAT)?,
+            cg: cg::Scalars::default(),
             precond: try_vec(particles, Sym3::default(), WHAT)?,
             blocks: try_vec(springs, SpringBlock::default(), WHAT)?,
+            torque: try_vec(
+                torque::SLOTS * particles.div_ceil(REDUCTION_BLOCK),
+                R::ZERO,
+                WHAT,
+            )?,
             constant_filter: None,
             scratch: Vec::new(),
             coarse: None,
@@ -360,37 +376,31 @@ impl<R: Real> Workspace<R> {
     }
 }
 
-/// Shared tail of the explicit and semi-implicit steps: `x* = x + dt v`,
-/// fix-up, velocity rebuild if the fix-up moved anything, collisions.
-/// Pinned particles keep their position and zero velocity.
-pub(crate) fn finish_with_fixup<R: Real>(
-    sys: &System<R>,
-    st: &mut State<R>,
-    w: &mut Workspace<R>,
-) -> StepStats {
-    let dt = sys.dt;
+/// The prediction of the explicit and semi-implicit steps, after their
+/// velocity update: `x* = x + dt v` for free particles, `v = 0` for pinned
+/// ones, with the start of the step kept in `w.x_old` (the end of the
+/// twins of `explicit_integrate` and `semi_integrate`).
+pub(crate) fn predict<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) {
     w.x_old.copy_from_slice(&st.x);
     for p in 0..st.x.len() {
         if sys.inv_mass[p] > R::ZERO {
-            st.x[p] += st.v[p] * dt;
+            st.x[p] += st.v[p] * sys.dt;
         } else {
             st.v[p] = Vec3::ZERO;
         }
     }
-    let passes = match sys.fixup_method {
-        _ if sys.constrained_ranges.is_empty() => 0,
-        FixupMethod::GaussSeidel => fixup::gauss_seidel(sys, &mut st.x, sys.fixup_iterations),
-        FixupMethod::Jacobi => fixup::jacobi(
-            sys,
-            &mut st.x,
-            sys.fixup_iterations,
-            sys.fixup_omega,
-            &mut w.per_spring,
-            &mut w.active,
-        ),
-    };
-    if passes > 0 {
-        let inv_dt = R::ONE / dt;
+}
+
+/// Twin of `shaders/finish_step.wgsl`, the end of an explicit or
+/// semi-implicit step after the fix-up: where the fix-up `moved`
+/// something, every free particle's velocity rebuilt from its
+/// displacement, `v = (x* − x) / dt`; then collisions. Reads `x_old` (the
+/// GPU's `x`), `x*` and `v*` in `st` (the fix-up's result section and
+/// `W_V_NEW`); writes `st`. Pinned particles keep their position and zero
+/// velocity.
+pub fn finish_step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &Workspace<R>, moved: bool) {
+    if moved {
+        let inv_dt = R::ONE / sys.dt;
         for p in 0..st.x.len() {
             if sys.inv_mass[p] > R::ZERO {
                 st.v[p] = (st.x[p] - w.x_old[p]) * inv_dt;
@@ -398,6 +408,17 @@ pub(crate) fn finish_with_fixup<R: Real>(
         }
     }
     collide::collide(sys, &mut st.x, &mut st.v);
+}
+
+/// The shared tail of the explicit and semi-implicit steps, after their
+/// prediction: the fix-up passes (`fixup_jacobi`), then [`finish_step`].
+pub(crate) fn fixup_and_finish<R: Real>(
+    sys: &System<R>,
+    st: &mut State<R>,
+    w: &mut Workspace<R>,
+) -> StepStats {
+    let passes = fixup::run(sys, &mut st.x, w);
+    finish_step(sys, st, w, passes > 0);
     StepStats {
         fixup_passes: passes,
         ..StepStats::default()

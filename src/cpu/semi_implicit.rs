@@ -25,80 +25,114 @@
 //!
 //! For a single linear spring along its axis with one end pinned the step is
 //! exactly backward Euler.
+//!
+//! A step is the GPU's sequence of kernels: `spring_forces`
+//! ([`forces::spring_forces`]; on a grid the GPU computes the forces in
+//! `semi_rhs`), [`rhs`], `filter_dense`
+//! ([`DenseFilter::apply`](super::filter::DenseFilter::apply)), the three
+//! torque passes ([`super::torque`]), [`integrate`], the fix-up passes and
+//! `finish_step` (as in the explicit step). Beyond the dense filter's
+//! size the GPU solves the filter by CG on the device ([`cg_prepare`] and
+//! the CG kernels) while the CPU applies the exact banded factor.
 
-use super::forces::external_forces;
-use super::implicit::block_sum;
+use super::forces::{self, external_forces, total_force, wind_forces};
+use super::implicit::{warm_start, Filter};
 use super::mat3::Sym3;
-use super::{finish_with_fixup, State, StepStats, System, Workspace};
+use super::{fixup_and_finish, predict, torque, State, StepStats, System, Workspace};
 use crate::real::{Real, Vec3};
 
-/// One semi-implicit step. `w.filter` must be built for the current system.
-pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -> StepStats {
-    let n = st.x.len();
+/// `(H v)_p = −Σ ±k (v_i − v_j)` over particle `p`'s springs, in adjacency
+/// order.
+fn laplacian_v<R: Real>(sys: &System<R>, v: &[Vec3<R>], p: usize) -> Vec3<R> {
+    let mut acc = Vec3::ZERO;
+    for &e in sys.spring_adj.of(p) {
+        let sp = &sys.springs[(e >> 1) as usize];
+        let term = (v[sp.i as usize] - v[sp.j as usize]) * sp.k;
+        if e & 1 == 0 {
+            acc += term;
+        } else {
+            acc -= term;
+        }
+    }
+    -acc
+}
+
+/// Twin of `shaders/semi_rhs.wgsl`: each particle's total force from the
+/// spring pass and the filter's right-hand side `dt (f + dt H v)`, `H` the
+/// stiffness Laplacian; `Δv` zeroed where `zero_dv` (the dense filter;
+/// the GPU's CG filter keeps it as its warm start: the `keep` variant).
+/// Reads `x`, `v`, `per_spring`; writes `force`, `per_triangle` (wind),
+/// `rhs` (`W_RHS`, w 0) and `dv`.
+pub fn rhs<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>, zero_dv: bool) {
     let dt = sys.dt;
-    w.compute_forces(sys, st);
-    // per_spring ← k (v_i − v_j); (H v)_p = −Σ ± per_spring.
-    for (s, sp) in sys.springs.iter().enumerate() {
-        w.per_spring[s] = (st.v[sp.i as usize] - st.v[sp.j as usize]) * sp.k;
-    }
-    for p in 0..n {
-        let hv = -super::forces::gather_signed(&sys.spring_adj, &w.per_spring, p);
+    wind_forces(sys, &st.x, &st.v, &mut w.per_triangle);
+    for p in 0..st.x.len() {
+        w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, p);
+        let hv = laplacian_v(sys, &st.v, p);
         w.rhs[p] = (w.force[p] + hv * dt) * dt;
-        w.dv[p] = Vec3::ZERO;
+        if zero_dv {
+            w.dv[p] = Vec3::ZERO;
+        }
     }
+}
+
+/// Twin of `shaders/semi_integrate.wgsl`: `v += Δv` for free particles,
+/// then the prediction `x* = x + dt v` (`predict`). Reads `x`, `v`,
+/// `dv`; writes `x_old`, and `x*`, `v*` into `st` (the GPU's `W_X_PRED`,
+/// `W_V_NEW`).
+pub fn integrate<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) {
+    for p in 0..st.x.len() {
+        if sys.inv_mass[p] > R::ZERO {
+            st.v[p] += w.dv[p];
+        }
+    }
+    predict(sys, st, w);
+}
+
+/// Twin of `shaders/semi_cg_prepare.wgsl`, which sets up the GPU's CG
+/// solve of the filter's matrix `A = M − dt² H` (beyond the dense filter's
+/// size): `w.blocks` hold `A`'s constant spring blocks (`a = dt² k`, `m =
+/// 0`, the GPU's `S_BLOCK`), pins are fixed filters, the preconditioner is
+/// Jacobi's, `Δv` is warm-started, and δ0's terms are left as in
+/// [`super::implicit::prepare`]; CG's count and stop are reset. Reads
+/// `blocks`, `rhs`, `dv`, `dv_prev`; writes `filter`, `z` (zero),
+/// `precond`, `dv`, `dv_prev`, `delta0_terms`, `cg`. The CPU's own step
+/// applies the exact banded factor instead and never calls this.
+pub fn cg_prepare<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
+    w.cg.iterations = 0;
+    w.cg.stopped = false;
+    for p in 0..sys.mass.len() {
+        w.filter[p] = if sys.inv_mass[p] <= R::ZERO {
+            Filter::Fixed
+        } else {
+            Filter::Free
+        };
+        let mut diag = sys.mass[p];
+        for &e in sys.spring_adj.of(p) {
+            diag += w.blocks[(e >> 1) as usize].a;
+        }
+        w.z[p] = Vec3::ZERO;
+        w.precond[p] = Sym3::scaled_identity(R::ONE / diag);
+        w.dv[p] = w.filter[p].apply(warm_start(w, p));
+        let sb = w.filter[p].apply(w.rhs[p]);
+        w.delta0_terms[p] = sb.dot(w.precond[p].mul(sb));
+    }
+}
+
+/// One semi-implicit step: the GPU's kernels in its order. `w.constant_filter`
+/// must be built for the current system.
+pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -> StepStats {
+    forces::spring_forces(sys, &st.x, &st.v, &mut w.per_spring);
+    rhs(sys, st, w, true);
     if let Some(filter) = &w.constant_filter {
         filter.apply(&w.rhs, &mut w.dv, &mut w.scratch);
     }
     if sys.torque_compensation && sys.pinned_count == 0 {
         external_forces(sys, &st.x, &st.v, &mut w.per_triangle, &mut w.force);
-        compensate_torque(sys, &st.x, &w.force, &mut w.dv);
+        torque::centre(sys, &st.x, &mut w.torque);
+        torque::moments(sys, &st.x, &w.dv, &w.force, &mut w.torque);
+        torque::apply(&st.x, &w.torque, &mut w.dv);
     }
-    for p in 0..n {
-        if sys.inv_mass[p] > R::ZERO {
-            st.v[p] += w.dv[p];
-        }
-    }
-    finish_with_fixup(sys, st, w)
-}
-
-/// Removes from `dv` the angular impulse (about the centre of mass) that
-/// is not accounted for by the external forces `f_ext`.
-///
-/// Every sum is a [`block_sum`], the GPU's reduction order.
-fn compensate_torque<R: Real>(
-    sys: &System<R>,
-    x: &[Vec3<R>],
-    f_ext: &[Vec3<R>],
-    dv: &mut [Vec3<R>],
-) {
-    let n = x.len();
-    let m = &sys.mass;
-    let total = block_sum(n, |p| m[p]);
-    let weighted = |k: usize| block_sum(n, |p| (x[p] * m[p]).get(k));
-    let centre = Vec3::new(weighted(0), weighted(1), weighted(2)) / total;
-    let r = |p: usize| x[p] - centre;
-    let moment = |p: usize| r(p).cross(dv[p] * m[p] - f_ext[p] * sys.dt);
-    let excess = Vec3::new(
-        block_sum(n, |p| moment(p).x),
-        block_sum(n, |p| moment(p).y),
-        block_sum(n, |p| moment(p).z),
-    );
-    // Inertia Σ m (|r|² I − r rᵀ), one tree sum per stored entry.
-    let term = |p: usize, k: usize| {
-        let mut t = Sym3::default();
-        t.add_iso_aniso(m[p] * r(p).length_squared(), -m[p], r(p));
-        t.m[k]
-    };
-    let inertia = Sym3 {
-        m: std::array::from_fn(|k| block_sum(n, |p| term(p, k))),
-    };
-    // A cloth collapsed onto a line or point has a singular inertia tensor:
-    // it has no well-defined rotation to remove, so leave it.
-    let Some(inv) = inertia.inverse() else {
-        return;
-    };
-    let omega = inv.mul(excess);
-    for p in 0..x.len() {
-        dv[p] -= omega.cross(x[p] - centre);
-    }
+    integrate(sys, st, w);
+    fixup_and_finish(sys, st, w)
 }

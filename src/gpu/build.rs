@@ -11,8 +11,8 @@ use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERAN
 use super::solver::{
     gpu_spheres, plan_inputs, scene_features, GpuSolver, Prepared, NO_GROUND, NO_WIND,
 };
+use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_with_capacity};
-use crate::cpu::coarse::Aggregation;
 use crate::error::Result;
 use crate::kernel_config::WORKGROUP;
 use crate::model::Model;

@@ -79,7 +79,7 @@ const fn max_i32(a: i32, b: i32) -> i32 {
 // shaders/common/coarse.wgsl): a block's side plus the reach each way must
 // fit in a level-2 aggregate's side.
 const _: () =
-    assert!(GridBlock::MAX as usize + 2 * REACH as usize <= crate::cpu::coarse::LEVEL_SIDES[1]);
+    assert!(GridBlock::MAX as usize + 2 * REACH as usize <= crate::aggregation::LEVEL_SIDES[1]);
 
 /// Where a grid cloth's springs live on the device.
 #[derive(Clone, Debug, PartialEq)]

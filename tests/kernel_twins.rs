@@ -1,0 +1,1103 @@
+//! Each GPU kernel alone against its CPU twin (`wgcloth::cpu::twins`).
+//!
+//! A test builds a small cloth on both backends and steps both a few
+//! times (they agree bit for bit), runs the GPU's plan for the next step up
+//! to the kernel's dispatch, reads the kernel's inputs back from the device
+//! and loads them into the twin's, then runs the dispatch alone and the
+//! twin alone and compares every output word bit for bit. Inputs taken
+//! from the device make each a test of that kernel, not of the step so
+//! far. Where the GPU keeps something else in a `w` (a term of a CG dot
+//! product, a filter kind, a mass), the twin keeps it in an array of its
+//! own and the test compares it from there.
+//!
+//! The general (adjacency) kernels run on a grid's parts rebuilt with
+//! `Model::from_parts`, whose springs the device keeps in the model's
+//! order; the coarse levels and the single-pass explicit step need a grid.
+
+mod gpu_common;
+#[path = "gpu_common/twins.rs"]
+mod twins;
+
+use gpu_common::{busy_params, corners, grid};
+use twins::{
+    assert_same, bits, blocks, filters, kind, pack, pack_sym3s, section, sym3s, vectors, w, xyz,
+    Twins,
+};
+use wgcloth::cpu::twins as cpu;
+use wgcloth::cpu::twins::Filter;
+use wgcloth::gpu::{DebugBuffer, Dispatch, Kernel, Variant};
+use wgcloth::kernel_config::{partials, spring_work, status, work};
+use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
+use wgcloth::{Model, Params, Vec3};
+
+/// Columns and rows of the test cloths: 132 particles, three reduction
+/// blocks of 64, so the sums cross block boundaries and end in a partial
+/// block.
+const NX: usize = 12;
+const NY: usize = 11;
+
+/// Steps both solvers take before a kernel is compared: enough for the
+/// busy scene's cloth to sag, swing in the wind and, implicitly, start
+/// reaching the sphere (so CG's filters include planes).
+const WARM_STEPS: u32 = 24;
+
+/// The parts of `model` without its grid: the GPU runs the general
+/// kernels on it, with the springs in the model's order.
+fn without_grid(model: &Model) -> Model {
+    Model::from_parts(
+        model.rest_positions.clone(),
+        model.mass.clone(),
+        model.pinned.clone(),
+        model.springs.clone(),
+        model.triangles.clone(),
+    )
+    .unwrap_or_else(|e| panic!("parts: {e}"))
+}
+
+/// Busy parameters (wind, ground, sphere, Jacobi fix-up) for
+/// `integrator`, stretch springs limited to their rest length so that the
+/// fix-up moves particles every pass.
+fn params(integrator: Integrator) -> Params {
+    let mut p = busy_params(integrator);
+    p.springs[0].max_stretch = Some(1.0);
+    p
+}
+
+/// The busy scene for `integrator` on the general kernels: pinned at
+/// two corners, or free (`pinned = false`, which runs the semi-implicit
+/// torque passes).
+fn general(integrator: Integrator, pinned: bool) -> Twins {
+    let p = params(integrator);
+    let pins = if pinned { corners() } else { Vec::new() };
+    let model = without_grid(&grid(NX, NY, pins, &p));
+    Twins::new(&model, &p, false, WARM_STEPS)
+}
+
+/// The busy implicit scene on a grid with coarse levels, its GPU on the
+/// general kernels (which keep the coarse levels, with a `cg_prolong`
+/// pass) or the grid's own (`specialised`).
+fn coarse(specialised: bool) -> Twins {
+    let mut p = params(Integrator::Implicit);
+    p.implicit.coarse_levels = true;
+    let model = grid(NX, NY, corners(), &p);
+    Twins::new(&model, &p, specialised, WARM_STEPS)
+}
+
+/// The busy scene for `integrator` on the general kernels (see
+/// [`general`]), run up to the `nth` dispatch of `kernel`, and its index.
+fn general_at(integrator: Integrator, pinned: bool, kernel: Kernel, nth: usize) -> (Twins, usize) {
+    let mut t = general(integrator, pinned);
+    let i = t.run_to(kernel, nth);
+    (t, i)
+}
+
+/// Runs `check` at the `nth` dispatch of `kernel` in the busy scene for
+/// `integrator` on the general kernels, then in `other`.
+fn in_general_and(
+    integrator: Integrator,
+    other: fn() -> Twins,
+    kernel: Kernel,
+    nth: usize,
+    check: fn(&mut Twins, usize),
+) {
+    let (mut t, i) = general_at(integrator, true, kernel, nth);
+    check(&mut t, i);
+    let mut t = other();
+    let i = t.run_to(kernel, nth);
+    check(&mut t, i);
+}
+
+/// The busy scene for `integrator` on the grid kernels, pinned at two
+/// corners.
+fn on_grid(integrator: Integrator) -> Twins {
+    let p = params(integrator);
+    let model = grid(NX, NY, corners(), &p);
+    Twins::new(&model, &p, true, WARM_STEPS)
+}
+
+/// The busy explicit scene on the grid kernels (with fix-up: not single
+/// pass).
+fn explicit_grid() -> Twins {
+    on_grid(Integrator::Explicit)
+}
+
+/// The busy semi-implicit scene on the grid kernels.
+fn semi_grid() -> Twins {
+    on_grid(Integrator::SemiImplicit)
+}
+
+/// A twin test, `$test`, that runs `$check` at the `$nth` dispatch of
+/// `$kernel` in the busy scene for `$integrator` on the general kernels,
+/// then in the scene `$other` makes.
+macro_rules! general_and {
+    ($test:ident: $integrator:ident, $other:ident, $kernel:ident, $nth:literal, $check:ident) => {
+        #[test]
+        fn $test() {
+            in_general_and($integrator, $other, Kernel::$kernel, $nth, $check);
+        }
+    };
+}
+
+/// The busy implicit scene with coarse levels on the general kernels.
+fn coarse_general() -> Twins {
+    coarse(false)
+}
+
+/// The busy implicit scene with coarse levels on the grid kernels.
+fn coarse_grid() -> Twins {
+    coarse(true)
+}
+
+/// Every kernel with its twin test. `normals` (vertex normals for
+/// rendering) has no twin: the CPU solver never renders, and stepping
+/// never reads normals.
+const TWIN_TESTS: &[(Kernel, fn())] = &[
+    (Kernel::SpringForces, spring_forces_matches_its_twin),
+    (
+        Kernel::ExplicitIntegrate,
+        explicit_integrate_matches_its_twin,
+    ),
+    (Kernel::ExplicitSeed, explicit_seed_matches_its_twin),
+    (Kernel::FixupJacobi, fixup_jacobi_matches_its_twin),
+    (Kernel::FinishStep, finish_step_matches_its_twin),
+    (Kernel::ImplicitSprings, implicit_springs_matches_its_twin),
+    (Kernel::ImplicitPrepare, implicit_prepare_matches_its_twin),
+    (Kernel::CoarseSetup, coarse_setup_matches_its_twin),
+    (Kernel::CgInit, cg_init_matches_its_twin),
+    (Kernel::CgStart, cg_start_matches_its_twin),
+    (Kernel::CgProlong, cg_prolong_matches_its_twin),
+    (Kernel::CgApply, cg_apply_matches_its_twin),
+    (Kernel::CgAlpha, cg_alpha_matches_its_twin),
+    (Kernel::CgUpdate, cg_update_matches_its_twin),
+    (Kernel::CgBeta, cg_beta_matches_its_twin),
+    (Kernel::ImplicitFinish, implicit_finish_matches_its_twin),
+    (Kernel::SemiRhs, semi_rhs_matches_its_twin),
+    (Kernel::FilterDense, filter_dense_matches_its_twin),
+    (Kernel::TorqueCentre, torque_centre_matches_its_twin),
+    (Kernel::TorqueMoments, torque_moments_matches_its_twin),
+    (Kernel::TorqueApply, torque_apply_matches_its_twin),
+    (Kernel::SemiIntegrate, semi_integrate_matches_its_twin),
+    (Kernel::SemiCgPrepare, semi_cg_prepare_matches_its_twin),
+];
+
+/// Kernels without a twin, and why (see [`TWIN_TESTS`]).
+const EXEMPT: &[(Kernel, &str)] = &[(Kernel::Normals, "render only")];
+
+/// The share of kernel files that must have a twin test (issue #16).
+const MIN_COVERAGE: f64 = 0.85;
+
+#[test]
+fn every_kernel_has_a_twin_test() {
+    for k in Kernel::ALL {
+        let tested = TWIN_TESTS.iter().filter(|(t, _)| *t == k).count();
+        let exempt = EXEMPT.iter().any(|(e, _)| *e == k);
+        assert!(
+            tested == 1 && !exempt || tested == 0 && exempt,
+            "{}: {tested} twin tests, exempt: {exempt}",
+            k.name()
+        );
+    }
+    let files = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders"))
+        .expect("shaders/ is readable")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == "wgsl"))
+        .count();
+    assert_eq!(files, Kernel::ALL.len(), "one kernel per shaders/*.wgsl");
+    let coverage = TWIN_TESTS.len() as f64 / files as f64;
+    assert!(
+        coverage >= MIN_COVERAGE,
+        "{} of {files} kernel files have a twin test",
+        TWIN_TESTS.len()
+    );
+}
+
+/// A section index as a slice index.
+fn at(section: u32) -> usize {
+    section as usize
+}
+
+/// The device's per-spring scratch section `k` as vectors.
+fn springs_xyz(t: &Twins, k: u32) -> Vec<Vec3<f32>> {
+    xyz(&t.read(DebugBuffer::SpringWork), at(k), t.s)
+}
+
+/// The device's filters (kind in `W_Z`'s w, plane in `W_FILTER`).
+fn device_filters(t: &Twins) -> Vec<Filter<f32>> {
+    filters(
+        &t.read(DebugBuffer::Work),
+        at(work::Z),
+        at(work::FILTER),
+        t.n,
+    )
+}
+
+/// The device's preconditioner (`W_PRE_DIAG`, `W_PRE_OFF`).
+fn device_precond(t: &Twins) -> Vec<cpu::Sym3<f32>> {
+    sym3s(
+        &t.read(DebugBuffer::Work),
+        at(work::PRE_DIAG),
+        at(work::PRE_OFF),
+        t.n,
+    )
+}
+
+/// `W_FILTER`'s words for `filter`: a plane's normal and friction, else 0.
+fn filter_words(filter: &[Filter<f32>]) -> Vec<u32> {
+    let planes: Vec<(Vec3<f32>, f32)> = filter
+        .iter()
+        .map(|f| match f {
+            Filter::Plane(n, mu) => (*n, *mu),
+            _ => (Vec3::ZERO, 0.0),
+        })
+        .collect();
+    let normals: Vec<Vec3<f32>> = planes.iter().map(|p| p.0).collect();
+    pack(&normals, |p| planes[p].1)
+}
+
+/// Section `k` of the device's per-particle scratch `words`.
+fn work_section(t: &Twins, words: &[u32], k: u32) -> Vec<u32> {
+    section(words, at(k), t.n).to_vec()
+}
+
+/// Partial slot `slot`'s words (one per reduction block).
+fn partial_slot(t: &Twins, words: &[u32], slot: u32) -> Vec<u32> {
+    t.gpu.debug_layout().partial_slot(words, slot).to_vec()
+}
+
+/// CG scalar `k`'s word.
+fn cg_scalar(t: &Twins, words: &[u32], k: u32) -> u32 {
+    words[t.gpu.debug_layout().cg_scalar(k)]
+}
+
+/// The block sums of `terms` in the CPU's reduction order, as words.
+fn block_words(terms: &[f32]) -> Vec<u32> {
+    let mut out = Vec::new();
+    cpu::cg::block_partials(terms.len(), |p| terms[p], |_, sum| out.push(sum.to_bits()));
+    out
+}
+
+/// The vectors `xyz` of `len` entries of section `k` of the device's
+/// scratch, with the filter kinds in w as the device keeps them.
+fn with_kinds(v: &[Vec3<f32>], filter: &[Filter<f32>]) -> Vec<u32> {
+    pack(v, |p| kind(&filter[p]))
+}
+
+/// Loads the device's CG set-up into the mirror: spring blocks (see
+/// `load_springs`), filters, preconditioner, right-hand side.
+fn load_cg_setup(t: &mut Twins, grid: bool) {
+    t.load_state();
+    load_springs(t, grid);
+    let work_words = t.read(DebugBuffer::Work);
+    let filter = device_filters(t);
+    let precond = device_precond(t);
+    let n = t.n;
+    let (_, _, wk) = t.parts();
+    wk.filter = filter;
+    wk.precond = precond;
+    wk.rhs = xyz(&work_words, at(work::RHS), n);
+    wk.delta0_terms = w(&work_words, at(work::RHS), n);
+}
+
+/// The CG scalars the device holds, and its CG count and stop.
+fn device_scalars(t: &Twins) -> cpu::cg::Scalars<f32> {
+    let p = t.read(DebugBuffer::Partials);
+    let st = t.read(DebugBuffer::Status);
+    let f = |k| f32::from_bits(cg_scalar(t, &p, k));
+    cpu::cg::Scalars {
+        delta0: f(partials::DELTA0),
+        delta: f(partials::DELTA),
+        alpha: f(partials::ALPHA),
+        beta: f(partials::BETA),
+        rho: 0.0,
+        iterations: st[status::CG_ITERATIONS],
+        stopped: st[status::CG_STOPPED] != 0,
+    }
+}
+
+/// The sections a `fixup_jacobi` dispatch reads and writes.
+fn fixup_sections(d: &Dispatch) -> (u32, u32) {
+    match d.variant {
+        Variant::Fixup(phase) if phase.index() % 2 == 1 => (work::X_ALT, work::X_PRED),
+        Variant::Fixup(_) | Variant::FixupFirst => (work::X_PRED, work::X_ALT),
+        other => panic!("fixup_jacobi as {other:?}"),
+    }
+}
+
+/// Loads the device's state into the mirror, runs dispatch `i` alone and
+/// returns the buffer `out` it writes.
+fn run_on_state(t: &mut Twins, i: usize, out: DebugBuffer) -> Vec<u32> {
+    t.load_state();
+    t.run_alone(i);
+    t.read(out)
+}
+
+#[test]
+fn spring_forces_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::Explicit, true, Kernel::SpringForces, 0);
+    let (out, s) = (run_on_state(&mut t, i, DebugBuffer::SpringWork), t.s);
+    let (sys, st, wk) = t.parts();
+    cpu::forces::spring_forces(sys, &st.x, &st.v, &mut wk.per_spring);
+    assert_same(
+        "S_FORCE",
+        section(&out, at(spring_work::FORCE), s),
+        &vectors(&wk.per_spring),
+    );
+}
+
+/// Loads the spring forces into the mirror: the device's spring pass's,
+/// or on a grid, whose kernels compute each force where they sum it, the
+/// spring pass's twin's on the mirror's state.
+fn load_forces(t: &mut Twins) {
+    let forces = (!t.grid).then(|| springs_xyz(t, spring_work::FORCE));
+    let (sys, st, wk) = t.parts();
+    match forces {
+        Some(f) => wk.per_spring = f,
+        None => cpu::forces::spring_forces(sys, &st.x, &st.v, &mut wk.per_spring),
+    }
+}
+
+/// explicit_integrate's outputs against its twin's, in `t` at dispatch `i`
+/// (on a grid: the twins of spring_forces and explicit_integrate).
+fn check_explicit_integrate(t: &mut Twins, i: usize) {
+    assert_eq!(t.plan()[i].variant, Variant::Plain);
+    t.load_state();
+    load_forces(t);
+    check_prediction(t, i, |_| (), cpu::explicit::integrate);
+}
+
+general_and!(explicit_integrate_matches_its_twin: Explicit, explicit_grid, ExplicitIntegrate, 0, check_explicit_integrate);
+
+/// Runs dispatch `i` alone and the integration twin `integrate` on the
+/// mirror (its workspace given its inputs by `load`), and compares the
+/// predicted positions and velocities (`W_X_PRED`, `W_V_NEW`).
+fn check_prediction(
+    t: &mut Twins,
+    i: usize,
+    load: impl FnOnce(&mut cpu::Workspace<f32>),
+    integrate: fn(&cpu::System<f32>, &mut cpu::State<f32>, &mut cpu::Workspace<f32>),
+) {
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let (sys, st, wk) = t.parts();
+    load(wk);
+    integrate(sys, st, wk);
+    let (x_pred, v_new) = (vectors(&st.x), vectors(&st.v));
+    assert_same("W_X_PRED", &work_section(t, &out, work::X_PRED), &x_pred);
+    assert_same("W_V_NEW", &work_section(t, &out, work::V_NEW), &v_new);
+}
+
+#[test]
+fn explicit_seed_matches_its_twin() {
+    // A grid without fix-up steps in one pass, seeded by explicit_seed.
+    let mut p = params(Integrator::Explicit);
+    p.fixup.iterations = 0;
+    let model = grid(NX, NY, corners(), &p);
+    let mut t = Twins::new(&model, &p, true, WARM_STEPS);
+    let i = t.run_to(Kernel::ExplicitSeed, 0);
+    t.load_state();
+    let snapshot = [work::SNAPSHOT, work::SNAPSHOT + 1];
+    let before = t.read(DebugBuffer::Work);
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let (inv_mass, mass) = t.masses();
+    let (_, st, _) = t.parts();
+    let mut copy = cpu::State {
+        x: Vec::new(),
+        v: Vec::new(),
+    };
+    cpu::explicit::seed(st, &mut copy);
+    let expected = [pack(&copy.x, |p| inv_mass[p]), pack(&copy.v, |p| mass[p])];
+    for (k, want) in snapshot.into_iter().zip(expected) {
+        let got = work_section(&t, &out, k);
+        assert_ne!(
+            got,
+            work_section(&t, &before, k),
+            "the snapshot held an older state"
+        );
+        assert_same(&format!("snapshot section {k}"), &got, &want);
+    }
+}
+
+/// The first two fix-up passes' outputs against the twin's, in `t` from
+/// dispatch `first`.
+fn check_fixup_jacobi(t: &mut Twins, first: usize) {
+    let plan = t.plan();
+    // The first two passes: each reads one section and writes the other.
+    for i in [first, first + 1] {
+        assert_eq!(plan[i].kernel, Kernel::FixupJacobi);
+        let (src, dst) = fixup_sections(&plan[i]);
+        let mut x = t.work_xyz(at(src));
+        t.run_alone(i);
+        let out = t.read(DebugBuffer::Work);
+        let flags = t.read(DebugBuffer::Status);
+        let (sys, _, wk) = t.parts();
+        let omega = sys.fixup_omega;
+        let moved = cpu::fixup::jacobi(sys, &mut x, 1, omega, &mut wk.per_spring, &mut wk.active);
+        assert_eq!(
+            moved, 1,
+            "pass {i}: the test scene's fix-up moves every pass"
+        );
+        let what = format!("pass at {i}: section {dst}");
+        assert_same(&what, &work_section(t, &out, dst), &vectors(&x));
+        assert_eq!(flags[status::FIXUP_MOVED], moved, "{what}: moved");
+        assert_eq!(flags[status::FIXUP_RESULT], dst, "{what}: result");
+        assert_eq!(
+            flags[status::FIXUP_PASSES] as usize,
+            i - first + 1,
+            "{what}: passes"
+        );
+    }
+}
+
+general_and!(fixup_jacobi_matches_its_twin: Explicit, explicit_grid, FixupJacobi, 0, check_fixup_jacobi);
+
+#[test]
+fn finish_step_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::Explicit, true, Kernel::FinishStep, 0);
+    t.load_state();
+    let flags = t.read(DebugBuffer::Status);
+    let result = t.work_xyz(at(flags[status::FIXUP_RESULT]));
+    let v_new = t.work_xyz(at(work::V_NEW));
+    let moved = flags[status::FIXUP_MOVED] != 0;
+    assert!(moved, "the test scene's fix-up moves");
+    t.run_alone(i);
+    let (x, v) = (t.read(DebugBuffer::X), t.read(DebugBuffer::V));
+    let (inv_mass, mass) = t.masses();
+    let (sys, st, wk) = t.parts();
+    wk.x_old.clone_from(&st.x);
+    st.x = result;
+    st.v = v_new;
+    cpu::finish_step(sys, st, wk, moved);
+    assert_same("x", &x, &pack(&st.x, |p| inv_mass[p]));
+    assert_same("v", &v, &pack(&st.v, |p| mass[p]));
+}
+
+#[test]
+fn implicit_springs_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::Implicit, true, Kernel::ImplicitSprings, 0);
+    let (out, s) = (run_on_state(&mut t, i, DebugBuffer::SpringWork), t.s);
+    let (sys, st, wk) = t.parts();
+    cpu::implicit::springs(sys, st, wk);
+    let m: Vec<Vec3<f32>> = wk.blocks.iter().map(|b| b.m).collect();
+    let sec = |k: u32| section(&out, at(k), s);
+    assert_same(
+        "S_BLOCK",
+        sec(spring_work::BLOCK),
+        &pack(&m, |k| wk.blocks[k].a),
+    );
+    assert_same("S_KV", sec(spring_work::KV), &vectors(&wk.kv));
+    assert_same("S_FORCE", sec(spring_work::FORCE), &vectors(&wk.per_spring));
+}
+
+/// Loads the spring pass's results into the mirror: from the device's
+/// per-spring scratch (general kernels), or, on a grid, where the kernels
+/// linearise each spring where they use it, from the twin of that pass on
+/// the mirror's state.
+fn load_springs(t: &mut Twins, grid: bool) {
+    let spring_words = t.read(DebugBuffer::SpringWork);
+    let (sys, st, wk) = t.parts();
+    if grid {
+        cpu::implicit::springs(sys, st, wk);
+        return;
+    }
+    let s = sys.springs.len();
+    wk.per_spring = xyz(&spring_words, at(spring_work::FORCE), s);
+    wk.kv = xyz(&spring_words, at(spring_work::KV), s);
+    wk.blocks = blocks(&spring_words, at(spring_work::BLOCK), sys);
+}
+
+/// The CG set-up a prepare kernel leaves in the device's scratch `out` and
+/// status words `flags` (filters, preconditioner, warm-started Δv,
+/// right-hand side with δ0's terms, CG's count and stop reset) against
+/// the twin's in `wk`.
+fn assert_cg_setup(out: &[u32], flags: &[u32], wk: &cpu::Workspace<f32>, n: usize) {
+    let (diag, off) = pack_sym3s(&wk.precond);
+    let sec = |k: u32| section(out, at(k), n).to_vec();
+    assert_same("W_Z", &sec(work::Z), &with_kinds(&wk.z, &wk.filter));
+    assert_same("W_FILTER", &sec(work::FILTER), &filter_words(&wk.filter));
+    assert_same("W_PRE_DIAG", &sec(work::PRE_DIAG), &diag);
+    assert_same("W_PRE_OFF", &sec(work::PRE_OFF), &off);
+    assert_same("W_DV", &sec(work::DV), &with_kinds(&wk.dv, &wk.filter));
+    let dv_prev = vectors(&wk.dv_prev);
+    assert_same("W_DV_PREV", &sec(work::DV_PREV), &dv_prev);
+    let terms = &wk.delta0_terms;
+    assert_same("W_RHS", &sec(work::RHS), &pack(&wk.rhs, |p| terms[p]));
+    assert_eq!(flags[status::CG_ITERATIONS], wk.cg.iterations);
+    assert_eq!(flags[status::CG_STOPPED], u32::from(wk.cg.stopped));
+}
+
+/// implicit_prepare's outputs against its twin's, in `t` at dispatch `i`
+/// (on a grid: the twins of implicit_springs and implicit_prepare).
+fn check_implicit_prepare(t: &mut Twins, i: usize) {
+    let grid = t.grid;
+    t.load_state();
+    load_springs(t, grid);
+    let dv = t.work_xyz(at(work::DV));
+    let dv_prev = t.work_xyz(at(work::DV_PREV));
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let flags = t.read(DebugBuffer::Status);
+    let n = t.n;
+    let (inv_mass, _) = t.masses();
+    let (sys, st, wk) = t.parts();
+    wk.dv = dv;
+    wk.dv_prev = dv_prev;
+    cpu::implicit::prepare(sys, st, wk);
+    let planes = wk
+        .filter
+        .iter()
+        .filter(|f| matches!(f, Filter::Plane(..)))
+        .count();
+    assert!(planes > 0, "the test cloth rests on a collider somewhere");
+    assert_cg_setup(&out, &flags, wk, n);
+    let sec = |k: u32| section(&out, at(k), n).to_vec();
+    if grid {
+        // The start-of-step positions, for implicit_finish's contacts.
+        assert_same(
+            "W_X_START",
+            &sec(work::X_START),
+            &pack(&st.x, |p| inv_mass[p]),
+        );
+    }
+    if let Some(coarse) = &wk.coarse {
+        for (level, (d, o)) in [
+            (work::LEVEL1_D, work::LEVEL1_O),
+            (work::LEVEL2_D, work::LEVEL2_O),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let m: Vec<cpu::Sym3<f32>> = coarse.contrib.iter().map(|c| c[level]).collect();
+            let (diag, off) = pack_sym3s(&m);
+            assert_same(&format!("level {} D", level + 1), &sec(d), &diag);
+            let trace = |p: usize| if level == 0 { coarse.trace[p] } else { 0.0 };
+            let off: Vec<u32> = off
+                .chunks(4)
+                .enumerate()
+                .flat_map(|(p, e)| [e[0], e[1], e[2], trace(p).to_bits()])
+                .collect();
+            assert_same(
+                &format!("level {} D, off-diagonal", level + 1),
+                &sec(o),
+                &off,
+            );
+        }
+    }
+}
+
+// On a grid the kernel linearises the springs itself.
+general_and!(implicit_prepare_matches_its_twin: Implicit, coarse_grid, ImplicitPrepare, 0, check_implicit_prepare);
+
+#[test]
+fn coarse_setup_matches_its_twin() {
+    let mut t = coarse(false);
+    let i = t.run_to(Kernel::CoarseSetup, 0);
+    let before = t.read(DebugBuffer::Work);
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let n = t.n;
+    let (sys, _, wk) = t.parts();
+    let coarse = wk.coarse.as_mut().expect("coarse levels");
+    let level = |d: u32, o: u32| sym3s(&before, at(d), at(o), n);
+    let (l1, l2) = (
+        level(work::LEVEL1_D, work::LEVEL1_O),
+        level(work::LEVEL2_D, work::LEVEL2_O),
+    );
+    coarse.contrib = l1.into_iter().zip(l2).map(|(a, b)| [a, b]).collect();
+    coarse.trace = w(&before, at(work::LEVEL1_O), n);
+    coarse.setup(&sys.mass);
+    let (diag, off) = pack_sym3s(&coarse.inv);
+    let aggregates = coarse.inv.len() * 4;
+    let sec = |k: u32| section(&out, at(k), n)[..aggregates].to_vec();
+    assert_same("W_COARSE_INV_D", &sec(work::COARSE_INV_D), &diag);
+    assert_same("W_COARSE_INV_O", &sec(work::COARSE_INV_O), &off);
+}
+
+/// cg_init's outputs against its twin's, in `t` at dispatch `i` (on a
+/// grid, whose kernel computes the spring blocks from the positions: the
+/// twins of implicit_springs and cg_init).
+fn check_cg_init(t: &mut Twins, i: usize) {
+    load_cg_setup(t, t.grid);
+    let dv = t.work_xyz(at(work::DV));
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let n = t.n;
+    let (sys, _, wk) = t.parts();
+    wk.dv = dv;
+    cpu::cg::init(sys, wk);
+    let coarse = wk.coarse.is_some();
+    let sec = |k: u32| section(&out, at(k), n).to_vec();
+    let terms = &wk.rho_terms;
+    assert_same("W_R", &sec(work::R), &pack(&wk.r, |p| terms[p]));
+    if !coarse {
+        assert_same("W_S", &sec(work::S), &with_kinds(&wk.s, &wk.filter));
+    }
+    assert_same("W_C", &sec(work::C), &vectors(&wk.c));
+    assert_same("W_Q", &sec(work::Q), &vectors(&wk.q));
+}
+
+general_and!(cg_init_matches_its_twin: Implicit, coarse_grid, CgInit, 0, check_cg_init);
+
+/// Loads the coarse levels' sums the device holds (level 1's `Πᵀr` and
+/// terms, both levels' `θ D⁻¹`) into the mirror.
+fn load_coarse(t: &mut Twins) {
+    let words = t.read(DebugBuffer::Work);
+    let n = t.n;
+    let (_, _, wk) = t.parts();
+    let Some(coarse) = wk.coarse.as_mut() else {
+        return;
+    };
+    let n1 = coarse.r1.len();
+    coarse.r1 = xyz(&words, at(work::COARSE_Z), n)[..n1].to_vec();
+    coarse.term1 = w(&words, at(work::COARSE_Z), n)[..n1].to_vec();
+    let total = coarse.inv.len();
+    coarse.inv = sym3s(&words, at(work::COARSE_INV_D), at(work::COARSE_INV_O), n)[..total].to_vec();
+}
+
+/// The device's level-2 corrections and terms against the mirror's.
+fn check_level2(t: &mut Twins, out: &[u32]) {
+    let n = t.n;
+    let (_, _, wk) = t.parts();
+    let Some(coarse) = wk.coarse.as_ref() else {
+        return;
+    };
+    let (n1, n2) = (coarse.r1.len(), coarse.z2.len());
+    let got = &section(out, at(work::COARSE_Z), n)[n1 * 4..(n1 + n2) * 4];
+    assert_same(
+        "level-2 W_COARSE_Z",
+        got,
+        &pack(&coarse.z2, |k| coarse.term2[k]),
+    );
+}
+
+/// What a CG scalar kernel leaves besides its scalars, in a test scene
+/// whose CG runs on: the status word that stops CG as the twin's
+/// `stopped`, slot `k` of the next scalar kernel's indirect arguments
+/// `slots` enabled and slot `k − 1` cleared, and the per-particle
+/// kernels' arguments.
+fn assert_running(t: &Twins, flags: &[u32], cg: &cpu::cg::Scalars<f32>, slots: &[u32], k: usize) {
+    assert_eq!(flags[status::CG_STOPPED], u32::from(cg.stopped), "stopped");
+    assert!(!cg.stopped, "the test's CG runs on");
+    assert_eq!(slots[3 * k], 1, "the next kernel's slot {k} enabled");
+    if k > 0 {
+        assert_eq!(slots[3 * (k - 1)], 0, "slot {} cleared", k - 1);
+    }
+    check_cg_args(t, cg.stopped);
+}
+
+/// The indirect arguments a CG scalar kernel leaves: the per-particle
+/// kernels' workgroups (0 once stopped) in `cg_args` words 0 and 3.
+fn check_cg_args(t: &Twins, stopped: bool) {
+    let args = t.read(DebugBuffer::CgArgs);
+    let plan = t.plan();
+    let groups = |k: Kernel| {
+        let d = plan.iter().find(|d| d.kernel == k).expect("a CG kernel");
+        d.items.div_ceil(wgcloth::gpu::WORKGROUP)
+    };
+    let want = |k| if stopped { 0 } else { groups(k) };
+    assert_eq!(
+        args[0],
+        want(Kernel::CgApply),
+        "cg_args: cg_apply's workgroups"
+    );
+    assert_eq!(
+        args[3],
+        want(Kernel::CgUpdate),
+        "cg_args: cg_update's workgroups"
+    );
+}
+
+/// What a CG scalar kernel writes: in `work` (the coarse terms),
+/// `partials`, `status`, and the scalar kernels' indirect slots.
+struct Scalar {
+    work: Vec<u32>,
+    partials: Vec<u32>,
+    status: Vec<u32>,
+    alpha_slots: Vec<u32>,
+    beta_slots: Vec<u32>,
+}
+
+/// Runs the CG scalar kernel at dispatch `i` of `t` alone and reads what
+/// it writes.
+fn run_scalar_kernel(t: &mut Twins, i: usize) -> Scalar {
+    t.run_alone(i);
+    Scalar {
+        work: t.read(DebugBuffer::Work),
+        partials: t.read(DebugBuffer::Partials),
+        status: t.read(DebugBuffer::Status),
+        alpha_slots: t.read(DebugBuffer::AlphaSlots),
+        beta_slots: t.read(DebugBuffer::BetaSlots),
+    }
+}
+
+/// cg_start's outputs against its twin's, in `t` at dispatch `i`.
+fn check_cg_start(t: &mut Twins, i: usize) {
+    load_coarse(t);
+    let before = t.read(DebugBuffer::Work);
+    let after = run_scalar_kernel(t, i);
+    let n = t.n;
+    let (sys, _, wk) = t.parts();
+    wk.delta0_terms = w(&before, at(work::RHS), n);
+    wk.rho_terms = w(&before, at(work::R), n);
+    cpu::cg::start(sys, wk);
+    let (cg, d0, rs) = (
+        wk.cg,
+        block_words(&wk.delta0_terms),
+        block_words(&wk.rho_terms),
+    );
+    check_level2(t, &after.work);
+    assert_same("P_D0", &partial_slot(t, &after.partials, partials::D0), &d0);
+    assert_same("P_RS", &partial_slot(t, &after.partials, partials::RS), &rs);
+    let scalars = [partials::DELTA0, partials::DELTA, partials::BETA]
+        .map(|k| cg_scalar(t, &after.partials, k));
+    assert_same("δ0, δ, β", &scalars, &bits(&[cg.delta0, cg.delta, cg.beta]));
+    assert_running(t, &after.status, &cg, &after.alpha_slots, 0);
+}
+
+general_and!(cg_start_matches_its_twin: Implicit, coarse_general, CgStart, 0, check_cg_start);
+
+#[test]
+fn cg_prolong_matches_its_twin() {
+    let mut t = coarse(false);
+    // After the second iteration's cg_beta.
+    let i = t.run_to(Kernel::CgProlong, 2);
+    let filter = device_filters(&t);
+    let before = t.read(DebugBuffer::Work);
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let n = t.n;
+    let (_, _, wk) = t.parts();
+    wk.filter = filter;
+    wk.s = xyz(&before, at(work::S), n);
+    let coarse = wk.coarse.as_mut().expect("coarse levels");
+    let (n1, n2) = (coarse.r1.len(), coarse.z2.len());
+    coarse.z2 = xyz(&before, at(work::COARSE_Z), n)[n1..n1 + n2].to_vec();
+    cpu::cg::prolong(wk);
+    let got = section(&out, at(work::S), n);
+    assert_same("W_S", got, &with_kinds(&wk.s, &wk.filter));
+}
+
+/// cg_apply's outputs against its twin's, in `t` at dispatch `i`. On a
+/// grid the kernel computes the spring blocks from the positions and, with
+/// coarse levels, adds level 2's correction to each `s` it loads: its twin
+/// is then implicit_springs' (for the blocks), cg_prolong's and
+/// cg_apply's.
+fn check_cg_apply(t: &mut Twins, i: usize) {
+    let grid = t.grid;
+    load_cg_setup(t, grid);
+    if grid {
+        load_coarse(t);
+    }
+    let before = t.read(DebugBuffer::Work);
+    let beta = device_scalars(t).beta;
+    assert!(
+        beta != 0.0,
+        "a later iteration, whose direction update counts"
+    );
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let n = t.n;
+    let (sys, _, wk) = t.parts();
+    wk.s = xyz(&before, at(work::S), n);
+    wk.c = xyz(&before, at(work::C), n);
+    wk.q = xyz(&before, at(work::Q), n);
+    wk.cg.beta = beta;
+    if let Some(coarse) = wk.coarse.as_mut().filter(|_| grid) {
+        let (n1, n2) = (coarse.r1.len(), coarse.z2.len());
+        coarse.z2 = xyz(&before, at(work::COARSE_Z), n)[n1..n1 + n2].to_vec();
+        cpu::cg::prolong(wk);
+    }
+    cpu::cg::apply(sys, wk);
+    let terms = &wk.cq_terms;
+    assert_same("W_C", section(&out, at(work::C), n), &vectors(&wk.c));
+    assert_same(
+        "W_Q",
+        section(&out, at(work::Q), n),
+        &pack(&wk.q, |p| terms[p]),
+    );
+}
+
+general_and!(cg_apply_matches_its_twin: Implicit, coarse_grid, CgApply, 1, check_cg_apply);
+
+#[test]
+fn cg_alpha_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::Implicit, true, Kernel::CgAlpha, 1);
+    let scalars = device_scalars(&t);
+    let cq = w(&t.read(DebugBuffer::Work), at(work::Q), t.n);
+    let after = run_scalar_kernel(&mut t, i);
+    let (_, _, wk) = t.parts();
+    wk.cg = scalars;
+    wk.cq_terms = cq;
+    cpu::cg::alpha(wk);
+    let (cg, cq) = (wk.cg, block_words(&wk.cq_terms));
+    assert_same(
+        "P_CQ",
+        &partial_slot(&t, &after.partials, partials::CQ),
+        &cq,
+    );
+    assert_same(
+        "α",
+        &[cg_scalar(&t, &after.partials, partials::ALPHA)],
+        &bits(&[cg.alpha]),
+    );
+    assert_running(
+        &t,
+        &after.status,
+        &cg,
+        &after.beta_slots,
+        cg.iterations as usize,
+    );
+}
+
+/// cg_update's outputs against its twin's, in `t` at dispatch `i`.
+fn check_cg_update(t: &mut Twins, i: usize) {
+    let first = t.plan()[i].variant == Variant::CgFirst;
+    load_cg_setup(t, false);
+    load_coarse(t);
+    let alpha = device_scalars(t).alpha;
+    let before = t.read(DebugBuffer::Work);
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let n = t.n;
+    let (_, _, wk) = t.parts();
+    let v = |k: u32| xyz(&before, at(k), n);
+    (wk.dv, wk.r, wk.c, wk.q) = (v(work::DV), v(work::R), v(work::C), v(work::Q));
+    wk.cg.alpha = alpha;
+    cpu::cg::update(wk, first);
+    let sec = |k: u32| section(&out, at(k), n);
+    let terms = &wk.rho_terms;
+    assert_same("W_DV", sec(work::DV), &with_kinds(&wk.dv, &wk.filter));
+    assert_same("W_R", sec(work::R), &pack(&wk.r, |p| terms[p]));
+    assert_same("W_S", sec(work::S), &with_kinds(&wk.s, &wk.filter));
+    if let Some(coarse) = &wk.coarse {
+        let n1 = coarse.r1.len();
+        let got = &sec(work::COARSE_Z)[..n1 * 4];
+        assert_same(
+            "level-1 W_COARSE_Z",
+            got,
+            &pack(&coarse.r1, |a| coarse.term1[a]),
+        );
+    }
+}
+
+#[test]
+fn cg_update_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::Implicit, true, Kernel::CgUpdate, 1);
+    check_cg_update(&mut t, i);
+    // With coarse levels: the first variant, then an iteration's.
+    let mut t = coarse(false);
+    let i = t.run_to(Kernel::CgUpdate, 0);
+    assert_eq!(t.plan()[i].variant, Variant::CgFirst);
+    check_cg_update(&mut t, i);
+    let j = t.plan()[i + 1..]
+        .iter()
+        .position(|d| d.kernel == Kernel::CgUpdate)
+        .map(|k| i + 1 + k)
+        .expect("an iteration");
+    t.gpu
+        .debug_run(i + 1..j)
+        .expect("up to the iteration's cg_update");
+    check_cg_update(&mut t, j);
+}
+
+/// cg_beta's outputs against its twin's, in `t` at dispatch `i`.
+fn check_cg_beta(t: &mut Twins, i: usize) {
+    load_coarse(t);
+    let scalars = device_scalars(t);
+    let rho = w(&t.read(DebugBuffer::Work), at(work::R), t.n);
+    let after = run_scalar_kernel(t, i);
+    let (sys, _, wk) = t.parts();
+    wk.cg = scalars;
+    wk.rho_terms = rho;
+    cpu::cg::beta(sys, wk);
+    let cg = wk.cg;
+    let rs = block_words(&wk.rho_terms);
+    check_level2(t, &after.work);
+    assert_same("P_RS", &partial_slot(t, &after.partials, partials::RS), &rs);
+    let scalars = [partials::DELTA, partials::BETA].map(|k| cg_scalar(t, &after.partials, k));
+    assert_same("δ, β", &scalars, &bits(&[cg.delta, cg.beta]));
+    assert_eq!(
+        after.status[status::CG_ITERATIONS],
+        cg.iterations,
+        "iterations"
+    );
+    assert_running(
+        t,
+        &after.status,
+        &cg,
+        &after.alpha_slots,
+        cg.iterations as usize,
+    );
+}
+
+general_and!(cg_beta_matches_its_twin: Implicit, coarse_general, CgBeta, 1, check_cg_beta);
+
+/// implicit_finish's outputs against its twin's, in `t` at dispatch `i`
+/// (on a grid, whose kernel computes the blocks its contacts need from the
+/// start-of-step positions: the twins of implicit_springs and
+/// implicit_finish).
+fn check_implicit_finish(t: &mut Twins, i: usize) {
+    load_cg_setup(t, t.grid);
+    let dv = t.work_xyz(at(work::DV));
+    t.run_alone(i);
+    let (x, v) = (t.read(DebugBuffer::X), t.read(DebugBuffer::V));
+    let (inv_mass, mass) = t.masses();
+    let (sys, st, wk) = t.parts();
+    wk.dv = dv;
+    let planes = wk
+        .filter
+        .iter()
+        .filter(|f| matches!(f, Filter::Plane(..)))
+        .count();
+    assert!(
+        planes > 0,
+        "the test cloth rests on a collider somewhere (friction)"
+    );
+    cpu::implicit::finish(sys, st, wk);
+    assert_same("x", &x, &pack(&st.x, |p| inv_mass[p]));
+    assert_same("v", &v, &pack(&st.v, |p| mass[p]));
+}
+
+general_and!(implicit_finish_matches_its_twin: Implicit, coarse_grid, ImplicitFinish, 0, check_implicit_finish);
+
+/// semi_rhs's outputs against its twin's, in `t` at dispatch `i` (on a
+/// grid: the twins of spring_forces and semi_rhs).
+fn check_semi_rhs(t: &mut Twins, i: usize) {
+    let variant = t.plan()[i].variant;
+    assert_eq!(variant, Variant::Plain, "the dense filter's variant");
+    t.load_state();
+    load_forces(t);
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let n = t.n;
+    let (sys, st, wk) = t.parts();
+    cpu::semi_implicit::rhs(sys, st, wk, true);
+    assert_same("W_RHS", section(&out, at(work::RHS), n), &vectors(&wk.rhs));
+    assert_same("W_DV", section(&out, at(work::DV), n), &vectors(&wk.dv));
+}
+
+general_and!(semi_rhs_matches_its_twin: SemiImplicit, semi_grid, SemiRhs, 0, check_semi_rhs);
+
+#[test]
+fn filter_dense_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::SemiImplicit, true, Kernel::FilterDense, 0);
+    let (rhs, dv) = (t.work_xyz(at(work::RHS)), t.work_xyz(at(work::DV)));
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let n = t.n;
+    let (_, _, wk) = t.parts();
+    let Some(cpu::ConstantFilter::Dense(filter)) = &wk.constant_filter else {
+        panic!("the test cloth's filter is dense");
+    };
+    let mut got = dv;
+    filter.apply(&rhs, &mut got, &mut wk.scratch);
+    assert_same("W_DV", section(&out, at(work::DV), n), &vectors(&got));
+}
+
+/// The torque partial slots `slots` (from the first torque slot) of the
+/// device's partials `p`.
+fn torque_words(t: &Twins, p: &[u32], slots: std::ops::Range<u32>) -> Vec<u32> {
+    slots
+        .flat_map(|k| partial_slot(t, p, partials::TORQUE + k))
+        .collect()
+}
+
+/// The mirror's torque partial slots `slots`.
+fn cpu_torque_words(torque: &[f32], slots: std::ops::Range<usize>) -> Vec<u32> {
+    let blocks = torque.len() / cpu::torque::SLOTS;
+    bits(&torque[slots.start * blocks..slots.end * blocks])
+}
+
+/// The first slot of the moments and the number of slots.
+const TORQUE_MOMENTS: usize = 4;
+
+/// Loads the device's torque partials into the mirror.
+fn load_torque(t: &mut Twins) {
+    let p = t.read(DebugBuffer::Partials);
+    let words = torque_words(t, &p, 0..cpu::torque::SLOTS as u32);
+    let (_, _, wk) = t.parts();
+    wk.torque = words.into_iter().map(f32::from_bits).collect();
+}
+
+#[test]
+fn torque_centre_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::SemiImplicit, false, Kernel::TorqueCentre, 0);
+    t.load_state();
+    t.run_alone(i);
+    let p = t.read(DebugBuffer::Partials);
+    let (sys, st, wk) = t.parts();
+    cpu::torque::centre(sys, &st.x, &mut wk.torque);
+    let want = cpu_torque_words(&wk.torque, 0..TORQUE_MOMENTS);
+    assert_same(
+        "Σ m, Σ m x",
+        &torque_words(&t, &p, 0..TORQUE_MOMENTS as u32),
+        &want,
+    );
+}
+
+#[test]
+fn torque_moments_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::SemiImplicit, false, Kernel::TorqueMoments, 0);
+    t.load_state();
+    load_torque(&mut t);
+    let dv = t.work_xyz(at(work::DV));
+    t.run_alone(i);
+    let p = t.read(DebugBuffer::Partials);
+    let (sys, st, wk) = t.parts();
+    cpu::forces::external_forces(sys, &st.x, &st.v, &mut wk.per_triangle, &mut wk.force);
+    cpu::torque::moments(sys, &st.x, &dv, &wk.force, &mut wk.torque);
+    let slots = TORQUE_MOMENTS..cpu::torque::SLOTS;
+    let want = cpu_torque_words(&wk.torque, slots.clone());
+    let got = torque_words(&t, &p, slots.start as u32..slots.end as u32);
+    assert_same("moments and inertia", &got, &want);
+}
+
+#[test]
+fn torque_apply_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::SemiImplicit, false, Kernel::TorqueApply, 0);
+    t.load_state();
+    load_torque(&mut t);
+    let mut dv = t.work_xyz(at(work::DV));
+    t.run_alone(i);
+    let out = t.read(DebugBuffer::Work);
+    let n = t.n;
+    let (_, st, wk) = t.parts();
+    let before = dv.clone();
+    cpu::torque::apply(&st.x, &wk.torque, &mut dv);
+    assert_ne!(
+        dv, before,
+        "the free cloth's Δv has a spurious rotation to remove"
+    );
+    assert_same("W_DV", section(&out, at(work::DV), n), &vectors(&dv));
+}
+
+#[test]
+fn semi_integrate_matches_its_twin() {
+    let (mut t, i) = general_at(Integrator::SemiImplicit, true, Kernel::SemiIntegrate, 0);
+    t.load_state();
+    let dv = t.work_xyz(at(work::DV));
+    check_prediction(&mut t, i, |wk| wk.dv = dv, cpu::semi_implicit::integrate);
+}
+
+#[test]
+fn semi_cg_prepare_matches_its_twin() {
+    // The GPU solves a banded filter by CG, the CPU exactly: the two
+    // differ by the CG's tolerance, so the state is not compared.
+    let mut p = params(Integrator::SemiImplicit);
+    p.semi_implicit.filter = FilterMethod::Banded;
+    let model = without_grid(&grid(NX, NY, corners(), &p));
+    let mut t = Twins::unchecked(&model, &p, false, WARM_STEPS);
+    let i = t.run_to(Kernel::SemiCgPrepare, 0);
+    let spring_words = t.read(DebugBuffer::SpringWork);
+    let before = t.read(DebugBuffer::Work);
+    t.run_alone(i);
+    let (out, flags) = (t.read(DebugBuffer::Work), t.read(DebugBuffer::Status));
+    let n = t.n;
+    let (sys, _, wk) = t.parts();
+    wk.blocks = blocks(&spring_words, at(spring_work::BLOCK), sys);
+    wk.rhs = xyz(&before, at(work::RHS), n);
+    wk.dv = xyz(&before, at(work::DV), n);
+    wk.dv_prev = xyz(&before, at(work::DV_PREV), n);
+    cpu::semi_implicit::cg_prepare(sys, wk);
+    assert_cg_setup(&out, &flags, wk, n);
+}
