@@ -34,6 +34,7 @@ mod error;
 #[doc(hidden)]
 pub mod evidence;
 pub mod gpu;
+pub mod mesh;
 pub mod model;
 pub mod params;
 mod real;
