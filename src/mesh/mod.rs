@@ -300,12 +300,12 @@ fn too_many_vertices(count: impl std::fmt::Display) -> String {
     format!("has {count} vertices, but a cloth may have at most {MAX_PARTICLES} particles")
 }
 
-/// A scene's mesh cloth: the file (as the scene names it, resolved against
-/// the scene's folder) and the mesh read from it, with the keys that place
-/// it.
+/// A scene's mesh cloth: the file and the mesh read from it, with the keys
+/// that pick and place it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshCloth {
-    /// The mesh file.
+    /// The mesh file as the scene names it (`cloth.mesh`, relative to the
+    /// scene file's folder).
     pub path: PathBuf,
     /// The glTF mesh picked by name (`cloth.mesh_name`), if any.
     pub mesh_name: Option<String>,

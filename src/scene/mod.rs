@@ -18,7 +18,7 @@ mod shape;
 
 use std::fmt::Write as _;
 use std::io::Read as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
 use crate::mesh::{Mesh, MeshCloth};
@@ -145,7 +145,7 @@ impl Scene {
                 let file = path.parent().unwrap_or(Path::new("")).join(&keys.file);
                 let mesh = MeshCloth {
                     mesh: read_mesh(&file, keys.name.as_deref())?,
-                    path: file,
+                    path: PathBuf::from(keys.file),
                     mesh_name: keys.name,
                     scale: keys.scale,
                 };
@@ -257,7 +257,7 @@ impl Scene {
     }
 
     /// The cloth in a few words: `33 × 33 = 1089 particles` for a grid,
-    /// `mesh scenes/banner.gltf, 936 particles` for a mesh.
+    /// `mesh banner.gltf, 936 particles` for a mesh.
     pub fn cloth_summary(&self) -> String {
         match &self.mesh {
             Some(mesh) => format!(
