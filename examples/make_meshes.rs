@@ -7,7 +7,7 @@
 
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use base64::Engine as _;
@@ -223,6 +223,23 @@ fn gltf(positions: &[[f64; 3]], triangles: &[[u32; 3]], name: &str) -> String {
     )
 }
 
+/// Writes a mesh file and says what it holds.
+fn write(
+    path: &Path,
+    text: &str,
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+) -> anyhow::Result<()> {
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    println!(
+        "{}: {} vertices, {} triangles",
+        path.display(),
+        positions.len(),
+        triangles.len()
+    );
+    Ok(())
+}
+
 fn main() -> anyhow::Result<()> {
     let dir = PathBuf::from(
         std::env::args()
@@ -230,27 +247,8 @@ fn main() -> anyhow::Result<()> {
             .unwrap_or_else(|| "scenes".to_string()),
     );
     let (p, t) = tablecloth();
-    let path = dir.join("tablecloth.obj");
-    std::fs::write(
-        &path,
-        obj(&p, &t, "A round tablecloth, 1.4 m across, in the xz-plane."),
-    )
-    .with_context(|| format!("writing {}", path.display()))?;
-    println!(
-        "{}: {} vertices, {} triangles",
-        path.display(),
-        p.len(),
-        t.len()
-    );
+    let text = obj(&p, &t, "A round tablecloth, 1.4 m across, in the xz-plane.");
+    write(&dir.join("tablecloth.obj"), &text, &p, &t)?;
     let (p, t) = banner();
-    let path = dir.join("banner.gltf");
-    std::fs::write(&path, gltf(&p, &t, "banner"))
-        .with_context(|| format!("writing {}", path.display()))?;
-    println!(
-        "{}: {} vertices, {} triangles",
-        path.display(),
-        p.len(),
-        t.len()
-    );
-    Ok(())
+    write(&dir.join("banner.gltf"), &gltf(&p, &t, "banner"), &p, &t)
 }

@@ -326,17 +326,7 @@ fn bad_meshes_are_refused_naming_the_file_and_the_place() {
 
 #[test]
 fn a_mesh_beyond_the_device_limits_is_refused_naming_the_limit() {
-    let ctx = gpu();
-    let small = wgpu::Limits {
-        max_storage_buffer_binding_size: 1 << 20,
-        ..ctx.adapter.limits()
-    };
-    let (device, queue) = pollster::block_on(ctx.adapter.request_device(&wgpu::DeviceDescriptor {
-        label: Some("small"),
-        required_limits: small,
-        ..Default::default()
-    }))
-    .expect("a device with lower limits");
+    let (device, queue) = gpu_common::small_device();
     let params = Params::default();
     let mesh = parse(&irregular_obj(129, 129), "large.obj").expect("a valid mesh");
     let model = mesh

@@ -1,5 +1,6 @@
 //! Cloth meshes from Wavefront OBJ and glTF 2.0 files: the file's vertices
-//! and faces, checked, then turned into a [`Model`] (see [`Mesh::model`]).
+//! and faces, checked, then turned into a [`Model`](crate::Model) (see
+//! [`Mesh::model`]).
 //!
 //! # What a mesh file gives
 //!
