@@ -491,6 +491,14 @@ fn region_pins_pin_exactly_the_particles_inside_the_box() {
     let grid = Model::new(&spec, &params.springs).expect("valid");
     let expected: Vec<bool> = (0..24).map(|p| p < 6).collect();
     assert_eq!(grid.pinned, expected);
+    // Bounds are included: a flat box exactly through row 0 (y = 1,
+    // z = −0.3) pins it too.
+    let flat = ClothSpec {
+        pins: vec![Pin::Region([[-1.0, 1.0, -0.3], [1.0, 1.0, -0.3]])],
+        ..spec.clone()
+    };
+    let grid = Model::new(&flat, &params.springs).expect("valid");
+    assert_eq!(grid.pinned, expected);
     // A mesh: a box over a corner of the irregular sheet pins the vertices
     // whose placed position is inside, which are neither none nor all.
     let mesh = parse(&irregular_obj(9, 7), "sheet.obj").expect("a valid mesh");
