@@ -682,6 +682,12 @@ fn a_mesh_cloth_steps_the_same_on_both_backends_from_a_scene_file() {
     )
     .expect("write");
     let scene = Scene::load(&scene_path).expect("a valid scene");
+    // A mesh's defaults: no pins, the file's own placement.
+    std::fs::write(dir.join("bare.toml"), "[cloth]\nmesh = \"sheet.obj\"\n").expect("write");
+    let bare = Scene::load(&dir.join("bare.toml")).expect("a valid scene");
+    let bare_model = bare.model().expect("valid");
+    assert_eq!(bare_model.pinned_count(), 0);
+    assert_eq!(bare_model.rest_positions[5], [1.0, 0.0, 0.0]);
     let model = scene.model().expect("valid");
     assert_eq!(model.particle_count(), 30);
     // Scaled, then moved: vertex 5 (the first row's last, at x = 1 in the

@@ -102,6 +102,12 @@ pub(super) struct MeshKeys {
     pub(super) name: Option<String>,
     /// `scale` (default 1).
     pub(super) scale: f64,
+    /// Whether the file gives `origin` (a mesh's default is `[0, 0, 0]`,
+    /// not the grid's).
+    pub(super) origin_given: bool,
+    /// Whether the file gives `pins` (a mesh's default is none, not the
+    /// grid's top corners).
+    pub(super) pins_given: bool,
 }
 
 #[derive(Deserialize, Default)]
@@ -286,6 +292,8 @@ impl SceneFile {
             file: file.clone(),
             name: c.mesh_name.clone(),
             scale: c.scale.map_or(1.0, f64::from),
+            origin_given: c.origin.is_some(),
+            pins_given: c.pins.is_some(),
         }))
     }
 

@@ -121,7 +121,7 @@ impl Scene {
         let parsed: file::SceneFile =
             serde_path_to_error::deserialize(de).map_err(|e| fail(describe(text, &e)))?;
         let mesh_keys = parsed.mesh_keys().map_err(fail)?;
-        let (cloth, params, duration, camera) = parsed.into_parts();
+        let (mut cloth, params, duration, camera) = parsed.into_parts();
         // The key names in `InvalidParameter` are already the file's
         // spelling, so its message is the scene message as is.
         params
@@ -135,6 +135,12 @@ impl Scene {
                 None
             }
             Some(keys) => {
+                if !keys.origin_given {
+                    cloth.origin = [0.0; 3];
+                }
+                if !keys.pins_given {
+                    cloth.pins.clear();
+                }
                 check(
                     "cloth.scale",
                     keys.scale,
