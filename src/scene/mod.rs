@@ -263,7 +263,7 @@ impl Scene {
     }
 
     /// The cloth in a few words: `33 × 33 = 1089 particles` for a grid,
-    /// `mesh banner.gltf, 936 particles` for a mesh.
+    /// `mesh banner.gltf, 432 particles` for a mesh.
     pub fn cloth_summary(&self) -> String {
         match &self.mesh {
             Some(mesh) => format!(
