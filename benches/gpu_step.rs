@@ -335,16 +335,7 @@ fn gpu_step(c: &mut Criterion) {
             let mut g = gpu_solver(&ctx, &model, &params);
             group.throughput(Throughput::Elements((n * n) as u64));
             group.bench_function(BenchmarkId::new(integrator.as_str(), n * n), |b| {
-                b.iter_custom(|iters| {
-                    let t = Instant::now();
-                    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-                    g.encode_steps(&mut encoder, iters as u32);
-                    ctx.queue.submit([encoder.finish()]);
-                    if let Err(e) = ctx.device.poll(wgpu::PollType::wait_indefinitely()) {
-                        panic!("poll: {e}");
-                    }
-                    t.elapsed()
-                })
+                b.iter_custom(|iters| common::submit_and_wait(&ctx, &mut g, iters))
             });
         }
     }

@@ -143,6 +143,17 @@ pub enum Error {
         /// The bound crossed, with the numbers.
         crossed: crate::diagnostics::Crossed,
     },
+
+    /// A cloth's mesh file (`[cloth] mesh`) could not be read, parsed or
+    /// used: nothing was built from it.
+    #[error("mesh file {}: {message}", path.display())]
+    Mesh {
+        /// The mesh file.
+        path: PathBuf,
+        /// What is wrong: where (an OBJ line, a glTF JSON path, a face) and
+        /// what is allowed.
+        message: String,
+    },
 }
 
 /// `Result` with the library's [`Error`].

@@ -65,14 +65,19 @@ pub enum Edge {
 }
 
 /// Which particles are pinned.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Pin {
     /// One corner particle.
     Corner(Corner),
     /// Every particle of one edge.
     Edge(Edge),
-    /// A particle by index (row-major, see the module docs).
+    /// A particle by index (row-major, see the module docs; a mesh's
+    /// vertex index, 0-based in file order).
     Index(usize),
+    /// Every particle whose rest position lies in the box `[lo, hi]`
+    /// (bounds included; world coordinates \[m\], after a mesh's `scale`
+    /// and `origin`); it must hold at least one particle.
+    Region([[f64; 3]; 2]),
 }
 
 impl Pin {
@@ -94,6 +99,43 @@ impl Pin {
     /// The names [`Pin::parse`] accepts.
     pub const NAMES: &'static str =
         "top-left, top-right, bottom-left, bottom-right, top, bottom, left, right";
+
+    /// Whether `p` lies in a [`Pin::Region`]'s box (`false` for other pins).
+    pub fn contains(&self, p: [f64; 3]) -> bool {
+        match self {
+            Pin::Region([lo, hi]) => (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k]),
+            _ => false,
+        }
+    }
+
+    /// Refuses a [`Pin::Region`] whose box is not finite or has a lower
+    /// corner above its upper one; `key` is its scene-file key.
+    pub(crate) fn check_region(&self, key: &str) -> Result<()> {
+        let Pin::Region([lo, hi]) = self else {
+            return Ok(());
+        };
+        for k in 0..3 {
+            check_finite(&format!("{key}.box[0][{k}]"), lo[k], "m")?;
+            check_finite(&format!("{key}.box[1][{k}]"), hi[k], "m")?;
+            if lo[k] > hi[k] {
+                return Err(invalid(
+                    &format!("{key}.box"),
+                    "[[x0, y0, z0], [x1, y1, z1]] with x0 ≤ x1, y0 ≤ y1 and z0 ≤ z1 (m)",
+                    format!("{lo:?} to {hi:?}"),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The error for a [`Pin::Region`] at `key` that holds no particle.
+    pub(crate) fn empty_region(&self, key: &str) -> Error {
+        invalid(
+            key,
+            "a box holding at least one particle's rest position (world coordinates, m)",
+            format!("{self:?}, which holds none"),
+        )
+    }
 }
 
 /// The geometry and mass of a rectangular cloth.
@@ -170,17 +212,43 @@ impl ClothSpec {
         }
         check("cloth.mass", self.mass, self.mass > 0.0, "> 0 (kg, total)")?;
         for (k, pin) in self.pins.iter().enumerate() {
-            if let Pin::Index(i) = *pin {
-                if i >= count {
+            let key = format!("cloth.pins[{k}]");
+            match *pin {
+                Pin::Index(i) if i >= count => {
                     return Err(invalid(
-                        &format!("cloth.pins[{k}]"),
+                        &key,
                         &format!("a particle index below {count} or one of {}", Pin::NAMES),
                         i,
                     ));
                 }
+                Pin::Region(_) => {
+                    pin.check_region(&key)?;
+                    if self.pin_indices(*pin).is_empty() {
+                        return Err(pin.empty_region(&key));
+                    }
+                }
+                _ => {}
             }
         }
         Ok(())
+    }
+
+    /// Rest position of particle `p` \[m\] (see the module docs).
+    pub fn rest_position(&self, p: usize) -> [f64; 3] {
+        let (nx, ny) = (self.nx, self.ny);
+        let dw = self.size[0] / (nx - 1) as f64;
+        let dh = self.size[1] / (ny - 1) as f64;
+        let (u, v) = match self.orientation {
+            Orientation::Horizontal => ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
+            Orientation::Vertical => ([1.0, 0.0, 0.0], [0.0, -1.0, 0.0]),
+        };
+        let o = self.origin;
+        let (a, b) = ((p % nx) as f64 * dw, (p / nx) as f64 * dh);
+        [
+            o[0] + a * u[0] + b * v[0],
+            o[1] + a * u[1] + b * v[1],
+            o[2] + a * u[2] + b * v[2],
+        ]
     }
 
     /// Number of particles.
@@ -221,6 +289,9 @@ impl ClothSpec {
             Pin::Edge(Edge::Left) => (0..ny).map(|r| r * nx).collect(),
             Pin::Edge(Edge::Right) => (0..ny).map(|r| r * nx + nx - 1).collect(),
             Pin::Index(i) => vec![i],
+            Pin::Region(_) => (0..nx * ny)
+                .filter(|&p| pin.contains(self.rest_position(p)))
+                .collect(),
         }
     }
 }
@@ -236,6 +307,16 @@ pub struct Spring {
     pub rest: f64,
     /// Which kind (selects stiffness, damping and max stretch).
     pub kind: SpringKind,
+}
+
+impl Spring {
+    /// The spring `i–j` of `kind` at rest in `positions`: its rest length
+    /// is their distance \[m\].
+    pub fn at_rest(positions: &[[f64; 3]], i: u32, j: u32, kind: SpringKind) -> Spring {
+        let (a, b) = (positions[i as usize], positions[j as usize]);
+        let rest = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        Spring { i, j, rest, kind }
+    }
 }
 
 /// A compressed per-particle list (CSR): the entries of particle `p` are
@@ -327,24 +408,8 @@ impl Model {
             budget::model_bytes(n as u64, springs as u64, triangles as u64),
             || format!("the {nx} × {ny} cloth's model ({n} particles, {springs} springs)"),
         )?;
-        let dw = spec.size[0] / (nx - 1) as f64;
-        let dh = spec.size[1] / (ny - 1) as f64;
-        let (u, v) = match spec.orientation {
-            Orientation::Horizontal => ([1.0, 0.0, 0.0], [0.0, 0.0, 1.0]),
-            Orientation::Vertical => ([1.0, 0.0, 0.0], [0.0, -1.0, 0.0]),
-        };
-        let o = spec.origin;
         let mut rest_positions = try_with_capacity(n, MODEL)?;
-        for row in 0..ny {
-            for col in 0..nx {
-                let (a, b) = (col as f64 * dw, row as f64 * dh);
-                rest_positions.push([
-                    o[0] + a * u[0] + b * v[0],
-                    o[1] + a * u[1] + b * v[1],
-                    o[2] + a * u[2] + b * v[2],
-                ]);
-            }
-        }
+        rest_positions.extend((0..n).map(|p| spec.rest_position(p)));
         let idx = |row: usize, col: usize| (row * nx + col) as u32;
         let mut springs = try_with_capacity(springs, MODEL)?;
         for kind in SpringKind::ALL {
@@ -379,11 +444,7 @@ impl Model {
                     }
                 }
                 for (i, j) in pairs {
-                    let (a, b) = (rest_positions[i as usize], rest_positions[j as usize]);
-                    let rest =
-                        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2))
-                            .sqrt();
-                    springs.push(Spring { i, j, rest, kind });
+                    springs.push(Spring::at_rest(&rest_positions, i, j, kind));
                 }
             }
         }

@@ -128,17 +128,7 @@ fn a_moved_pin_drags_the_cloth() {
 
 #[test]
 fn a_cloth_too_large_for_the_device_is_refused_naming_the_limit() {
-    let ctx = gpu();
-    let small = wgpu::Limits {
-        max_storage_buffer_binding_size: 1 << 20,
-        ..ctx.adapter.limits()
-    };
-    let (device, queue) = pollster::block_on(ctx.adapter.request_device(&wgpu::DeviceDescriptor {
-        label: Some("small"),
-        required_limits: small,
-        ..Default::default()
-    }))
-    .expect("a device with lower limits");
+    let (device, queue) = small_device();
     let p = busy_params(Integrator::Explicit);
     let spec = ClothSpec {
         nx: 129,

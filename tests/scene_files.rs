@@ -26,9 +26,12 @@ fn every_builtin_scene_loads_validates_and_builds() {
         let scene = Scene::builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(scene.name, name);
         scene.params.validate().expect("params valid");
-        scene.cloth.validate().expect("cloth valid");
+        match &scene.mesh {
+            Some(mesh) => mesh.validate(&scene.cloth).expect("mesh cloth valid"),
+            None => scene.cloth.validate().expect("cloth valid"),
+        }
         let model = scene.model().unwrap_or_else(|e| panic!("{name}: {e}"));
-        assert_eq!(model.particle_count(), scene.cloth.nx * scene.cloth.ny);
+        assert_eq!(model.particle_count(), scene.particle_count());
         // The embedded text and the file on disk are the same scene.
         let on_disk = Scene::load(&repo_path(&format!("scenes/{name}.toml"))).expect("loads");
         assert_eq!(on_disk, scene, "{name}: file and built-in differ");
@@ -709,6 +712,86 @@ const BAD_SCENES: &[Row] = &[
         "duplicate key",
         "[simulation]\ndt = 0.01\ndt = 0.02\n",
         &["TOML syntax error", "duplicate key", "line 3"],
+    ),
+    // Mesh cloths (the mesh path is relative to the scene's folder, here
+    // the crate root where tests run).
+    row(
+        "resolution beside mesh",
+        "[cloth]\nmesh = \"scenes/tablecloth.obj\"\nresolution = [4, 4]\n",
+        &[
+            "`cloth.resolution` conflicts with `cloth.mesh`",
+            "origin",
+            "scale",
+        ],
+    ),
+    row(
+        "size beside mesh",
+        "[cloth]\nmesh = \"scenes/tablecloth.obj\"\nsize = [1, 1]\n",
+        &["`cloth.size` conflicts with `cloth.mesh`"],
+    ),
+    row(
+        "orientation beside mesh",
+        "[cloth]\nmesh = \"scenes/tablecloth.obj\"\norientation = \"vertical\"\n",
+        &["`cloth.orientation` conflicts with `cloth.mesh`"],
+    ),
+    row(
+        "scale without mesh",
+        "[cloth]\nscale = 2\n",
+        &["`cloth.scale`", "only a mesh cloth"],
+    ),
+    row(
+        "mesh_name without mesh",
+        "[cloth]\nmesh_name = \"sail\"\n",
+        &["`cloth.mesh_name`", "only a mesh cloth"],
+    ),
+    row(
+        "scale zero",
+        "[cloth]\nmesh = \"scenes/tablecloth.obj\"\nscale = 0\n",
+        &["`cloth.scale`", "> 0", "got 0"],
+    ),
+    row(
+        "corner pin on a mesh",
+        "[cloth]\nmesh = \"scenes/tablecloth.obj\"\npins = [\"top-left\"]\n",
+        &[
+            "`cloth.pins[0]`",
+            "vertex index below 631",
+            "corner and edge names are for grid",
+        ],
+    ),
+    row(
+        "mesh pin index out of range",
+        "[cloth]\nmesh = \"scenes/tablecloth.obj\"\npins = [3, 631]\n",
+        &["`cloth.pins[1]`", "vertex index below 631", "got 631"],
+    ),
+    row(
+        "box pinning nothing on a grid",
+        "[cloth]\npins = [{ box = [[5, 5, 5], [6, 6, 6]] }]\n",
+        &["`cloth.pins[0]`", "at least one particle", "holds none"],
+    ),
+    row(
+        "box pinning nothing on a mesh",
+        "[cloth]\nmesh = \"scenes/tablecloth.obj\"\npins = [{ box = [[5, 5, 5], [6, 6, 6]] }]\n",
+        &["`cloth.pins[0]`", "at least one particle", "holds none"],
+    ),
+    row(
+        "box inside out",
+        "[cloth]\npins = [{ box = [[1, 1, 1], [0, 2, 2]] }]\n",
+        &["`cloth.pins[0].box`", "x0 ≤ x1"],
+    ),
+    row(
+        "box with a misspelt key",
+        "[cloth]\npins = [{ boxx = [[0, 0, 0], [1, 1, 1]] }]\n",
+        &["`cloth.pins[0].boxx`", "unknown key `boxx`", "`box`"],
+    ),
+    row(
+        "box of one corner",
+        "[cloth]\npins = [{ box = [[0, 0, 0]] }]\n",
+        &[
+            "`cloth.pins[0].box`",
+            "expected exactly 2",
+            "got 1",
+            "two corners in m",
+        ],
     ),
     Row {
         what: "missing file",

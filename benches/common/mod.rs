@@ -1,5 +1,8 @@
 //! Shared by the benches: the benchmark scene.
 
+use std::time::{Duration, Instant};
+
+use wgcloth::gpu::{GpuContext, GpuSolver};
 use wgcloth::params::Integrator;
 use wgcloth::Scene;
 
@@ -24,4 +27,18 @@ pub fn grown_hanging(integrator: Integrator, n: usize) -> Scene {
         scene.params.dt = 0.02;
     }
     scene
+}
+
+/// Wall time of `steps` GPU steps recorded into one encoder, one submit,
+/// then a wait: criterion's `iter_custom` body for a GPU step.
+#[allow(dead_code, reason = "cpu_step times no GPU")]
+pub fn submit_and_wait(ctx: &GpuContext, g: &mut GpuSolver, steps: u64) -> Duration {
+    let t = Instant::now();
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    g.encode_steps(&mut encoder, steps as u32);
+    ctx.queue.submit([encoder.finish()]);
+    if let Err(e) = ctx.device.poll(wgpu::PollType::wait_indefinitely()) {
+        panic!("poll: {e}");
+    }
+    t.elapsed()
 }

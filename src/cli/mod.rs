@@ -427,6 +427,7 @@ fn exit_status(err: &anyhow::Error) -> u8 {
                 // memory is the input's fault.
                 wgcloth::Error::InvalidParameter { .. }
                 | wgcloth::Error::Scene { .. }
+                | wgcloth::Error::Mesh { .. }
                 | wgcloth::Error::UnknownScene { .. }
                 | wgcloth::Error::DeviceLimit { .. }
                 | wgcloth::Error::NotAFile { .. }

@@ -12,12 +12,9 @@ pub fn list() -> anyhow::Result<()> {
         // A built-in that does not load is a bug in the crate, not the
         // user's input: say which one.
         let scene = Scene::builtin(name).with_context(|| format!("built-in scene `{name}`"))?;
-        let c = &scene.cloth;
         println!(
-            "{name:<width$}  {} × {} = {} particles, {}, dt = {} s, {} s",
-            c.nx,
-            c.ny,
-            c.particle_count(),
+            "{name:<width$}  {}, {}, dt = {} s, {} s",
+            scene.cloth_summary(),
             scene.params.integrator,
             scene.params.dt,
             scene.duration

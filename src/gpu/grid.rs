@@ -516,7 +516,8 @@ mod tests {
         assert!(GridLayout::of(&model, &Params::default()).is_none());
     }
 
-    /// Every built-in scene gets the grid kernels.
+    /// Every built-in grid scene gets the grid kernels, and a mesh scene
+    /// the general ones.
     #[test]
     fn built_in_scenes_are_grids() {
         for &name in crate::Scene::builtin_names() {
@@ -528,7 +529,8 @@ mod tests {
                 Ok(m) => m,
                 Err(e) => panic!("{name}: {e}"),
             };
-            assert!(GridLayout::of(&model, &scene.params).is_some(), "{name}");
+            let grid = GridLayout::of(&model, &scene.params).is_some();
+            assert_eq!(grid, scene.mesh.is_none(), "{name}");
         }
     }
 }

@@ -11,7 +11,8 @@
 use std::fmt;
 use std::marker::PhantomData;
 
-use serde::de::{self, Deserializer, Visitor};
+use serde::de::value::MapAccessDeserializer;
+use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
 
 use super::shape::{Exactly, Form, List, Number, Table, Whole};
@@ -88,6 +89,25 @@ struct ClothTable {
     orientation: Option<Choice<Orientation>>,
     mass: Option<Number>,
     pins: Option<List<PinEntry>>,
+    mesh: Option<String>,
+    mesh_name: Option<String>,
+    scale: Option<Number>,
+}
+
+/// The `[cloth]` keys of a mesh cloth, not yet read or checked.
+pub(super) struct MeshKeys {
+    /// `mesh`, as written (relative to the scene file's folder).
+    pub(super) file: String,
+    /// `mesh_name`.
+    pub(super) name: Option<String>,
+    /// `scale` (default 1).
+    pub(super) scale: f64,
+    /// Whether the file gives `origin` (a mesh's default is `[0, 0, 0]`,
+    /// not the grid's).
+    pub(super) origin_given: bool,
+    /// Whether the file gives `pins` (a mesh's default is none, not the
+    /// grid's top corners).
+    pub(super) pins_given: bool,
 }
 
 #[derive(Deserialize, Default)]
@@ -194,8 +214,21 @@ impl Form for SphereTable {
 }
 
 impl Form for PinEntry {
-    const ONE: &'static str = "a pin name or a particle index";
-    const MANY: &'static str = "pin names and particle indices";
+    const ONE: &'static str = "a pin name, a particle index or a box";
+    const MANY: &'static str = "pin names, particle indices and boxes";
+}
+
+impl Form for Vec3 {
+    const ONE: &'static str = "[x, y, z], three numbers in m";
+    const MANY: &'static str = "[x, y, z] corners";
+}
+
+/// A region pin: `{ box = [[x0, y0, z0], [x1, y1, z1]] }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RegionPin {
+    #[serde(rename = "box")]
+    bounds: Exactly<Vec3, 2>,
 }
 
 /// Overwrites `slot` when the file gave a value.
@@ -224,6 +257,46 @@ impl<const N: usize> From<Exactly<Number, N>> for [f64; N] {
 }
 
 impl SceneFile {
+    /// The mesh keys when `[cloth]` has `mesh`; refuses the grid's keys
+    /// beside it, and the mesh's keys without it.
+    pub(super) fn mesh_keys(&self) -> Result<Option<MeshKeys>, String> {
+        let c = &self.cloth.0;
+        let Some(file) = &c.mesh else {
+            for (key, given) in [
+                ("mesh_name", c.mesh_name.is_some()),
+                ("scale", c.scale.is_some()),
+            ] {
+                if given {
+                    return Err(format!(
+                        "`cloth.{key}`: only a mesh cloth (`cloth.mesh = \"file.obj\"`) takes \
+                         it; remove it or give `cloth.mesh`"
+                    ));
+                }
+            }
+            return Ok(None);
+        };
+        for (key, given) in [
+            ("resolution", c.resolution.is_some()),
+            ("size", c.size.is_some()),
+            ("orientation", c.orientation.is_some()),
+        ] {
+            if given {
+                return Err(format!(
+                    "`cloth.{key}` conflicts with `cloth.mesh`: a mesh cloth takes its \
+                     particles, size and shape from the mesh file (place it with `origin` and \
+                     `scale`); remove `{key}`"
+                ));
+            }
+        }
+        Ok(Some(MeshKeys {
+            file: file.clone(),
+            name: c.mesh_name.clone(),
+            scale: c.scale.map_or(1.0, f64::from),
+            origin_given: c.origin.is_some(),
+            pins_given: c.pins.is_some(),
+        }))
+    }
+
     /// The cloth, the parameters, the duration \[s\] and the camera this file
     /// describes, not yet validated.
     pub(super) fn into_parts(self) -> (ClothSpec, Params, f64, CameraSpec) {
@@ -398,15 +471,20 @@ struct PinEntry(Pin);
 impl<'de> Deserialize<'de> for PinEntry {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         struct PinVisitor;
-        impl Visitor<'_> for PinVisitor {
+        impl<'de> Visitor<'de> for PinVisitor {
             type Value = PinEntry;
             fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-                write!(f, "one of {} or a particle index", Pin::NAMES)
+                write!(
+                    f,
+                    "one of {}, a particle index or {{ box = [[x0, y0, z0], [x1, y1, z1]] }}",
+                    Pin::NAMES
+                )
             }
             fn visit_str<E: de::Error>(self, s: &str) -> Result<PinEntry, E> {
                 Pin::parse(s).map(PinEntry).ok_or_else(|| {
                     E::custom(format!(
-                        "unknown pin `{s}`, expected one of {} or a particle index",
+                        "unknown pin `{s}`, expected one of {}, a particle index or \
+                         {{ box = [[x0, y0, z0], [x1, y1, z1]] }}",
                         Pin::NAMES
                     ))
                 })
@@ -425,6 +503,10 @@ impl<'de> Deserialize<'de> for PinEntry {
                         "pin index {i} is negative, expected a particle index ≥ 0"
                     ))),
                 }
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<PinEntry, A::Error> {
+                let region = RegionPin::deserialize(MapAccessDeserializer::new(map))?;
+                Ok(PinEntry(Pin::Region(region.bounds.0.map(<[f64; 3]>::from))))
             }
         }
         d.deserialize_any(PinVisitor)

@@ -5,18 +5,23 @@
 //! and what is allowed. Nothing partial is ever returned.
 //!
 //! The format is described key by key in `docs/scene-format.md`. The schema
-//! lives in `file.rs`; ranges are checked by [`ClothSpec::validate`] and
-//! [`Params::validate`] only, so a file and the library API accept exactly
-//! the same values.
+//! lives in `file.rs`; ranges are checked by [`ClothSpec::validate`] (a
+//! mesh cloth's by [`MeshCloth::validate`]) and [`Params::validate`] only,
+//! so a file and the library API accept exactly the same values.
+//!
+//! A mesh cloth's file (`[cloth] mesh`) is read when the scene is, relative
+//! to the scene file's folder, so a bad mesh fails the load. A built-in
+//! scene's mesh is embedded in the crate with the scene.
 
 mod file;
 mod shape;
 
 use std::fmt::Write as _;
 use std::io::Read as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::mesh::{Mesh, MeshCloth};
 use crate::model::{ClothSpec, Model};
 use crate::params::{check, check_finite, Params};
 
@@ -25,8 +30,11 @@ use crate::params::{check, check_finite, Params};
 pub struct Scene {
     /// Display name (the built-in name or the file stem).
     pub name: String,
-    /// The cloth's geometry and mass.
+    /// The cloth's geometry and mass. For a mesh cloth only its `origin`,
+    /// `mass` and `pins` apply.
     pub cloth: ClothSpec,
+    /// The mesh, for a mesh cloth (`[cloth] mesh`); `None` for a grid.
+    pub mesh: Option<MeshCloth>,
     /// Everything else.
     pub params: Params,
     /// How long the scene runs by default \[s\] (`[simulation] duration`).
@@ -89,6 +97,16 @@ impl Scene {
     /// Parses and validates a scene from TOML text; `path` is used in error
     /// messages (and its stem as the scene's name) only.
     pub fn from_toml(text: &str, path: &Path) -> Result<Scene> {
+        Scene::from_toml_with(text, path, &|file, name| Mesh::load(file, name))
+    }
+
+    /// [`Scene::from_toml`] with `read_mesh` reading a mesh cloth's file
+    /// (already resolved against the scene's folder) and picking its mesh.
+    fn from_toml_with(
+        text: &str,
+        path: &Path,
+        read_mesh: &dyn Fn(&Path, Option<&str>) -> Result<Mesh>,
+    ) -> Result<Scene> {
         let fail = |message: String| Error::Scene {
             path: path.to_path_buf(),
             message,
@@ -102,21 +120,52 @@ impl Scene {
         })?;
         let parsed: file::SceneFile =
             serde_path_to_error::deserialize(de).map_err(|e| fail(describe(text, &e)))?;
-        let (cloth, params, duration, camera) = parsed.into_parts();
+        let mesh_keys = parsed.mesh_keys().map_err(fail)?;
+        let (mut cloth, params, duration, camera) = parsed.into_parts();
         // The key names in `InvalidParameter` are already the file's
         // spelling, so its message is the scene message as is.
         params
             .validate()
             .and_then(|()| check_duration(duration))
-            .and_then(|()| cloth.validate())
             .and_then(|()| camera.validate())
             .map_err(|e| fail(e.to_string()))?;
+        let mesh = match mesh_keys {
+            None => {
+                cloth.validate().map_err(|e| fail(e.to_string()))?;
+                None
+            }
+            Some(keys) => {
+                if !keys.origin_given {
+                    cloth.origin = [0.0; 3];
+                }
+                if !keys.pins_given {
+                    cloth.pins.clear();
+                }
+                check(
+                    "cloth.scale",
+                    keys.scale,
+                    keys.scale > 0.0,
+                    "> 0 (a factor)",
+                )
+                .map_err(|e| fail(e.to_string()))?;
+                let file = path.parent().unwrap_or(Path::new("")).join(&keys.file);
+                let mesh = MeshCloth {
+                    mesh: read_mesh(&file, keys.name.as_deref())?,
+                    path: PathBuf::from(keys.file),
+                    mesh_name: keys.name,
+                    scale: keys.scale,
+                };
+                mesh.validate(&cloth).map_err(|e| fail(e.to_string()))?;
+                Some(mesh)
+            }
+        };
         let name = path
             .file_stem()
             .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
         Ok(Scene {
             name,
             cloth,
+            mesh,
             params,
             duration,
             camera,
@@ -137,7 +186,14 @@ impl Scene {
 
     /// The names of the built-in scenes.
     pub fn builtin_names() -> &'static [&'static str] {
-        &["hanging", "curtain", "flag", "drape"]
+        &[
+            "hanging",
+            "curtain",
+            "flag",
+            "drape",
+            "tablecloth",
+            "banner",
+        ]
     }
 
     /// A built-in scene by name.
@@ -148,6 +204,8 @@ impl Scene {
             "curtain" => include_str!("../../scenes/curtain.toml"),
             "flag" => include_str!("../../scenes/flag.toml"),
             "drape" => include_str!("../../scenes/drape.toml"),
+            "tablecloth" => include_str!("../../scenes/tablecloth.toml"),
+            "banner" => include_str!("../../scenes/banner.toml"),
             _ => {
                 return Err(Error::UnknownScene {
                     name: name.to_string(),
@@ -155,7 +213,16 @@ impl Scene {
                 })
             }
         };
-        Scene::from_toml(text, &Path::new("scenes").join(format!("{name}.toml")))
+        let path = Path::new("scenes").join(format!("{name}.toml"));
+        Scene::from_toml_with(text, &path, &|file, mesh_name| {
+            let bytes = builtin_mesh(file).ok_or_else(|| Error::Mesh {
+                path: file.to_path_buf(),
+                message: "is not a mesh embedded with the built-in scenes".to_string(),
+            })?;
+            Mesh::parse(bytes, file, mesh_name, &|uri| {
+                Err(format!("a built-in mesh has no external buffer `{uri}`"))
+            })
+        })
     }
 
     /// A path to a scene file if one exists there, else a built-in name.
@@ -181,8 +248,49 @@ impl Scene {
 
     /// Builds the model this scene describes.
     pub fn model(&self) -> Result<Model> {
-        Model::new(&self.cloth, &self.params.springs)
+        match &self.mesh {
+            Some(mesh) => mesh.model(&self.cloth, &self.params.springs),
+            None => Model::new(&self.cloth, &self.params.springs),
+        }
     }
+
+    /// Number of particles of the cloth.
+    pub fn particle_count(&self) -> usize {
+        match &self.mesh {
+            Some(mesh) => mesh.mesh.vertex_count(),
+            None => self.cloth.particle_count(),
+        }
+    }
+
+    /// The cloth in a few words: `33 × 33 = 1089 particles` for a grid,
+    /// `mesh banner.gltf, 432 particles` for a mesh.
+    pub fn cloth_summary(&self) -> String {
+        match &self.mesh {
+            Some(mesh) => format!(
+                "mesh {}, {} particles",
+                mesh.path.display(),
+                mesh.mesh.vertex_count()
+            ),
+            None => format!(
+                "{} × {} = {} particles",
+                self.cloth.nx,
+                self.cloth.ny,
+                self.cloth.particle_count()
+            ),
+        }
+    }
+}
+
+/// The mesh files of the built-in scenes, embedded so a built-in scene
+/// works from any working directory; `file` as the scene resolves it
+/// (`scenes/<file>`).
+fn builtin_mesh(file: &Path) -> Option<&'static [u8]> {
+    let name = file.strip_prefix("scenes").ok()?.to_str()?;
+    Some(match name {
+        "tablecloth.obj" => include_bytes!("../../scenes/tablecloth.obj"),
+        "banner.gltf" => include_bytes!("../../scenes/banner.gltf"),
+        _ => return None,
+    })
 }
 
 /// Largest scene file read \[bytes\]: the built-in scenes are about 1 KiB
@@ -287,7 +395,7 @@ fn describe(text: &str, err: &serde_path_to_error::Error<toml::de::Error>) -> St
 /// What a key's value looks like, with its unit, to follow serde's terse
 /// "expected f64". Ranges are left to `validate`'s messages.
 fn expected_shape(key: &str) -> Option<&'static str> {
-    if key.starts_with("cloth.pins[") {
+    if key.starts_with("cloth.pins[") && !key.ends_with(".box") {
         // The pin parser's own message already lists every allowed entry.
         return None;
     }
@@ -313,7 +421,14 @@ fn expected_shape(key: &str) -> Option<&'static str> {
         "cloth.size" => "[width, height], two numbers in m",
         "cloth.origin" | "sphere.center" => "[x, y, z], three numbers in m",
         "cloth.mass" => "a number of kg (the whole cloth)",
-        "cloth.pins" => "an array of pin names and particle indices, e.g. [\"top-left\", 5]",
+        "cloth.pins" => {
+            "an array of pin names, particle indices and boxes, e.g. \
+             [\"top-left\", 5, { box = [[0, 1, 0], [0.1, 1, 0.1]] }]"
+        }
+        "cloth.pins.box" => "[[x0, y0, z0], [x1, y1, z1]], two corners in m",
+        "cloth.mesh" => "a file path in quotes (.obj, .gltf or .glb), relative to the scene file",
+        "cloth.mesh_name" => "the name of a mesh of the glTF file, in quotes",
+        "cloth.scale" => "a number (a factor on the mesh file's coordinates)",
         "springs.stiffness" => "a number in N/m",
         "springs.damping" => "a number in N·s/m",
         "springs.max_stretch" => "a number, a multiple of the rest length",

@@ -100,3 +100,19 @@ pub fn grid(nx: usize, ny: usize, pins: Vec<Pin>, params: &Params) -> Model {
     };
     Model::new(&spec, &params.springs).expect("valid grid")
 }
+
+/// A device on the test adapter whose storage buffer bindings are limited
+/// to 1 MiB, so a 129² cloth is beyond it.
+pub fn small_device() -> (wgpu::Device, wgpu::Queue) {
+    let ctx = gpu();
+    let small = wgpu::Limits {
+        max_storage_buffer_binding_size: 1 << 20,
+        ..ctx.adapter.limits()
+    };
+    pollster::block_on(ctx.adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("small"),
+        required_limits: small,
+        ..Default::default()
+    }))
+    .expect("a device with lower limits")
+}

@@ -1,0 +1,255 @@
+//! Writes the built-in scenes' mesh files: `scenes/tablecloth.obj` (a round
+//! cloth, an irregular triangulation in rings) and `scenes/banner.gltf` (a
+//! banner with a round hole, triangles graded towards the hole, its buffer
+//! embedded). Deterministic: the same files on every run and machine.
+//!
+//! `cargo run --release --example make_meshes [OUT_DIR]` (default `scenes`)
+
+use std::f64::consts::TAU;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use base64::Engine as _;
+
+/// Rings of the tablecloth around its centre vertex.
+const TABLECLOTH_RINGS: usize = 14;
+/// The tablecloth's radius \[m\].
+const TABLECLOTH_RADIUS: f64 = 0.7;
+
+/// The banner's width and height \[m\] (x to the right, y up, its top-left
+/// corner at the origin).
+const BANNER_SIZE: [f64; 2] = [1.6, 1.0];
+/// The hole's centre (from the top-left corner) and radius \[m\].
+const HOLE: ([f64; 2], f64) = ([1.0, -0.5], 0.2);
+/// Vertices around the hole, and rings from the hole out to the border:
+/// cells of at least ~2.5 cm, so the explicit integrator stays stable at
+/// the built-in scenes' 1 ms step.
+const BANNER_AROUND: usize = 48;
+const BANNER_RINGS: usize = 8;
+
+/// A number in `[-0.5, 0.5)` from `seed`: a fixed hash (splitmix64), so the
+/// meshes are irregular yet the same on every run.
+fn jitter(seed: u64) -> f64 {
+    let mut z = seed.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^= z >> 31;
+    (z >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+}
+
+/// Triangles between two closed rings of vertex indices (angles
+/// increasing), walking both and always advancing the one whose next
+/// vertex comes first: triangles of uneven size where the counts differ.
+fn stitch(inner: &[(u32, f64)], outer: &[(u32, f64)], out: &mut Vec<[u32; 3]>) {
+    let (m, n) = (inner.len(), outer.len());
+    let (mut i, mut o) = (0, 0);
+    // Angles unwrapped past 2π for the last wrap-around step.
+    let angle =
+        |ring: &[(u32, f64)], k: usize| ring[k % ring.len()].1 + TAU * (k / ring.len()) as f64;
+    while i < m || o < n {
+        let advance_inner = o == n || (i < m && angle(inner, i + 1) < angle(outer, o + 1));
+        if advance_inner {
+            out.push([inner[i % m].0, inner[(i + 1) % m].0, outer[o % n].0]);
+            i += 1;
+        } else {
+            out.push([inner[i % m].0, outer[(o + 1) % n].0, outer[o % n].0]);
+            o += 1;
+        }
+    }
+}
+
+/// Flips triangles so each faces `+axis` (1: +y, 2: +z).
+fn orient(positions: &[[f64; 3]], triangles: &mut [[u32; 3]], axis: usize) {
+    for t in triangles.iter_mut() {
+        let [a, b, c] = t.map(|p| positions[p as usize]);
+        let (u, v) = (
+            [0, 1, 2].map(|k| b[k] - a[k]),
+            [0, 1, 2].map(|k| c[k] - a[k]),
+        );
+        let normal = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        if normal[axis] < 0.0 {
+            t.swap(1, 2);
+        }
+    }
+}
+
+/// The round tablecloth in the xz-plane, centred on the origin: a centre
+/// vertex and rings of 6k vertices at jittered angles and radii.
+fn tablecloth() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let mut positions = vec![[0.0; 3]];
+    let mut rings: Vec<Vec<(u32, f64)>> = vec![vec![(0, 0.0)]];
+    for k in 1..=TABLECLOTH_RINGS {
+        let count = 6 * k;
+        let border = k == TABLECLOTH_RINGS;
+        let mut ring = Vec::new();
+        for j in 0..count {
+            let seed = (k * 1000 + j) as u64;
+            let angle = (j as f64 + 0.35 * jitter(seed)) / count as f64 * TAU;
+            // The border stays a circle; inside, radii wander by a third
+            // of a ring.
+            let dr = if border { 0.0 } else { 0.33 * jitter(seed + 7) };
+            let r = TABLECLOTH_RADIUS * (k as f64 + dr) / TABLECLOTH_RINGS as f64;
+            ring.push((positions.len() as u32, angle));
+            positions.push([r * angle.cos(), 0.0, r * angle.sin()]);
+        }
+        rings.push(ring);
+    }
+    let mut triangles = Vec::new();
+    // The centre's fan, then ring to ring.
+    let first = &rings[1];
+    for j in 0..first.len() {
+        triangles.push([0, first[j].0, first[(j + 1) % first.len()].0]);
+    }
+    for k in 1..TABLECLOTH_RINGS {
+        stitch(&rings[k], &rings[k + 1], &mut triangles);
+    }
+    orient(&positions, &mut triangles, 1);
+    (positions, triangles)
+}
+
+/// The banner in the xy-plane (top-left corner at the origin, hanging to
+/// −y) with a round hole: rings from the hole's rim out to the rectangle,
+/// evenly spaced along each ray, so triangles are small at the rim and
+/// large towards the far corners.
+fn banner() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let ([cx, cy], radius) = HOLE;
+    let [w, h] = BANNER_SIZE;
+    let mut positions = Vec::new();
+    for ring in 0..=BANNER_RINGS {
+        let s = ring as f64 / BANNER_RINGS as f64;
+        for j in 0..BANNER_AROUND {
+            let angle = j as f64 / BANNER_AROUND as f64 * TAU;
+            let (dx, dy) = (angle.cos(), angle.sin());
+            // Where the ray from the centre leaves the rectangle.
+            let tx = if dx > 0.0 {
+                (w - cx) / dx
+            } else if dx < 0.0 {
+                -cx / dx
+            } else {
+                f64::INFINITY
+            };
+            let ty = if dy > 0.0 {
+                -cy / dy
+            } else if dy < 0.0 {
+                (-h - cy) / dy
+            } else {
+                f64::INFINITY
+            };
+            let t = tx.min(ty);
+            let r = radius + s * (t - radius);
+            positions.push([cx + r * dx, cy + r * dy, 0.0]);
+        }
+    }
+    let id = |ring: usize, j: usize| (ring * BANNER_AROUND + j % BANNER_AROUND) as u32;
+    let mut triangles = Vec::new();
+    for ring in 0..BANNER_RINGS {
+        for j in 0..BANNER_AROUND {
+            let (a, b) = (id(ring, j), id(ring, j + 1));
+            let (c, d) = (id(ring + 1, j), id(ring + 1, j + 1));
+            // Alternate the diagonal so the triangulation has no bias.
+            if (ring + j) % 2 == 0 {
+                triangles.push([a, b, d]);
+                triangles.push([a, d, c]);
+            } else {
+                triangles.push([a, b, c]);
+                triangles.push([b, d, c]);
+            }
+        }
+    }
+    orient(&positions, &mut triangles, 2);
+    (positions, triangles)
+}
+
+fn obj(positions: &[[f64; 3]], triangles: &[[u32; 3]], what: &str) -> String {
+    let mut out = format!(
+        "# {what}\n# Generated by examples/make_meshes.rs; do not edit.\n# {} vertices, {} triangles\n",
+        positions.len(),
+        triangles.len()
+    );
+    for p in positions {
+        let _ = writeln!(out, "v {} {} {}", p[0], p[1], p[2]);
+    }
+    for t in triangles {
+        let _ = writeln!(out, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    out
+}
+
+/// A glTF 2.0 file with one mesh `name` of one triangle primitive, its
+/// buffer (positions as f32, then indices as u32) embedded as base64.
+fn gltf(positions: &[[f64; 3]], triangles: &[[u32; 3]], name: &str) -> String {
+    let mut bytes = Vec::new();
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in positions {
+        for k in 0..3 {
+            let x = p[k] as f32;
+            lo[k] = lo[k].min(x);
+            hi[k] = hi[k].max(x);
+            bytes.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    let position_bytes = bytes.len();
+    for i in triangles.iter().flatten() {
+        bytes.extend_from_slice(&i.to_le_bytes());
+    }
+    let index_bytes = bytes.len() - position_bytes;
+    let data = base64::engine::general_purpose::STANDARD.encode(&bytes);
+    format!(
+        r#"{{
+  "asset": {{ "version": "2.0", "generator": "wgcloth examples/make_meshes.rs" }},
+  "scene": 0,
+  "scenes": [{{ "nodes": [0] }}],
+  "nodes": [{{ "mesh": 0 }}],
+  "meshes": [{{ "name": "{name}", "primitives": [{{ "attributes": {{ "POSITION": 0 }}, "indices": 1, "mode": 4 }}] }}],
+  "accessors": [
+    {{ "bufferView": 0, "componentType": 5126, "count": {}, "type": "VEC3", "min": {lo:?}, "max": {hi:?} }},
+    {{ "bufferView": 1, "componentType": 5125, "count": {}, "type": "SCALAR" }}
+  ],
+  "bufferViews": [
+    {{ "buffer": 0, "byteOffset": 0, "byteLength": {position_bytes}, "target": 34962 }},
+    {{ "buffer": 0, "byteOffset": {position_bytes}, "byteLength": {index_bytes}, "target": 34963 }}
+  ],
+  "buffers": [{{ "byteLength": {}, "uri": "data:application/octet-stream;base64,{data}" }}]
+}}
+"#,
+        positions.len(),
+        3 * triangles.len(),
+        bytes.len()
+    )
+}
+
+/// Writes a mesh file and says what it holds.
+fn write(
+    path: &Path,
+    text: &str,
+    positions: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+) -> anyhow::Result<()> {
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))?;
+    println!(
+        "{}: {} vertices, {} triangles",
+        path.display(),
+        positions.len(),
+        triangles.len()
+    );
+    Ok(())
+}
+
+fn main() -> anyhow::Result<()> {
+    let dir = PathBuf::from(
+        std::env::args()
+            .nth(1)
+            .unwrap_or_else(|| "scenes".to_string()),
+    );
+    let (p, t) = tablecloth();
+    let text = obj(&p, &t, "A round tablecloth, 1.4 m across, in the xz-plane.");
+    write(&dir.join("tablecloth.obj"), &text, &p, &t)?;
+    let (p, t) = banner();
+    write(&dir.join("banner.gltf"), &gltf(&p, &t, "banner"), &p, &t)
+}

@@ -1,0 +1,320 @@
+//! Cloth meshes from Wavefront OBJ and glTF 2.0 files: the file's vertices
+//! and faces, checked, then turned into a [`Model`](crate::Model) (see
+//! [`Mesh::model`]).
+//!
+//! # What a mesh file gives
+//!
+//! - **Vertices** in file order: particle `i` is the file's vertex `i`
+//!   (0-based; in an OBJ the `v` lines in order, in glTF the elements of the
+//!   chosen primitive's `POSITION` accessor).
+//! - **Faces**: triangles, and in an OBJ quads (four corners). Each face's
+//!   sides get stretch springs; a quad's two diagonals get shear springs,
+//!   and it is drawn (and catches wind) as two triangles. Bend springs join
+//!   what lies on either side of each edge shared by two faces (see
+//!   [`Mesh::model`]).
+//!
+//! # What is refused
+//!
+//! Nothing is built from a mesh that has a face index out of range, a
+//! degenerate (zero-area) face, the same face twice, a non-finite
+//! coordinate, no faces, an edge shared by more than two faces
+//! (non-manifold: a spring graph could be built, but such a mesh is almost
+//! always a modelling mistake, and a sheet of cloth is a 2-manifold), a
+//! vertex in no face (it would have no area and so no mass), or more than
+//! [`MAX_PARTICLES`] vertices. Each error names the file and the OBJ line or
+//! the glTF JSON path.
+
+mod gltf;
+mod obj;
+mod topology;
+
+use std::io::Read as _;
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::model::MAX_PARTICLES;
+
+/// Largest mesh file read \[bytes\]: an OBJ of [`MAX_PARTICLES`] vertices
+/// and twice as many triangles is about 1 GiB of text, so a larger file
+/// cannot be a cloth this crate can hold, and a wrong path (a disk image,
+/// `/dev/zero` behind a link) is refused before it is read.
+pub const MAX_MESH_BYTES: u64 = 1 << 30;
+
+/// A face's area below this fraction of its longest side squared is taken
+/// as zero: the cross product of two sides rounds to noise there (its
+/// relative rounding error is ~1e-16 in `f64`), so the face has no usable
+/// normal or area.
+const DEGENERATE_AREA: f64 = 1e-12;
+
+/// One face: a triangle or (OBJ only) a quad, corners in the file's order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Face {
+    /// Vertex indices (0-based); the fourth is unused for a triangle.
+    pub corners: [u32; 4],
+    /// Whether the face is a quad.
+    pub quad: bool,
+    /// Where the face is in the file: its OBJ line (1-based) or its glTF
+    /// triangle number (0-based, in index order).
+    pub at: usize,
+}
+
+impl Face {
+    /// The face's corners, three or four.
+    pub fn corners(&self) -> &[u32] {
+        &self.corners[..if self.quad { 4 } else { 3 }]
+    }
+
+    /// The triangles the face is drawn as and catches wind with: itself,
+    /// or a quad `a b c d` as `a b c` and `a c d`.
+    pub fn triangles(&self) -> impl Iterator<Item = [u32; 3]> {
+        let [a, b, c, d] = self.corners;
+        let second = self.quad.then_some([a, c, d]);
+        std::iter::once([a, b, c]).chain(second)
+    }
+}
+
+/// How the faces of a file are named in messages.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum FacePlace {
+    /// By OBJ line.
+    Obj,
+    /// By triangle of a glTF primitive, `meshes[m].primitives[p]`.
+    Gltf(String),
+}
+
+/// A mesh as its file gives it: positions in the file's units and order,
+/// faces in file order. Built only by [`Mesh::load`] and [`Mesh::parse`],
+/// which check it (see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    /// Vertex positions, file order, in the file's units.
+    pub positions: Vec<[f64; 3]>,
+    /// Faces, file order.
+    pub faces: Vec<Face>,
+    place: FacePlace,
+}
+
+impl Mesh {
+    /// Reads, parses and checks a mesh file: `.obj`, `.gltf` or `.glb`;
+    /// `mesh_name` picks a glTF mesh by name (the first one without).
+    /// External glTF buffers are read relative to the file's folder.
+    pub fn load(path: &Path, mesh_name: Option<&str>) -> Result<Mesh> {
+        let fail = |message: String| Error::Mesh {
+            path: path.to_path_buf(),
+            message,
+        };
+        let bytes = read_mesh_bytes(path).map_err(fail)?;
+        let folder = path.parent().unwrap_or(Path::new("")).to_path_buf();
+        Mesh::parse(&bytes, path, mesh_name, &|uri| {
+            read_mesh_bytes(&folder.join(uri))
+        })
+    }
+
+    /// Parses and checks a mesh from its bytes; `path` names it in messages
+    /// and its extension gives the format; `external` reads a glTF buffer
+    /// `uri` (or says why not).
+    pub fn parse(
+        bytes: &[u8],
+        path: &Path,
+        mesh_name: Option<&str>,
+        external: &dyn Fn(&str) -> std::result::Result<Vec<u8>, String>,
+    ) -> Result<Mesh> {
+        let fail = |message: String| Error::Mesh {
+            path: path.to_path_buf(),
+            message,
+        };
+        let extension = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        let mesh = match extension.as_deref() {
+            Some("obj") => {
+                if mesh_name.is_some() {
+                    return Err(fail(
+                        "`cloth.mesh_name` picks a mesh of a glTF file; an OBJ file's \
+                         vertices and faces all make the cloth"
+                            .to_string(),
+                    ));
+                }
+                obj::parse(bytes)
+            }
+            Some("gltf" | "glb") => gltf::parse(bytes, mesh_name, external),
+            _ => Err(format!(
+                "unknown mesh format `{}`: the file name must end in .obj (Wavefront OBJ), \
+                 .gltf or .glb (glTF 2.0)",
+                extension.unwrap_or_default()
+            )),
+        }
+        .map_err(fail)?;
+        mesh.check().map_err(fail)?;
+        Ok(mesh)
+    }
+
+    /// Number of vertices (particles).
+    pub fn vertex_count(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Where face `f` is, for a message: `line 12` or
+    /// `meshes[0].primitives[0], triangle 3`.
+    fn where_face(&self, f: &Face) -> String {
+        match &self.place {
+            FacePlace::Obj => format!("line {}", f.at),
+            FacePlace::Gltf(primitive) => format!("{primitive}, triangle {}", f.at),
+        }
+    }
+
+    /// Refuses what the parsers cannot see face by face: no faces,
+    /// degenerate and duplicate faces, non-manifold edges and vertices in
+    /// no face. (Indices and coordinates are checked while parsing, where
+    /// their line or element is known.)
+    fn check(&self) -> std::result::Result<(), String> {
+        if self.faces.is_empty() {
+            return Err("has no faces: a cloth needs at least one triangle or quad \
+                        (OBJ `f` lines, a glTF primitive of mode 4, triangles)"
+                .to_string());
+        }
+        for f in &self.faces {
+            if let Some(why) = self.degenerate(f) {
+                return Err(format!(
+                    "{}: degenerate face {:?}: {why}; remove it or move its vertices apart",
+                    self.where_face(f),
+                    f.corners()
+                ));
+            }
+        }
+        let mut sorted: Vec<([u32; 4], usize)> = self
+            .faces
+            .iter()
+            .enumerate()
+            .map(|(k, f)| {
+                let mut key = [u32::MAX; 4];
+                key[..f.corners().len()].copy_from_slice(f.corners());
+                key.sort_unstable();
+                (key, k)
+            })
+            .collect();
+        sorted.sort_unstable();
+        if let Some(w) = sorted.windows(2).find(|w| w[0].0 == w[1].0) {
+            let (a, b) = (&self.faces[w[0].1], &self.faces[w[1].1]);
+            return Err(format!(
+                "{} and {}: the same face twice (vertices {:?}); remove one",
+                self.where_face(a),
+                self.where_face(b),
+                a.corners()
+            ));
+        }
+        topology::check_manifold(self)?;
+        let mut used = vec![false; self.positions.len()];
+        for f in &self.faces {
+            for &c in f.corners() {
+                used[c as usize] = true;
+            }
+        }
+        if let Some(v) = used.iter().position(|u| !u) {
+            let unused = used.iter().filter(|u| !**u).count();
+            return Err(format!(
+                "vertex {v} (0-based) is in no face ({unused} such vertices): it would have no \
+                 area and so no mass; remove the unused vertices"
+            ));
+        }
+        Ok(())
+    }
+
+    /// Why face `f` is degenerate, if it is: a corner repeated, or a
+    /// triangle of it with no area.
+    fn degenerate(&self, f: &Face) -> Option<String> {
+        let corners = f.corners();
+        for (k, a) in corners.iter().enumerate() {
+            if corners[k + 1..].contains(a) {
+                return Some(format!("vertex {a} appears twice"));
+            }
+        }
+        f.triangles().find_map(|t| {
+            let [a, b, c] = t.map(|p| self.positions[p as usize]);
+            let (area, longest) = (area(a, b, c), longest_side(a, b, c));
+            (area <= DEGENERATE_AREA * longest * longest)
+                .then(|| format!("triangle {t:?} has zero area (its corners are in a line)"))
+        })
+    }
+}
+
+/// `b − a`.
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [b[0] - a[0], b[1] - a[1], b[2] - a[2]]
+}
+
+/// Euclidean length.
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Area of the triangle `a b c` \[file units²\].
+fn area(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
+    let (u, v) = (sub(a, b), sub(a, c));
+    0.5 * norm([
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ])
+}
+
+/// Longest side of the triangle `a b c`.
+fn longest_side(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
+    norm(sub(a, b)).max(norm(sub(b, c))).max(norm(sub(c, a)))
+}
+
+/// The bytes of a mesh file, or what is wrong with the path (checked
+/// before it is opened: opening a FIFO would block).
+pub(crate) fn read_mesh_bytes(path: &Path) -> std::result::Result<Vec<u8>, String> {
+    let cannot = |e: std::io::Error| format!("cannot read {}: {e}", path.display());
+    let meta = std::fs::metadata(path).map_err(cannot)?;
+    if !meta.is_file() {
+        return Err(format!(
+            "{} is not a regular file (a directory, device, FIFO or socket), not a mesh",
+            path.display()
+        ));
+    }
+    let too_large = || {
+        format!(
+            "{} is larger than {} GiB, the most a mesh file may hold",
+            path.display(),
+            MAX_MESH_BYTES >> 30
+        )
+    };
+    if meta.len() > MAX_MESH_BYTES {
+        return Err(too_large());
+    }
+    crate::budget::check_host(meta.len(), || format!("reading {}", path.display()))
+        .map_err(|e| e.to_string())?;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)
+        .and_then(|f| f.take(MAX_MESH_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(cannot)?;
+    if bytes.len() as u64 > MAX_MESH_BYTES {
+        return Err(too_large());
+    }
+    Ok(bytes)
+}
+
+/// A vertex count over [`MAX_PARTICLES`], as a message.
+fn too_many_vertices(count: impl std::fmt::Display) -> String {
+    format!("has {count} vertices, but a cloth may have at most {MAX_PARTICLES} particles")
+}
+
+/// A scene's mesh cloth: the file and the mesh read from it, with the keys
+/// that pick and place it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshCloth {
+    /// The mesh file as the scene names it (`cloth.mesh`, relative to the
+    /// scene file's folder).
+    pub path: PathBuf,
+    /// The glTF mesh picked by name (`cloth.mesh_name`), if any.
+    pub mesh_name: Option<String>,
+    /// Factor applied to the file's coordinates before `origin` is added
+    /// (`cloth.scale`, `> 0`).
+    pub scale: f64,
+    /// The mesh.
+    pub mesh: Mesh,
+}
+
+pub use topology::Placement;
