@@ -1,10 +1,9 @@
 // CG iteration, part 1: the direction c = s + β c and its product
-// q = S A c = S A s + β q (twin: the folded direction update of
-// cpu::implicit::step), and cᵀq's term in q's w. On a grid with coarse
+// q = S A c = S A s + β q (twin: cpu::cg::apply), and cᵀq's term in q's w. On a grid with coarse
 // levels the s loaded here is cg_update's plus the level-2 correction
 // S z of its level-2 aggregate, added at each stencil point as it is
-// loaded (twin: the last loop of cpu::coarse::Coarse::level2; elsewhere
-// cg_prolong adds it before).
+// loaded (twin: cpu::cg::prolong, then cpu::cg::apply;
+// elsewhere cg_prolong adds it before).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"

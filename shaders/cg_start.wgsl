@@ -1,7 +1,7 @@
 // CG scalars, once per solve (one workgroup): δ0 from the w of W_RHS, ρ
 // from the w of W_R and δ = ρ plus the coarse terms, in the CPU's order,
-// and whether CG is done before its first iteration (twin: the loop
-// condition of cpu::implicit::step).
+// and whether CG is done before its first iteration (twin:
+// cpu::cg::start).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"

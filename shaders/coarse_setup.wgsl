@@ -1,7 +1,7 @@
 // Implicit step, per aggregate of the coarse levels: D, summed from its
 // particles' contributions (left by implicit_prepare), and its inverse
 // weighted by θ = 1 − 3 Σm / Σ tr(A_ii), or zero where D is not
-// invertible (twin: cpu::coarse::Coarse::set_up).
+// invertible (twin: cpu::coarse::Coarse::setup).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"

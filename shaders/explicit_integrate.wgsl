@@ -1,5 +1,5 @@
 // Symplectic Euler: v* = v + dt w f, x* = x + dt v* (pinned: x* = x,
-// v* = 0). Twin: cpu::explicit::step up to the fix-up.
+// v* = 0). Twin: cpu::explicit::integrate.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/no_spring_data.wgsl"

@@ -1,6 +1,6 @@
 // End of an explicit or semi-implicit step: rebuild the velocity from the
 // fixed-up position if the fix-up moved anything, resolve collisions, store.
-// Twin: cpu::finish_with_fixup after the fix-up.
+// Twin: cpu::finish_step.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 

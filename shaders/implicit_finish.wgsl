@@ -1,6 +1,6 @@
 // Implicit step end: v += Δv, friction at filtered contacts from the
-// constraint impulse, x += dt v, collisions, store. Twin: the end of
-// cpu::implicit::step and implicit::contact_friction.
+// constraint impulse, x += dt v, collisions, store. Twin:
+// cpu::implicit::finish.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"

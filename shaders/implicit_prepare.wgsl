@@ -1,8 +1,8 @@
 // Implicit step, per particle: forces, constraint filter and z, right-hand
 // side, block-diagonal preconditioner, warm-started Δv, and the partial
 // term of δ0 = (Sb)ᵀP(Sb) in the w of W_RHS; with coarse levels, the
-// particle's contributions to its aggregates' D. Twin: the particle loop
-// of cpu::implicit::step.
+// particle's contributions to its aggregates' D. Twin:
+// cpu::implicit::prepare.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
@@ -47,7 +47,7 @@ fn implicit_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
 }
 
 // A particle's contributions to its aggregates' D at both levels (twin:
-// `levels` in cpu::implicit::step): its mass times I plus the blocks of
+// `levels` in cpu::implicit::prepare): its mass times I plus the blocks of
 // its springs whose other end lies in another aggregate of that level.
 struct Levels {
     own: vec2<u32>,

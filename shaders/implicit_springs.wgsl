@@ -1,7 +1,7 @@
 // Implicit step, per spring: the linearisation at the start of the step
 // (general kernels only: on a grid each kernel linearises the springs it
-// uses from the particles' state). Twin: the spring loop of
-// cpu::implicit::step.
+// uses from the particles' state). Twin:
+// cpu::implicit::springs.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"

@@ -1,6 +1,6 @@
 // Semi-implicit step, per particle: the filter's right-hand side
-// dt (f + dt H v), H the stiffness Laplacian. Twin: the first loops of
-// cpu::semi_implicit::step.
+// dt (f + dt H v), H the stiffness Laplacian. Twin:
+// cpu::semi_implicit::rhs.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 

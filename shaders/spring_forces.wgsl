@@ -1,5 +1,5 @@
-// Per spring: the force on end i (twin: the spring loop of
-// cpu::forces::total_forces), for the particles to gather.
+// Per spring: the force on end i (twin:
+// cpu::forces::spring_forces), for the particles to gather.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 

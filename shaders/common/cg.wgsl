@@ -1,5 +1,5 @@
 // Shared by the CG kernels (implicit integrator and the scalable
-// semi-implicit filter). Twins: cpu::implicit and cpu::mat3.
+// semi-implicit filter). Twins: cpu::cg, cpu::implicit and cpu::mat3.
 
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
@@ -43,7 +43,7 @@ fn filter_of(p: u32, a: vec3<f32>) -> vec3<f32> {
 }
 
 // The CG warm start of particle p: the last two Δv extrapolated,
-// 2 Δv − Δv_prev (twin: the MPCG set-up of cpu::implicit::step), which
+// 2 Δv − Δv_prev (twin: cpu::implicit::warm_start), which
 // becomes the new Δv_prev. Unfiltered: the caller filters it.
 fn warm_start(p: u32) -> vec3<f32> {
     let dv_last = work[wi(W_DV, p)].xyz;
@@ -102,8 +102,8 @@ fn unseen4(a: vec4<f32>) -> vec4<f32> {
 
 // A spring linearised at the start of an implicit step: its CG block
 // (m, a), B = a I + m mᵀ, K_s u, the product of its stiffness matrix with
-// u = v_i − v_j, on end i, and its force on end i (twin: the spring loop
-// of cpu::implicit::step).
+// u = v_i − v_j, on end i, and its force on end i (twin:
+// cpu::implicit::springs).
 struct Linearised {
     blk: vec4<f32>,
     kv: vec3<f32>,
@@ -350,7 +350,7 @@ fn set_cg_args(running: bool) {
 var<workgroup> scratch: array<f32, WORKGROUP>;
 var<workgroup> shared_flag: u32;
 
-// Twin: implicit::block_sum inside one block: writes this workgroup's sum
+// Twin: cpu::cg::block_partials inside one block: writes this workgroup's sum
 // of `value`, in invocation order, to partials[slot]. Every invocation of
 // the workgroup must call it. Two barriers and one invocation adding up:
 // on lavapipe a barrier costs more than the additions of a whole tree.

@@ -233,7 +233,7 @@ fn grid_term(y: vec3<f32>, inc: Incident) -> vec3<f32> {
 }
 
 // The spring forces on particle p, summed with their signs in adjacency
-// order (twin: the spring loop of cpu::forces::total_forces): from the
+// order (twin: the spring loop of cpu::forces::total_force): from the
 // spring pass's S_FORCE, or on a grid computed here from the neighbours'
 // state (from `sec`, see state_x). `xp` and `vp` are the particle's own
 // position and velocity.
@@ -266,7 +266,7 @@ fn spring_sum(p: u32, xp: vec3<f32>, vp: vec3<f32>, sec: u32) -> vec3<f32> {
     return sum;
 }
 
-// Total force on particle p (twin: cpu::forces::total_forces): gravity,
+// Total force on particle p (twin: cpu::forces::total_force): gravity,
 // then the spring forces (spring_sum), then wind triangles in adjacency
 // order. `xp` and `vp` are the particle's state, which the caller has
 // loaded (on lavapipe every load counts, the same one twice included);

@@ -1,5 +1,5 @@
 // Shared by the torque-compensation kernels (twin:
-// cpu::semi_implicit::compensate_torque): the centre of mass from the
+// cpu::torque): the centre of mass from the
 // partial sums of torque_centre.
 
 #include "common/bindings.wgsl"
