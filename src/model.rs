@@ -123,7 +123,7 @@ impl Pin {
                 return Err(invalid(
                     &format!("{key}.box"),
                     "[[x0, y0, z0], [x1, y1, z1]] with x0 ≤ x1, y0 ≤ y1 and z0 ≤ z1 (m)",
-                    format!("{lo:?} to {hi:?}"),
+                    format!("{:?} to {:?}", lo.to_array(), hi.to_array()),
                 ));
             }
         }
@@ -135,7 +135,14 @@ impl Pin {
         invalid(
             key,
             "a box holding at least one particle's rest position (world coordinates, m)",
-            format!("{self:?}, which holds none"),
+            match self {
+                Pin::Region([lo, hi]) => format!(
+                    "Region([{:?}, {:?}]), which holds none",
+                    lo.to_array(),
+                    hi.to_array()
+                ),
+                _ => format!("{self:?}, which holds none"),
+            },
         )
     }
 }

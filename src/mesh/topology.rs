@@ -142,7 +142,7 @@ pub struct Placement {
 
 impl Placement {
     /// The world position of file position `p` \[m\].
-    pub fn apply(&self, p: [f64; 3]) -> DVec3 {
+    pub fn apply(&self, p: DVec3) -> DVec3 {
         DVec3::from_array([0, 1, 2].map(|k| self.origin[k] + self.scale * p[k]))
     }
 }
@@ -276,7 +276,7 @@ impl MeshCloth {
             return Err(Error::InvalidParameter {
                 key: "cloth.scale".to_string(),
                 allowed: "a factor that keeps every vertex finite".to_string(),
-                got: format!("{} (vertex {p} is {:?})", self.scale, rest[p]),
+                got: format!("{} (vertex {p} is {:?})", self.scale, rest[p].to_array()),
             });
         }
         pinned(&spec.pins, &rest).map(|_| ())
