@@ -23,6 +23,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
 use wgcloth::cpu::CpuSolver;
+use wgcloth::glam::DVec3;
 use wgcloth::gpu::{GpuContext, GpuSolver};
 use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
@@ -172,7 +173,7 @@ fn skipping_table(ctx: &GpuContext) {
         };
         let mut full = scene(integrator, n).1;
         full.wind = Some(wgcloth::params::Wind {
-            velocity: [4.0, 0.0, 1.0],
+            velocity: DVec3::new(4.0, 0.0, 1.0),
             drag: 0.6,
             lift: 0.2,
         });
@@ -181,7 +182,7 @@ fn skipping_table(ctx: &GpuContext) {
             friction: 0.5,
         });
         full.spheres = vec![wgcloth::params::Sphere {
-            center: [0.0, 0.5, 0.0],
+            center: DVec3::new(0.0, 0.5, 0.0),
             radius: 0.3,
             friction: 0.3,
         }];

@@ -25,6 +25,7 @@ use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
 use wgcloth::cpu::CpuSolver;
+use wgcloth::glam::DVec3;
 use wgcloth::gpu::{GpuContext, GpuSolver};
 use wgcloth::mesh::{Mesh, Placement};
 use wgcloth::model::Pin;
@@ -54,7 +55,7 @@ fn grid_and_mesh(integrator: Integrator, n: usize) -> (Model, Model, Params) {
     let spec = &scene.cloth;
     let mut obj = String::new();
     for p in 0..spec.particle_count() {
-        let [x, y, z] = spec.rest_position(p);
+        let [x, y, z] = spec.rest_position(p).to_array();
         let _ = writeln!(obj, "v {x:?} {y:?} {z:?}");
     }
     for row in 0..n - 1 {
@@ -76,7 +77,7 @@ fn grid_and_mesh(integrator: Integrator, n: usize) -> (Model, Model, Params) {
         .collect();
     let placement = Placement {
         scale: 1.0,
-        origin: [0.0; 3],
+        origin: DVec3::ZERO,
     };
     let model = mesh
         .model(placement, spec.mass, &pins, &scene.params.springs)

@@ -10,6 +10,7 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
+use wgcloth::glam::Vec3;
 use wgcloth::render::{self, Camera, FrameTarget, Renderer, RendererFormats};
 use wgcloth::{GpuContext, GpuSolver, Scene};
 
@@ -19,6 +20,9 @@ const FRAMES: u32 = 30;
 const FPS: f64 = 30.0;
 /// Its window size [pixels].
 const SIZE: (u32, u32) = (320, 240);
+/// How far the host drags a pinned corner each frame [m]: 6 cm over the
+/// run, a visible tug that keeps the cloth in the camera's frame.
+const DRAG_PER_FRAME: f32 = 0.002;
 
 fn main() -> anyhow::Result<()> {
     let out = std::env::args_os()
@@ -61,8 +65,13 @@ pub fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Re
     // The host's own offscreen target (a game's would be the swap-chain
     // texture and its depth buffer).
     let target = FrameTarget::with_formats(device, width, height, formats);
+    // A pinned corner [m], as glam's `Vec3`: the vector type a Bevy or wgpu
+    // host already holds.
+    let corner = model.rest_positions[0].as_vec3();
 
-    for _ in 0..FRAMES {
+    for frame in 0..FRAMES {
+        // The game drags the corner (from the next recorded step on).
+        solver.set_position(0, corner + Vec3::X * DRAG_PER_FRAME * frame as f32)?;
         // One encoder per frame...
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("embed.frame"),
@@ -86,8 +95,13 @@ pub fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Re
         queue.submit([encoder.finish()]);
     }
     // Once, at the end: did the simulation stay finite? (A game would check
-    // every few frames; it is one small read-back.)
-    solver.check()?;
+    // every few frames; it is one small read-back.) The same `StepStats`
+    // the CPU solver's steps return.
+    let stats = solver.check()?;
+    println!(
+        "{} steps, {} CG iterations in the last",
+        stats.steps, stats.cg_iterations
+    );
     // Read the last frame back and write it as a PNG.
     let rgba = render::read_rgba(device, queue, &target.color)?;
     render::write_png(&render::Frame {

@@ -1,11 +1,12 @@
 //! Energy and strain measures, the same for every backend: they take
-//! positions and velocities in any precision and accumulate in `f64`; and
+//! positions and velocities in any precision (glam's `Vec3` or `DVec3`,
+//! see [`Vector`]) and accumulate in `f64`; and
 //! [`Divergence`], the one rule that says a simulation has blown up.
 
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::params::Params;
-use crate::real::{Real, Vec3};
+use crate::real::Vector;
 
 /// Energy of a state \[J\], split by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -26,7 +27,7 @@ impl Energy {
 }
 
 /// Energy of positions `x` and velocities `v`.
-pub fn energy<R: Real>(model: &Model, params: &Params, x: &[Vec3<R>], v: &[Vec3<R>]) -> Energy {
+pub fn energy<V: Vector>(model: &Model, params: &Params, x: &[V], v: &[V]) -> Energy {
     let g = params.gravity;
     let mut e = Energy::default();
     for p in 0..model.particle_count() {
@@ -46,7 +47,7 @@ pub fn energy<R: Real>(model: &Model, params: &Params, x: &[Vec3<R>], v: &[Vec3<
     e
 }
 
-fn length<R: Real>(x: &[Vec3<R>], i: u32, j: u32) -> f64 {
+fn length<V: Vector>(x: &[V], i: u32, j: u32) -> f64 {
     let [ax, ay, az] = x[i as usize].to_f64();
     let [bx, by, bz] = x[j as usize].to_f64();
     ((ax - bx).powi(2) + (ay - by).powi(2) + (az - bz).powi(2)).sqrt()
@@ -55,7 +56,7 @@ fn length<R: Real>(x: &[Vec3<R>], i: u32, j: u32) -> f64 {
 /// Largest strain `(l − L) / L` over the springs of the kinds selected by
 /// `kinds` (indexed by [`crate::params::SpringKind::index`]); zero-length
 /// rest springs are skipped. Negative when everything is compressed.
-pub fn max_strain<R: Real>(model: &Model, x: &[Vec3<R>], kinds: [bool; 3]) -> f64 {
+pub fn max_strain<V: Vector>(model: &Model, x: &[V], kinds: [bool; 3]) -> f64 {
     model
         .springs
         .iter()
@@ -66,7 +67,7 @@ pub fn max_strain<R: Real>(model: &Model, x: &[Vec3<R>], kinds: [bool; 3]) -> f6
 
 /// Largest stretch-spring strain: the number a user means by "how far did
 /// the cloth stretch".
-pub fn max_stretch_strain<R: Real>(model: &Model, x: &[Vec3<R>]) -> f64 {
+pub fn max_stretch_strain<V: Vector>(model: &Model, x: &[V]) -> f64 {
     max_strain(model, x, [true, false, false])
 }
 
@@ -212,15 +213,9 @@ pub struct Divergence {
 impl Divergence {
     /// The rule for `model` with `params`, starting at `time` \[s\] from the
     /// state `x` \[m\], `v` [m/s] (particle order).
-    pub fn new<R: Real>(
-        model: &Model,
-        params: &Params,
-        time: f64,
-        x: &[Vec3<R>],
-        v: &[Vec3<R>],
-    ) -> Self {
+    pub fn new<V: Vector>(model: &Model, params: &Params, time: f64, x: &[V], v: &[V]) -> Self {
         let e0 = energy(model, params, x, v);
-        let g = norm(params.gravity);
+        let g = params.gravity.length();
         let total_mass: f64 = model.mass.iter().sum();
         let free_mass: f64 = (0..model.particle_count())
             .filter(|&p| !model.pinned[p])
@@ -228,7 +223,7 @@ impl Divergence {
             .sum();
         let (wind_kinetic, wind_power) = match &params.wind {
             Some(w) => {
-                let speed = norm(w.velocity);
+                let speed = w.velocity.length();
                 (
                     0.5 * free_mass * speed * speed,
                     (w.drag + w.lift) * rest_area(model) * speed.powi(3),
@@ -273,7 +268,7 @@ impl Divergence {
 
     /// The bound a finite state `x`, `v` at `time` \[s\] crosses (energy
     /// first), if any.
-    pub fn crossed<R: Real>(&self, time: f64, x: &[Vec3<R>], v: &[Vec3<R>]) -> Option<Crossed> {
+    pub fn crossed<V: Vector>(&self, time: f64, x: &[V], v: &[V]) -> Option<Crossed> {
         let total = energy(&self.model, &self.params, x, v).total();
         let limit = self.energy_limit(time);
         // A finite state's energy can still overflow (+∞ kinetic, −∞
@@ -294,7 +289,7 @@ impl Divergence {
     /// Applies the rule to the state after `step` (1-based) at `time` \[s\]:
     /// [`Error::NonFinite`] naming the first non-finite particle, or
     /// [`Error::Diverged`] naming the bound crossed.
-    pub fn check<R: Real>(&self, step: u64, time: f64, x: &[Vec3<R>], v: &[Vec3<R>]) -> Result<()> {
+    pub fn check<V: Vector>(&self, step: u64, time: f64, x: &[V], v: &[V]) -> Result<()> {
         if let Some(particle) = first_non_finite(x, v) {
             return Err(Error::NonFinite {
                 step,
@@ -314,7 +309,7 @@ impl Divergence {
 }
 
 /// The first particle whose position or velocity is not finite.
-pub fn first_non_finite<R: Real>(x: &[Vec3<R>], v: &[Vec3<R>]) -> Option<usize> {
+pub fn first_non_finite<V: Vector>(x: &[V], v: &[V]) -> Option<usize> {
     (0..x.len()).find(|&p| !(x[p].is_finite() && v[p].is_finite()))
 }
 
@@ -363,6 +358,7 @@ mod tests {
     use super::*;
     use crate::model::ClothSpec;
     use crate::params::Wind;
+    use crate::real::Vec3;
 
     /// The default 33 × 33 cloth (1 m, 0.3 kg, two pins) at rest, in `f64`.
     fn at_rest(params: &Params) -> (Model, Vec<Vec3<f64>>, Vec<Vec3<f64>>) {
@@ -404,7 +400,7 @@ mod tests {
     fn wind_raises_the_energy_bound_by_the_work_it_can_do() {
         let mut params = Params::default();
         let wind = Wind {
-            velocity: [3.0, 0.0, 4.0],
+            velocity: glam::DVec3::new(3.0, 0.0, 4.0),
             drag: 0.6,
             lift: 0.1,
         };

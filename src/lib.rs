@@ -16,11 +16,14 @@
 //!   sweeps behind `wgcloth bench`.
 //!
 //! The types an embedder holds are at the crate root: [`Scene`], [`Model`],
-//! [`Params`], the solvers [`CpuSolver`] (its steps report [`StepStats`])
-//! and [`GpuSolver`] (its checks report [`GpuStatus`]), [`GpuContext`] to
-//! open a device, and [`Error`]; [`render`] draws the GPU solver's cloth.
+//! [`Params`], the solvers [`CpuSolver`] and [`GpuSolver`] (both report
+//! [`StepStats`]), [`GpuContext`] to open a device, and [`Error`]; [`render`]
+//! draws the GPU solver's cloth.
 //!
-//! Units are SI throughout (m, kg, s, N), y is up.
+//! Vectors cross the API as [`glam`]'s (re-exported, the version Bevy uses):
+//! `DVec3` where the value is `f64` (parameters, rest positions, the `f64`
+//! CPU solver's state), `Vec3` where it is `f32` (the GPU's state, the `f32`
+//! CPU solver's, the camera). Units are SI throughout (m, kg, s, N), y is up.
 #![deny(missing_docs)]
 
 // The coarse levels' aggregates, shared by the CPU and GPU solvers.
@@ -43,17 +46,23 @@ pub mod kernel_config;
 pub mod mesh;
 pub mod model;
 pub mod params;
-mod real;
+// The scalar and the generic vector the CPU internals compute with;
+// reached by the tests that compare them bit for bit.
+#[doc(hidden)]
+pub mod real;
 pub mod render;
 pub mod scene;
+mod stats;
 
-pub use cpu::{CpuSolver, StepStats};
+pub use cpu::CpuSolver;
 pub use error::{Error, Result};
-pub use gpu::{GpuContext, GpuSolver, GpuStatus};
+pub use glam;
+pub use gpu::{GpuContext, GpuSolver};
 pub use model::{ClothSpec, Model};
 pub use params::{Integrator, Params};
-pub use real::{Real, Vec3};
+pub use real::{Real, Vector};
 pub use scene::Scene;
+pub use stats::StepStats;
 
 /// The Rust examples of `README.md` and `docs/embedding.md`, compiled (and
 /// the CPU one run) by `cargo test --doc` so they stay true to the API.

@@ -17,6 +17,8 @@
 
 use std::ops::Range;
 
+use glam::DVec3;
+
 use crate::budget::{self, try_collect, try_vec, try_with_capacity};
 use crate::error::{Error, Result};
 use crate::params::{check, check_finite, SpringKind, SpringParams};
@@ -77,7 +79,7 @@ pub enum Pin {
     /// Every particle whose rest position lies in the box `[lo, hi]`
     /// (bounds included; world coordinates \[m\], after a mesh's `scale`
     /// and `origin`); it must hold at least one particle.
-    Region([[f64; 3]; 2]),
+    Region([DVec3; 2]),
 }
 
 impl Pin {
@@ -101,7 +103,7 @@ impl Pin {
         "top-left, top-right, bottom-left, bottom-right, top, bottom, left, right";
 
     /// Whether `p` lies in a [`Pin::Region`]'s box (`false` for other pins).
-    pub fn contains(&self, p: [f64; 3]) -> bool {
+    pub fn contains(&self, p: DVec3) -> bool {
         match self {
             Pin::Region([lo, hi]) => (0..3).all(|k| lo[k] <= p[k] && p[k] <= hi[k]),
             _ => false,
@@ -121,7 +123,7 @@ impl Pin {
                 return Err(invalid(
                     &format!("{key}.box"),
                     "[[x0, y0, z0], [x1, y1, z1]] with x0 ≤ x1, y0 ≤ y1 and z0 ≤ z1 (m)",
-                    format!("{lo:?} to {hi:?}"),
+                    format!("{:?} to {:?}", lo.to_array(), hi.to_array()),
                 ));
             }
         }
@@ -133,7 +135,14 @@ impl Pin {
         invalid(
             key,
             "a box holding at least one particle's rest position (world coordinates, m)",
-            format!("{self:?}, which holds none"),
+            match self {
+                Pin::Region([lo, hi]) => format!(
+                    "Region([{:?}, {:?}]), which holds none",
+                    lo.to_array(),
+                    hi.to_array()
+                ),
+                _ => format!("{self:?}, which holds none"),
+            },
         )
     }
 }
@@ -148,7 +157,7 @@ pub struct ClothSpec {
     /// Width and height \[m\], both `> 0`.
     pub size: [f64; 2],
     /// Position of the top-left particle \[m\].
-    pub origin: [f64; 3],
+    pub origin: DVec3,
     /// Rest orientation.
     pub orientation: Orientation,
     /// Total mass \[kg\], `> 0`, shared equally by all particles (pinned ones
@@ -164,7 +173,7 @@ impl Default for ClothSpec {
             nx: 33,
             ny: 33,
             size: [1.0, 1.0],
-            origin: [-0.5, 1.0, -0.5],
+            origin: DVec3::new(-0.5, 1.0, -0.5),
             orientation: Orientation::Horizontal,
             mass: 0.3,
             pins: vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)],
@@ -207,7 +216,7 @@ impl ClothSpec {
         ] {
             check(key, s, s > 0.0, "> 0 (m)")?;
         }
-        for (c, v) in self.origin.iter().enumerate() {
+        for (c, v) in self.origin.to_array().iter().enumerate() {
             check_finite(&format!("cloth.origin[{c}]"), *v, "m")?;
         }
         check("cloth.mass", self.mass, self.mass > 0.0, "> 0 (kg, total)")?;
@@ -234,7 +243,7 @@ impl ClothSpec {
     }
 
     /// Rest position of particle `p` \[m\] (see the module docs).
-    pub fn rest_position(&self, p: usize) -> [f64; 3] {
+    pub fn rest_position(&self, p: usize) -> DVec3 {
         let (nx, ny) = (self.nx, self.ny);
         let dw = self.size[0] / (nx - 1) as f64;
         let dh = self.size[1] / (ny - 1) as f64;
@@ -244,11 +253,11 @@ impl ClothSpec {
         };
         let o = self.origin;
         let (a, b) = ((p % nx) as f64 * dw, (p / nx) as f64 * dh);
-        [
+        DVec3::new(
             o[0] + a * u[0] + b * v[0],
             o[1] + a * u[1] + b * v[1],
             o[2] + a * u[2] + b * v[2],
-        ]
+        )
     }
 
     /// Number of particles.
@@ -312,7 +321,7 @@ pub struct Spring {
 impl Spring {
     /// The spring `i–j` of `kind` at rest in `positions`: its rest length
     /// is their distance \[m\].
-    pub fn at_rest(positions: &[[f64; 3]], i: u32, j: u32, kind: SpringKind) -> Spring {
+    pub fn at_rest(positions: &[DVec3], i: u32, j: u32, kind: SpringKind) -> Spring {
         let (a, b) = (positions[i as usize], positions[j as usize]);
         let rest = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
         Spring { i, j, rest, kind }
@@ -377,7 +386,7 @@ pub struct Model {
     /// [`Model::from_parts`]).
     pub grid: Option<ClothSpec>,
     /// Rest (and initial) positions \[m\], particle order.
-    pub rest_positions: Vec<[f64; 3]>,
+    pub rest_positions: Vec<DVec3>,
     /// Mass of each particle \[kg\] (equal for all).
     pub mass: Vec<f64>,
     /// Whether each particle is pinned.
@@ -478,7 +487,7 @@ impl Model {
     /// any triangles. Used for non-grid tests such as a single spring.
     /// Springs are stably reordered by kind.
     pub fn from_parts(
-        rest_positions: Vec<[f64; 3]>,
+        rest_positions: Vec<DVec3>,
         mass: Vec<f64>,
         pinned: Vec<bool>,
         mut springs: Vec<Spring>,

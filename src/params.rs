@@ -9,6 +9,8 @@
 
 use std::fmt;
 
+use glam::DVec3;
+
 use crate::error::{Error, Result};
 
 /// Which time integrator steps the cloth.
@@ -197,7 +199,7 @@ pub struct Ground {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
     /// Centre \[m\].
-    pub center: [f64; 3],
+    pub center: DVec3,
     /// Radius \[m\], `> 0`.
     pub radius: f64,
     /// Coulomb friction coefficient (dimensionless, `≥ 0`).
@@ -208,7 +210,7 @@ pub struct Sphere {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wind {
     /// Air velocity [m/s].
-    pub velocity: [f64; 3],
+    pub velocity: DVec3,
     /// Drag coefficient along the triangle normal [kg/m³]
     /// (`½ ρ_air C_d`; air is about 1.2 kg/m³).
     pub drag: f64,
@@ -224,7 +226,7 @@ pub struct Params {
     /// Time step \[s\], `> 0`.
     pub dt: f64,
     /// Gravitational acceleration [m/s²].
-    pub gravity: [f64; 3],
+    pub gravity: DVec3,
     /// Per spring kind, indexed by [`SpringKind::index`].
     pub springs: [SpringParams; 3],
     /// Deformation constraints.
@@ -248,7 +250,7 @@ impl Default for Params {
         Params {
             integrator: Integrator::Explicit,
             dt: 1.0 / 600.0,
-            gravity: [0.0, -9.81, 0.0],
+            gravity: DVec3::new(0.0, -9.81, 0.0),
             springs: [
                 SpringParams {
                     stiffness: 50.0,
@@ -353,8 +355,8 @@ fn invalid(key: &str, allowed: &str, got: f64) -> Error {
 }
 
 /// Checks the three components of a vector; `unit` is their unit.
-fn check_vec(key: &str, v: [f64; 3], unit: &str) -> Result<()> {
-    for (c, value) in v.iter().enumerate() {
+fn check_vec(key: &str, v: DVec3, unit: &str) -> Result<()> {
+    for (c, value) in v.to_array().iter().enumerate() {
         check_finite(&format!("{key}[{c}]"), *value, unit)?;
     }
     Ok(())

@@ -1,4 +1,5 @@
-//! The scalar type the CPU solver is generic over, and a small 3-vector.
+//! The scalar type the CPU solver is generic over, the small 3-vector its
+//! internals compute with, and the glam vectors at the API boundary.
 //!
 //! Why a generic scalar rather than two copies or a macro: the CPU reference
 //! has two jobs. In `f64` it is the ground truth every accuracy claim is
@@ -8,8 +9,11 @@
 //! One generic implementation guarantees that by construction, and the
 //! monomorphised code is as fast as hand-written `f64` code.
 //!
-//! We do not use `glam` here: `glam::Vec3` and `glam::DVec3` are distinct
-//! types with no common trait, which is exactly the split we want to avoid.
+//! The internals do not compute in `glam`: `glam::Vec3` and `glam::DVec3`
+//! are distinct types with no common trait, which is exactly the split we
+//! want to avoid. The API speaks glam all the same ([`Real::Vector`] is
+//! `DVec3` for `f64` and `Vec3` for `f32`, what a Bevy or wgpu host holds);
+//! the conversions both ways copy the three components and round nothing.
 
 use std::fmt::{Debug, Display};
 use std::iter::Sum;
@@ -47,6 +51,10 @@ pub trait Real:
     const EPSILON: Self;
     /// Name used in reports (`"f32"` / `"f64"`).
     const NAME: &'static str;
+    /// The glam vector of this precision, the form positions and
+    /// velocities take at the API boundary: `glam::DVec3` for `f64`,
+    /// `glam::Vec3` for `f32`.
+    type Vector: Vector + From<Vec3<Self>> + Into<Vec3<Self>>;
 
     /// Converts from `f64` (rounding to nearest for `f32`).
     fn from_f64(v: f64) -> Self;
@@ -92,6 +100,7 @@ impl Real for f64 {
     const TINY: Self = 1e-12;
     const EPSILON: Self = f64::EPSILON;
     const NAME: &'static str = "f64";
+    type Vector = glam::DVec3;
     #[inline]
     fn from_f64(v: f64) -> Self {
         v
@@ -120,6 +129,7 @@ impl Real for f32 {
     const TINY: Self = 1e-9;
     const EPSILON: Self = f32::EPSILON;
     const NAME: &'static str = "f32";
+    type Vector = glam::Vec3;
     #[inline]
     fn from_f64(v: f64) -> Self {
         v as f32
@@ -167,9 +177,11 @@ impl<R: Real> Vec3<R> {
         Self { x, y, z }
     }
 
-    /// Converts an `[f64; 3]` (scene-file form) to this precision.
+    /// Converts an `[f64; 3]` or a `glam::DVec3` (the parameters' form)
+    /// to this precision.
     #[inline]
-    pub fn from_f64(a: [f64; 3]) -> Self {
+    pub fn from_f64(a: impl Into<[f64; 3]>) -> Self {
+        let a = a.into();
         Self::new(R::from_f64(a[0]), R::from_f64(a[1]), R::from_f64(a[2]))
     }
 
@@ -291,6 +303,77 @@ impl<R: Real> MulAssign<R> for Vec3<R> {
     }
 }
 
+/// A 3-vector the diagnostics accept: a position \[m\] or velocity \[m/s\]
+/// as `glam::Vec3`, `glam::DVec3` or the CPU internals' own vector. The
+/// measures widen it to `f64` (exactly) before they compute.
+pub trait Vector: Copy + Debug + Send + Sync + 'static {
+    /// The components widened to `f64` (exact).
+    fn to_f64(self) -> [f64; 3];
+    /// `true` when every component is finite.
+    fn is_finite(self) -> bool;
+}
+
+impl<R: Real> Vector for Vec3<R> {
+    #[inline]
+    fn to_f64(self) -> [f64; 3] {
+        Vec3::to_f64(self)
+    }
+    #[inline]
+    fn is_finite(self) -> bool {
+        Vec3::is_finite(self)
+    }
+}
+
+impl Vector for glam::Vec3 {
+    #[inline]
+    fn to_f64(self) -> [f64; 3] {
+        self.as_dvec3().to_array()
+    }
+    #[inline]
+    fn is_finite(self) -> bool {
+        glam::Vec3::is_finite(self)
+    }
+}
+
+impl Vector for glam::DVec3 {
+    #[inline]
+    fn to_f64(self) -> [f64; 3] {
+        self.to_array()
+    }
+    #[inline]
+    fn is_finite(self) -> bool {
+        glam::DVec3::is_finite(self)
+    }
+}
+
+impl From<glam::Vec3> for Vec3<f32> {
+    #[inline]
+    fn from(v: glam::Vec3) -> Self {
+        Self::new(v.x, v.y, v.z)
+    }
+}
+
+impl From<Vec3<f32>> for glam::Vec3 {
+    #[inline]
+    fn from(v: Vec3<f32>) -> Self {
+        Self::new(v.x, v.y, v.z)
+    }
+}
+
+impl From<glam::DVec3> for Vec3<f64> {
+    #[inline]
+    fn from(v: glam::DVec3) -> Self {
+        Self::new(v.x, v.y, v.z)
+    }
+}
+
+impl From<Vec3<f64>> for glam::DVec3 {
+    #[inline]
+    fn from(v: Vec3<f64>) -> Self {
+        Self::new(v.x, v.y, v.z)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -300,6 +383,27 @@ mod tests {
         let x = Vec3::<f64>::new(1.0, 0.0, 0.0);
         let y = Vec3::<f64>::new(0.0, 1.0, 0.0);
         assert_eq!(x.cross(y), Vec3::new(0.0, 0.0, 1.0));
+    }
+
+    /// The conversions to glam and back keep every bit, NaN payloads and
+    /// signed zeros included: the API boundary must not perturb the f32
+    /// mirror of the GPU.
+    #[test]
+    fn glam_round_trip_keeps_every_bit() {
+        let odd = [f32::from_bits(0x7fc0_1234), -0.0, f32::MIN_POSITIVE / 2.0];
+        let v = Vec3::new(odd[0], odd[1], odd[2]);
+        let back: Vec3<f32> = glam::Vec3::from(v).into();
+        assert_eq!(
+            [back.x, back.y, back.z].map(f32::to_bits),
+            odd.map(f32::to_bits)
+        );
+        let d = Vec3::new(f64::from_bits(0x7ff8_0000_dead_beef), -0.0, 1e-310);
+        let back: Vec3<f64> = glam::DVec3::from(d).into();
+        assert_eq!(
+            [back.x, back.y, back.z].map(f64::to_bits),
+            [d.x, d.y, d.z].map(f64::to_bits)
+        );
+        assert_eq!(Vector::to_f64(glam::Vec3::from(v))[2], f64::from(odd[2]));
     }
 
     #[test]

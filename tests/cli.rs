@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::Command;
 
 use wgcloth::cpu::CpuSolver;
-use wgcloth::{Real, Scene};
+use wgcloth::{Real, Scene, Vector};
 
 mod cli_common;
 use cli_common::*;
@@ -63,7 +63,7 @@ fn reference_positions<R: Real>(scene: &Path, steps: u64) -> Vec<[f64; 3]> {
     let model = scene.model().expect("the test scene builds");
     let mut solver = CpuSolver::<R>::new(&model, &scene.params).expect("valid parameters");
     solver.step_n(steps).expect("the test scene stays finite");
-    solver.positions().iter().map(|p| p.to_f64()).collect()
+    solver.positions().into_iter().map(Vector::to_f64).collect()
 }
 
 /// A test path as a `&str` (the temp directory's path is UTF-8 here).

@@ -5,9 +5,9 @@ mod common;
 
 use common::*;
 use wgcloth::cpu::CpuSolver;
+use wgcloth::glam::DVec3;
 use wgcloth::model::Model;
 use wgcloth::params::{Ground, Integrator, Params, Sphere};
-use wgcloth::Vec3;
 
 /// Collision projection is exact up to rounding of `x − n·d` (~1e-16 m in
 /// f64 near 1 m); 1e-12 m separates "on the surface" from "inside".
@@ -24,7 +24,7 @@ fn dropped_cloth(integrator: Integrator, friction: f64) -> (Model, Params) {
         friction,
     });
     params.spheres = vec![Sphere {
-        center: [0.0, 0.6, 0.0],
+        center: DVec3::new(0.0, 0.6, 0.0),
         radius: 0.15,
         friction,
     }];
@@ -41,7 +41,7 @@ fn no_particle_ends_a_step_inside_a_collider() {
         for step in 0..800 {
             s.step().expect("stable");
             for (p, x) in s.positions().iter().enumerate() {
-                let sphere = (*x - Vec3::new(0.0, 0.6, 0.0)).length() - 0.15;
+                let sphere = (*x - DVec3::new(0.0, 0.6, 0.0)).length() - 0.15;
                 assert!(
                     x.y >= -PENETRATION_TOL && sphere >= -PENETRATION_TOL,
                     "{integrator}: step {step} particle {p} inside: y = {:e}, sphere distance {sphere:e}",
@@ -65,14 +65,15 @@ fn friction_stops_a_sliding_cloth_and_its_absence_does_not() {
             params.spheres.clear();
             let mut s = CpuSolver::<f64>::new(&model, &params).expect("valid");
             // Lay the cloth on the ground, sliding along +x at 1 m/s.
-            let mut st = s.state().clone();
-            for (x, v) in st.x.iter_mut().zip(st.v.iter_mut()) {
+            let (mut x, mut v) = (s.positions(), s.velocities());
+            for (x, v) in x.iter_mut().zip(v.iter_mut()) {
                 x.y = 0.0;
-                *v = Vec3::new(1.0, 0.0, 0.0);
+                *v = DVec3::new(1.0, 0.0, 0.0);
             }
-            s.set_state(st).expect("sizes match");
+            s.set_positions_and_velocities(&x, &v).expect("sizes match");
             s.step_n(500).expect("stable");
-            s.velocities().iter().map(|v| v.x).sum::<f64>() / s.velocities().len() as f64
+            let v = s.velocities();
+            v.iter().map(|v| v.x).sum::<f64>() / v.len() as f64
         };
         // μ g t = 0.5 · 9.81 · 0.5 s ≈ 2.5 m/s of braking: enough to stop.
         let with = speed_after(0.5);

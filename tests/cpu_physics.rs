@@ -5,9 +5,11 @@ mod common;
 
 use common::*;
 use wgcloth::cpu::{CpuSolver, State};
+use wgcloth::glam::DVec3;
 use wgcloth::model::{Model, Pin};
 use wgcloth::params::{Integrator, Params};
-use wgcloth::{Error, Vec3};
+use wgcloth::real::Vec3;
+use wgcloth::Error;
 
 /// Free fall in `f64`: the only error is rounding in `x += dt v` over a few
 /// hundred steps (about 1e-16 relative each) plus, for the implicit
@@ -30,7 +32,7 @@ fn free_fall_matches_the_exact_discrete_solution() {
         let drop = params.gravity[1] * dt * dt * n * (n + 1.0) / 2.0;
         for (p, x) in s.positions().iter().enumerate() {
             let x0 = model.rest_positions[p];
-            let expected = Vec3::new(x0[0], x0[1] + drop, x0[2]);
+            let expected = DVec3::new(x0.x, x0.y + drop, x0.z);
             let err = (*x - expected).length();
             assert!(
                 err < FREE_FALL_TOL,
@@ -65,7 +67,7 @@ fn a_changed_step_is_validated_and_then_used() {
         solver.step().expect("a finite step");
         let expected = params.gravity[1] * dt;
         for (p, v) in solver.velocities().iter().enumerate() {
-            let err = (v.to_f64()[1] - expected).abs();
+            let err = (v.y - expected).abs();
             assert!(
                 err < ONE_STEP_VELOCITY_TOL,
                 "{integrator}: particle {p} falls at {v:?} m/s, expected {expected} m/s"
@@ -162,7 +164,7 @@ fn pinned_particles_never_move() {
             friction: 0.3,
         });
         params.wind = Some(wgcloth::params::Wind {
-            velocity: [3.0, 0.0, 1.0],
+            velocity: DVec3::new(3.0, 0.0, 1.0),
             drag: 0.6,
             lift: 0.3,
         });
@@ -170,16 +172,12 @@ fn pinned_particles_never_move() {
         let s = run::<f64>(&model, &params, 300);
         for (p, x) in s.positions().iter().enumerate() {
             if model.pinned[p] {
-                assert_eq!(
-                    x.to_f64(),
-                    model.rest_positions[p],
-                    "{integrator}: pin {p} moved"
-                );
-                assert_eq!(s.velocities()[p], Vec3::ZERO);
+                assert_eq!(*x, model.rest_positions[p], "{integrator}: pin {p} moved");
+                assert_eq!(s.velocities()[p], DVec3::ZERO);
             }
         }
         // The free particles did move (the test is not vacuous).
-        let (moved, _) = max_distance(s.positions(), &rest_state(&model).x);
+        let (moved, _) = max_distance(&s.positions(), &rest_state(&model).x);
         assert!(moved > 0.01, "{integrator}: nothing moved");
     }
 }
@@ -195,14 +193,14 @@ fn agitated(model: &Model) -> State<f64> {
     st
 }
 
-fn momentum(model: &Model, v: &[Vec3<f64>]) -> Vec3<f64> {
+fn momentum(model: &Model, v: &[DVec3]) -> DVec3 {
     v.iter()
         .zip(&model.mass)
-        .fold(Vec3::ZERO, |acc, (v, &m)| acc + *v * m)
+        .fold(DVec3::ZERO, |acc, (v, &m)| acc + *v * m)
 }
 
-fn angular_momentum(model: &Model, x: &[Vec3<f64>], v: &[Vec3<f64>]) -> Vec3<f64> {
-    (0..x.len()).fold(Vec3::ZERO, |acc, p| acc + x[p].cross(v[p] * model.mass[p]))
+fn angular_momentum(model: &Model, x: &[DVec3], v: &[DVec3]) -> DVec3 {
+    (0..x.len()).fold(DVec3::ZERO, |acc, p| acc + x[p].cross(v[p] * model.mass[p]))
 }
 
 /// Momentum is about 0.1 kg × 0.5 m/s; rounding over 200 steps of sums of
@@ -216,14 +214,14 @@ fn without_gravity_or_pins_momentum_is_conserved() {
     let spec = cloth(8, 6, vec![]);
     for integrator in Integrator::ALL {
         let mut params = exact_params(integrator, 1e-3);
-        params.gravity = [0.0; 3];
+        params.gravity = DVec3::ZERO;
         params.fixup.iterations = 10; // Provot corrections conserve it too.
         let model = Model::new(&spec, &params.springs).expect("valid");
         let mut s = CpuSolver::<f64>::new(&model, &params).expect("valid");
         s.set_state(agitated(&model)).expect("sizes match");
-        let before = momentum(&model, s.velocities());
+        let before = momentum(&model, &s.velocities());
         s.step_n(200).expect("stable");
-        let after = momentum(&model, s.velocities());
+        let after = momentum(&model, &s.velocities());
         let drift = (after - before).length();
         assert!(
             drift < MOMENTUM_TOL,
@@ -241,14 +239,14 @@ fn torque_compensation_keeps_angular_momentum_of_a_free_cloth() {
     let spec = cloth(8, 6, vec![]);
     let drift = |integrator: Integrator, compensation: bool| {
         let mut params = exact_params(integrator, 1e-3);
-        params.gravity = [0.0; 3];
+        params.gravity = DVec3::ZERO;
         params.semi_implicit.torque_compensation = compensation;
         let model = Model::new(&spec, &params.springs).expect("valid");
         let mut s = CpuSolver::<f64>::new(&model, &params).expect("valid");
         s.set_state(agitated(&model)).expect("sizes match");
-        let before = angular_momentum(&model, s.positions(), s.velocities());
+        let before = angular_momentum(&model, &s.positions(), &s.velocities());
         s.step_n(200).expect("stable");
-        (angular_momentum(&model, s.positions(), s.velocities()) - before).length()
+        (angular_momentum(&model, &s.positions(), &s.velocities()) - before).length()
     };
     // Symplectic Euler with central forces conserves it exactly.
     assert!(drift(Integrator::Explicit, true) < ANGULAR_TOL);
@@ -309,5 +307,52 @@ fn impossible_parameters_are_refused_before_running() {
         edit(&mut params);
         let err = CpuSolver::<f64>::new(&model, &params).expect_err("must refuse");
         assert!(err.to_string().contains(key), "{err} should name {key}");
+    }
+}
+
+/// `step_n` reports what `step` reports for its last step, with the most
+/// CG iterations of all the steps it ran and the solver's step count; the
+/// residual only where a CG ran.
+#[test]
+fn step_n_reports_the_batch_as_the_steps_would() {
+    let spec = cloth(6, 5, vec![Pin::Index(0)]);
+    for integrator in Integrator::ALL {
+        let params = exact_params(integrator, 1e-2);
+        let model = Model::new(&spec, &params.springs).expect("valid");
+        let mut single = CpuSolver::<f64>::new(&model, &params).expect("valid");
+        // Agitated, the cloth calms down: CG needs fewer iterations at the
+        // end of the batch than at its start.
+        single.set_state(agitated(&model)).expect("sizes match");
+        let mut batched = single.clone();
+        let mut most = 0;
+        let mut last = single.step().expect("stable");
+        for _ in 1..15 {
+            most = most.max(last.cg_iterations);
+            last = single.step().expect("stable");
+        }
+        most = most.max(last.cg_iterations);
+        let batch = batched.step_n(15).expect("stable");
+        assert_eq!(batch.steps, 15, "{integrator}");
+        assert_eq!(batch.cg_iterations, last.cg_iterations, "{integrator}");
+        assert_eq!(batch.cg_max_iterations, most, "{integrator}");
+        assert_eq!(batch.fixup_passes, last.fixup_passes, "{integrator}");
+        assert_eq!(
+            batch.cg_budget_hits, None,
+            "{integrator}: no budget on the CPU"
+        );
+        match integrator {
+            Integrator::Implicit => {
+                assert!(
+                    most > last.cg_iterations,
+                    "the batch's most ({most}) should exceed its last step's ({})",
+                    last.cg_iterations
+                );
+                let r = batch
+                    .cg_residual
+                    .expect("an implicit step reports its residual");
+                assert!(r <= params.implicit.tolerance, "residual {r:e}");
+            }
+            _ => assert_eq!(batch.cg_residual, None, "{integrator}: no CG"),
+        }
     }
 }

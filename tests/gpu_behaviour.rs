@@ -6,13 +6,14 @@ mod gpu_common;
 
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
+use wgcloth::glam::{DVec3, Vec3};
 use wgcloth::gpu::{
     pipeline_cache, GpuContext, GpuKernels, GpuSolver, GpuState, GridBlock, Kernel, Variant,
 };
 use wgcloth::kernel_config::{SUM_GROUP, WORKGROUP};
 use wgcloth::model::{ClothSpec, Pin};
 use wgcloth::params::Integrator;
-use wgcloth::{Error, Model, Params, Vec3};
+use wgcloth::{Error, Model, Params};
 
 fn model(pins: Vec<Pin>, p: &Params) -> Model {
     grid(13, 11, pins, p)
@@ -95,7 +96,7 @@ fn runtime_changes_equal_building_with_the_new_values() {
         bare.wind = None;
         bare.ground = None;
         bare.spheres.clear();
-        bare.gravity = [0.0, -1.0, 0.0];
+        bare.gravity = DVec3::new(0.0, -1.0, 0.0);
         let changed = run(&m, &bare, 40, |g| {
             g.set_wind(full.wind).expect("wind");
             g.set_ground(full.ground).expect("ground");
@@ -119,7 +120,7 @@ fn a_moved_pin_drags_the_cloth() {
     let m = model(corners(), &p);
     let still = run(&m, &p, 30, |_| {});
     let dragged = run(&m, &p, 30, |g| {
-        g.set_position(0, [-0.8, 1.2, -0.5]).expect("move");
+        g.set_position(0, Vec3::new(-0.8, 1.2, -0.5)).expect("move");
     });
     assert_eq!(dragged.x[0], Vec3::new(-0.8, 1.2, -0.5));
     let (d, _) = worst(&still.x, &dragged.x);
@@ -233,7 +234,7 @@ fn single_pass_against_general(wind: bool) {
             && plan[0].variant == Variant::ToSnapshot;
         assert_eq!(single, specialised, "{plan:?}");
         g.step(21).expect("steps");
-        g.set_position(40, [0.1, 1.3, 0.05]).expect("move");
+        g.set_position(40, Vec3::new(0.1, 1.3, 0.05)).expect("move");
         g.set_pinned(40, true).expect("pin");
         g.step(20).expect("steps");
         g.set_pinned(0, false).expect("release");

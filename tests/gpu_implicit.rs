@@ -59,6 +59,38 @@ fn gpu_cg_iterations_match_the_cpu() {
     }
 }
 
+/// Both backends report one `StepStats`: over a batch of steps the same
+/// counts (CG iterations of the last step and the most of the batch, the
+/// step number), and `None` exactly where a backend cannot know.
+#[test]
+fn both_backends_report_the_same_step_stats() {
+    let (model, params) = scene();
+    let ctx = gpu();
+    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
+    g.tuning_mut().set_adaptive_cg_budget(false);
+    let mut c = wgcloth::CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
+    for batch in [1, 7, 12] {
+        let gpu = g.step(batch).expect("GPU steps");
+        let cpu = c.step_n(u64::from(batch)).expect("CPU steps");
+        let what = format!("after {} steps", cpu.steps);
+        assert_eq!(gpu.steps, cpu.steps, "{what}: steps");
+        assert_eq!(gpu.cg_iterations, cpu.cg_iterations, "{what}: last CG");
+        assert_eq!(
+            gpu.cg_max_iterations, cpu.cg_max_iterations,
+            "{what}: most CG iterations of the batch"
+        );
+        assert!(
+            cpu.cg_max_iterations >= cpu.cg_iterations,
+            "{what}: {cpu:?}"
+        );
+        // The residual stays on the device; only the GPU has a budget.
+        assert!(gpu.cg_residual.is_none(), "{what}: {gpu:?}");
+        assert!(cpu.cg_residual.is_some(), "{what}: {cpu:?}");
+        assert_eq!(gpu.cg_budget_hits, Some(0), "{what}: {gpu:?}");
+        assert_eq!(cpu.cg_budget_hits, None, "{what}: {cpu:?}");
+    }
+}
+
 #[test]
 fn adaptive_cg_budget_shrinks_without_changing_the_result() {
     let (model, params) = scene();
@@ -69,7 +101,11 @@ fn adaptive_cg_budget_shrinks_without_changing_the_result() {
     exact.tuning_mut().set_adaptive_cg_budget(false);
     let mut hits = 0;
     for _ in 0..40 {
-        hits = adaptive.step(1).expect("GPU step").cg_budget_hits;
+        hits = adaptive
+            .step(1)
+            .expect("GPU step")
+            .cg_budget_hits
+            .expect("the GPU counts budget hits");
         exact.step(1).expect("GPU step");
     }
     assert!(

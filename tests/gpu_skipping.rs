@@ -8,6 +8,7 @@ mod gpu_common;
 
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
+use wgcloth::glam::DVec3;
 use wgcloth::gpu::{DebugBuffer, FixupPhase, GpuSolver, GpuState, Kernel, Launch, Variant};
 use wgcloth::model::{Corner, Pin};
 use wgcloth::params::{Integrator, Wind};
@@ -88,7 +89,7 @@ fn switching_a_feature_off_records_fewer_dispatches() {
     minimal.fixup.iterations = 0;
     let mut windy = minimal.clone();
     windy.wind = Some(Wind {
-        velocity: [3.0, 0.0, 0.0],
+        velocity: DVec3::new(3.0, 0.0, 0.0),
         drag: 0.6,
         lift: 0.0,
     });

@@ -28,7 +28,8 @@ use wgcloth::cpu::twins::Filter;
 use wgcloth::gpu::{DebugBuffer, Dispatch, Kernel, Variant};
 use wgcloth::kernel_config::{partials, spring_work, status, work};
 use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
-use wgcloth::{Model, Params, Vec3};
+use wgcloth::real::Vec3;
+use wgcloth::{Model, Params};
 
 /// Columns and rows of the test cloths: 132 particles, three reduction
 /// blocks of 64, so the sums cross block boundaries and end in a partial

@@ -11,11 +11,13 @@ use std::path::{Path, PathBuf};
 use base64::Engine as _;
 use common::{exact_params, noise, run};
 use gpu_common::{compare, gpu, worst};
+use wgcloth::glam::DVec3;
 use wgcloth::gpu::GpuSolver;
 use wgcloth::mesh::{Mesh, Placement};
 use wgcloth::model::{ClothSpec, Model, Orientation, Pin, Spring, MAX_PARTICLES};
 use wgcloth::params::{FilterMethod, FixupMethod, Integrator, Params, SpringKind};
-use wgcloth::{Error, Scene, Vec3};
+use wgcloth::real::Vec3;
+use wgcloth::{Error, Scene};
 
 /// A fresh folder for one test's files.
 fn folder(test: &str) -> PathBuf {
@@ -348,7 +350,7 @@ fn a_mesh_beyond_the_device_limits_is_refused_naming_the_limit() {
 /// [`gpu_common::busy_params`]'s ground and sphere expect.
 const PLACED: Placement = Placement {
     scale: 1.0,
-    origin: [-0.5, 1.0, -0.5],
+    origin: DVec3::new(-0.5, 1.0, -0.5),
 };
 
 /// An OBJ quad grid: the rest positions of a grid cloth written with
@@ -356,7 +358,7 @@ const PLACED: Placement = Placement {
 fn quad_grid_obj(spec: &ClothSpec) -> String {
     let mut text = String::new();
     for p in 0..spec.particle_count() {
-        let [x, y, z] = spec.rest_position(p);
+        let [x, y, z] = spec.rest_position(p).to_array();
         text += &format!("v {x:?} {y:?} {z:?}\n");
     }
     let id = |row: usize, col: usize| row * spec.nx + col + 1;
@@ -392,7 +394,7 @@ fn an_obj_quad_grid_reproduces_the_grid_springs() {
             nx: 7,
             ny: 5,
             size: [1.3, 0.7],
-            origin: [-0.4, 1.1, 0.2],
+            origin: DVec3::new(-0.4, 1.1, 0.2),
             orientation,
             pins: vec![],
             ..ClothSpec::default()
@@ -401,7 +403,7 @@ fn an_obj_quad_grid_reproduces_the_grid_springs() {
         let mesh = parse(&quad_grid_obj(&spec), "grid.obj").expect("a valid mesh");
         let placement = Placement {
             scale: 1.0,
-            origin: [0.0; 3],
+            origin: DVec3::ZERO,
         };
         let from_mesh = mesh
             .model(placement, spec.mass, &[], &params.springs)
@@ -484,8 +486,11 @@ fn region_pins_pin_exactly_the_particles_inside_the_box() {
         nx: 6,
         ny: 4,
         size: [1.0, 0.6],
-        origin: [-0.5, 1.0, -0.3],
-        pins: vec![Pin::Region([[-0.6, 0.9, -0.31], [0.6, 1.1, -0.29]])],
+        origin: DVec3::new(-0.5, 1.0, -0.3),
+        pins: vec![Pin::Region([
+            DVec3::new(-0.6, 0.9, -0.31),
+            DVec3::new(0.6, 1.1, -0.29),
+        ])],
         ..ClothSpec::default()
     };
     let grid = Model::new(&spec, &params.springs).expect("valid");
@@ -494,7 +499,10 @@ fn region_pins_pin_exactly_the_particles_inside_the_box() {
     // Bounds are included: a flat box exactly through row 0 (y = 1,
     // z = −0.3) pins it too.
     let flat = ClothSpec {
-        pins: vec![Pin::Region([[-1.0, 1.0, -0.3], [1.0, 1.0, -0.3]])],
+        pins: vec![Pin::Region([
+            DVec3::new(-1.0, 1.0, -0.3),
+            DVec3::new(1.0, 1.0, -0.3),
+        ])],
         ..spec.clone()
     };
     let grid = Model::new(&flat, &params.springs).expect("valid");
@@ -502,7 +510,7 @@ fn region_pins_pin_exactly_the_particles_inside_the_box() {
     // A mesh: a box over a corner of the irregular sheet pins the vertices
     // whose placed position is inside, which are neither none nor all.
     let mesh = parse(&irregular_obj(9, 7), "sheet.obj").expect("a valid mesh");
-    let bounds = [[-0.55, 0.99, -0.55], [-0.2, 1.01, -0.1]];
+    let bounds = [DVec3::new(-0.55, 0.99, -0.55), DVec3::new(-0.2, 1.01, -0.1)];
     let model = mesh
         .model(PLACED, 0.3, &[Pin::Region(bounds)], &params.springs)
         .expect("valid");
@@ -521,7 +529,7 @@ fn region_pins_pin_exactly_the_particles_inside_the_box() {
     p.implicit.tolerance = 1e-6;
     let s = run::<f64>(&model, &p, 20);
     for (k, x) in s.positions().iter().enumerate() {
-        let moved = (*x - Vec3::from_f64(model.rest_positions[k])).length();
+        let moved = (*x - model.rest_positions[k]).length();
         assert_eq!(
             moved == 0.0,
             model.pinned[k],
@@ -570,7 +578,7 @@ fn free_fall_on_a_mesh_matches_the_exact_discrete_solution() {
             .map(|x0| Vec3::new(x0[0], x0[1] + drop, x0[2]))
             .collect();
         let cpu = run::<f64>(&model, &params, u64::from(steps));
-        let (d, p) = common::max_distance(cpu.positions(), &expected);
+        let (d, p) = common::max_distance(&cpu.positions(), &expected);
         assert!(
             d < FREE_FALL_TOL,
             "{integrator} CPU: particle {p} off by {d:e} m"
@@ -630,7 +638,10 @@ fn gpu_matches_the_cpu_mirror_on_mesh_scenes_and_an_irregular_mesh() {
             ));
         }
         let params = gpu_common::busy_params(integrator);
-        let pins = [Pin::Region([[-0.6, 0.9, -0.6], [0.6, 1.1, -0.45]])];
+        let pins = [Pin::Region([
+            DVec3::new(-0.6, 0.9, -0.6),
+            DVec3::new(0.6, 1.1, -0.45),
+        ])];
         let model = sheet
             .model(PLACED, 0.3, &pins, &params.springs)
             .expect("valid");
@@ -689,12 +700,12 @@ fn a_mesh_cloth_steps_the_same_on_both_backends_from_a_scene_file() {
     let bare = Scene::load(&dir.join("bare.toml")).expect("a valid scene");
     let bare_model = bare.model().expect("valid");
     assert_eq!(bare_model.pinned_count(), 0);
-    assert_eq!(bare_model.rest_positions[5], [1.0, 0.0, 0.0]);
+    assert_eq!(bare_model.rest_positions[5], DVec3::new(1.0, 0.0, 0.0));
     let model = scene.model().expect("valid");
     assert_eq!(model.particle_count(), 30);
     // Scaled, then moved: vertex 5 (the first row's last, at x = 1 in the
     // file) is at x = 2, 1 m up.
-    assert_eq!(model.rest_positions[5], [2.0, 1.0, 0.0]);
+    assert_eq!(model.rest_positions[5], DVec3::new(2.0, 1.0, 0.0));
     // Vertex 0 by index, vertex 5 by the box.
     assert!(model.pinned[0] && model.pinned[5] && model.pinned_count() == 2);
     let (d, p) = {
@@ -703,7 +714,7 @@ fn a_mesh_cloth_steps_the_same_on_both_backends_from_a_scene_file() {
         g.step(10).expect("GPU run");
         let state = g.read_state().expect("read-back");
         let cpu = run::<f32>(&model, &scene.params, 10);
-        worst(&state.x, cpu.positions())
+        worst(&state.x, &cpu.positions())
     };
     assert!(d < MANY_STEP_TOL, "worst {d:e} m at particle {p}");
 }

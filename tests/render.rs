@@ -9,6 +9,7 @@ mod gpu_common;
 use std::ops::ControlFlow;
 use std::path::{Path, PathBuf};
 
+use wgcloth::glam::Vec3;
 use wgcloth::gpu::GpuSolver;
 use wgcloth::render::{self, Camera, FrameOptions, FrameTarget, Renderer, RendererFormats};
 use wgcloth::Scene;
@@ -74,7 +75,7 @@ fn pixel(rgba: &[u8], x: u32, y: u32) -> [u8; 4] {
 
 /// Checks that `positions` (interior particles of the cloth) land on
 /// cloth-coloured pixels of `frame`, and the top-left corner is sky.
-fn assert_cloth_at(frame: &Path, camera: &Camera, positions: &[[f32; 3]]) {
+fn assert_cloth_at(frame: &Path, camera: &Camera, positions: &[Vec3]) {
     let (w, h, rgba) = decode(frame);
     assert_eq!((w, h), (WIDTH, HEIGHT), "{}", frame.display());
     assert_eq!(
@@ -86,6 +87,7 @@ fn assert_cloth_at(frame: &Path, camera: &Camera, positions: &[[f32; 3]]) {
     for (p, x) in positions.iter().enumerate() {
         let [px, py] = camera
             .project(*x, WIDTH, HEIGHT)
+            .map(|q| q.to_array())
             .unwrap_or_else(|| panic!("particle {p} at {x:?} is behind the camera"));
         assert!(
             (0.0..WIDTH as f32).contains(&px) && (0.0..HEIGHT as f32).contains(&py),
@@ -103,7 +105,7 @@ fn assert_cloth_at(frame: &Path, camera: &Camera, positions: &[[f32; 3]]) {
 
 /// The particles of the 9 × 9 grid at least two rows and columns from
 /// every edge: a pixel there is covered by the cloth whole.
-fn interior(x: &[[f32; 3]]) -> Vec<[f32; 3]> {
+fn interior(x: &[Vec3]) -> Vec<Vec3> {
     (0..81)
         .filter(|p| (2..7).contains(&(p % 9)) && (2..7).contains(&(p / 9)))
         .map(|p| x[p])
@@ -150,19 +152,9 @@ fn frames_show_the_cloth_where_its_particles_project() {
     assert_eq!(names, expected);
 
     // Frame 0 is the rest state; the last frame the solver's state now.
-    let rest: Vec<[f32; 3]> = model
-        .rest_positions
-        .iter()
-        .map(|p| p.map(|v| v as f32))
-        .collect();
+    let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
     assert_cloth_at(&dir.join(render::frame_name(0)), &camera, &interior(&rest));
-    let now: Vec<[f32; 3]> = solver
-        .read_state()
-        .expect("read back")
-        .x
-        .iter()
-        .map(|v| [v.x, v.y, v.z])
-        .collect();
+    let now = solver.read_state().expect("read back").x;
     let last = dir.join(render::frame_name(FRAMES - 1));
     assert_cloth_at(&last, &camera, &interior(&now));
     std::fs::remove_dir_all(&dir).expect("remove the test directory");
@@ -210,13 +202,12 @@ fn strain_view_at_rest_is_blue() {
     let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
     let frame = dir.join(render::frame_name(0));
     let (_, _, rgba) = decode(&frame);
-    let rest: Vec<[f32; 3]> = model
-        .rest_positions
-        .iter()
-        .map(|p| p.map(|v| v as f32))
-        .collect();
+    let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
     for x in interior(&rest) {
-        let [px, py] = camera.project(x, WIDTH, HEIGHT).expect("in front");
+        let [px, py] = camera
+            .project(x, WIDTH, HEIGHT)
+            .expect("in front")
+            .to_array();
         let c = pixel(&rgba, px as u32, py as u32);
         assert!(
             i32::from(c[2]) > i32::from(c[0]).max(i32::from(c[1])) + CLOTH_RED_MARGIN,

@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use wgcloth::glam::DVec3;
 use wgcloth::model::{ClothSpec, Corner, Edge, Orientation, Pin};
 use wgcloth::params::{
     FilterMethod, FixupMethod, FixupParams, Ground, ImplicitParams, Integrator, Params,
@@ -81,7 +82,7 @@ fn builtin_scenes_are_the_ones_described() {
     assert!(drape.cloth.pins.is_empty());
     assert_eq!(drape.params.spheres.len(), 1);
     assert_eq!(drape.params.spheres[0].radius, 0.35);
-    assert_eq!(drape.params.spheres[0].center, [0.0; 3]);
+    assert_eq!(drape.params.spheres[0].center, DVec3::ZERO);
     assert!(drape.params.ground.is_some());
 }
 
@@ -160,7 +161,7 @@ fn a_file_with_every_key_gives_exactly_those_values() {
         nx: 17,
         ny: 9,
         size: [2.0, 1.5],
-        origin: [1.0, 3.0, -2.0],
+        origin: DVec3::new(1.0, 3.0, -2.0),
         orientation: Orientation::Vertical,
         mass: 0.8,
         pins: vec![
@@ -172,7 +173,7 @@ fn a_file_with_every_key_gives_exactly_those_values() {
     let params = Params {
         integrator: Integrator::SemiImplicit,
         dt: 0.004,
-        gravity: [0.0, -9.0, 0.5],
+        gravity: DVec3::new(0.0, -9.0, 0.5),
         springs: [
             SpringParams {
                 stiffness: 400.0,
@@ -210,18 +211,18 @@ fn a_file_with_every_key_gives_exactly_those_values() {
         }),
         spheres: vec![
             Sphere {
-                center: [0.0, 1.0, 0.0],
+                center: DVec3::new(0.0, 1.0, 0.0),
                 radius: 0.5,
                 friction: 0.1,
             },
             Sphere {
-                center: [1.0, 0.5, 0.0],
+                center: DVec3::new(1.0, 0.5, 0.0),
                 radius: 0.25,
                 friction: 0.0,
             },
         ],
         wind: Some(Wind {
-            velocity: [3.0, 0.0, -1.0],
+            velocity: DVec3::new(3.0, 0.0, -1.0),
             drag: 0.7,
             lift: 0.2,
         }),
@@ -274,7 +275,7 @@ fn empty_collider_and_wind_tables_take_the_documented_defaults() {
     assert_eq!(
         scene.params.spheres,
         [Sphere {
-            center: [0.0; 3],
+            center: DVec3::ZERO,
             radius: 1.0,
             friction: 0.5
         }]
@@ -282,7 +283,7 @@ fn empty_collider_and_wind_tables_take_the_documented_defaults() {
     assert_eq!(
         scene.params.wind,
         Some(Wind {
-            velocity: [1.0, 2.0, 3.0],
+            velocity: DVec3::new(1.0, 2.0, 3.0),
             drag: 0.6,
             lift: 0.0
         })
@@ -766,7 +767,13 @@ const BAD_SCENES: &[Row] = &[
     row(
         "box pinning nothing on a grid",
         "[cloth]\npins = [{ box = [[5, 5, 5], [6, 6, 6]] }]\n",
-        &["`cloth.pins[0]`", "at least one particle", "holds none"],
+        // The box as the file writes it, not as the Rust type prints.
+        &[
+            "`cloth.pins[0]`",
+            "at least one particle",
+            "[[5.0, 5.0, 5.0], [6.0, 6.0, 6.0]]",
+            "holds none",
+        ],
     ),
     row(
         "box pinning nothing on a mesh",
@@ -776,7 +783,11 @@ const BAD_SCENES: &[Row] = &[
     row(
         "box inside out",
         "[cloth]\npins = [{ box = [[1, 1, 1], [0, 2, 2]] }]\n",
-        &["`cloth.pins[0].box`", "x0 ≤ x1"],
+        &[
+            "`cloth.pins[0].box`",
+            "x0 ≤ x1",
+            "[1.0, 1.0, 1.0] to [0.0, 2.0, 2.0]",
+        ],
     ),
     row(
         "box with a misspelt key",

@@ -2,6 +2,7 @@
 
 use std::time::{Duration, Instant};
 
+use wgcloth::glam::DVec3;
 use wgcloth::gpu::{GpuContext, GpuSolver};
 use wgcloth::params::Integrator;
 use wgcloth::Scene;
@@ -17,7 +18,7 @@ pub fn grown_hanging(integrator: Integrator, n: usize) -> Scene {
     };
     let grow = (n - 1) as f64 / (scene.cloth.nx - 1) as f64;
     scene.cloth.size = scene.cloth.size.map(|s| s * grow);
-    scene.cloth.origin = [-scene.cloth.size[0] / 2.0, 1.0, -scene.cloth.size[1] / 2.0];
+    scene.cloth.origin = DVec3::new(-scene.cloth.size[0] / 2.0, 1.0, -scene.cloth.size[1] / 2.0);
     scene.cloth.mass *= (n * n) as f64 / (scene.cloth.nx * scene.cloth.ny) as f64;
     scene.cloth.nx = n;
     scene.cloth.ny = n;

@@ -7,10 +7,9 @@
 
 use std::borrow::Cow;
 
-use wgcloth::cpu::{CpuSolver, StepStats};
 use wgcloth::diagnostics::Divergence;
-use wgcloth::gpu::{GpuContext, GpuSolver, GpuStatus};
-use wgcloth::{Integrator, Model, Params, Real, Vec3};
+use wgcloth::real::Vec3;
+use wgcloth::{CpuSolver, GpuContext, GpuSolver, Integrator, Model, Params, Real, StepStats};
 
 use super::summary::{CgDetail, CgSummary, FixupSummary, SolverStats};
 
@@ -103,8 +102,8 @@ impl<R: Real> Solver for Cpu<R> {
 
     fn state(&mut self) -> wgcloth::Result<State<'_, R>> {
         Ok(State {
-            x: Cow::Borrowed(self.solver.positions()),
-            v: Cow::Borrowed(self.solver.velocities()),
+            x: Cow::Borrowed(&self.solver.state().x),
+            v: Cow::Borrowed(&self.solver.state().v),
         })
     }
 
@@ -150,7 +149,9 @@ impl Totals {
         self.cg_iterations += u64::from(s.cg_iterations);
         self.cg_max = self.cg_max.max(s.cg_iterations);
         self.cg_capped += u64::from(s.cg_iterations >= self.cg_cap);
-        self.cg_max_residual = self.cg_max_residual.max(s.cg_residual);
+        // Steps without CG report no residual; the summary's maximum is
+        // over the implicit steps.
+        self.cg_max_residual = self.cg_max_residual.max(s.cg_residual.unwrap_or(0.0));
         self.fixup_passes += u64::from(s.fixup_passes);
         self.fixup_max = self.fixup_max.max(s.fixup_passes);
     }
@@ -186,7 +187,7 @@ pub struct Gpu {
     solver: GpuSolver,
     /// What the device reported after the last batch (`None` before the
     /// first).
-    status: Option<GpuStatus>,
+    status: Option<StepStats>,
     /// The most CG iterations of any step so far (the device reports the
     /// most since its previous report).
     cg_max: u32,
@@ -251,8 +252,8 @@ impl Solver for Gpu {
         let state = self.solver.read_state()?;
         self.context.check()?;
         Ok(State {
-            x: Cow::Owned(state.x),
-            v: Cow::Owned(state.v),
+            x: state.x.into_iter().map(Vec3::from).collect(),
+            v: state.v.into_iter().map(Vec3::from).collect(),
         })
     }
 

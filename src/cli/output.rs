@@ -16,7 +16,7 @@ use std::io::{self, Write};
 use std::path::Path;
 
 pub use wgcloth::atomic_file::{commit_all, AtomicFile};
-use wgcloth::{Real, Vec3};
+use wgcloth::real::{Real, Vec3};
 
 /// Whether `a` and `b` name the same file: the same name in the same
 /// directory (the directories' links resolved), or two names of one

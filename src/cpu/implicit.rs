@@ -262,7 +262,7 @@ pub fn step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) -
     };
     StepStats {
         cg_iterations: w.cg.iterations,
-        cg_residual: residual,
+        cg_residual: Some(residual),
         ..StepStats::default()
     }
 }

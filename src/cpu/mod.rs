@@ -9,7 +9,8 @@
 //! let model = scene.model()?;
 //! let mut solver = CpuSolver::<f64>::new(&model, &scene.params)?;
 //! // The blow-up rule every command applies, from the initial state.
-//! let rule = Divergence::new(&model, &scene.params, 0.0, solver.positions(), solver.velocities());
+//! let (x, v) = (solver.positions(), solver.velocities()); // glam::DVec3 [m], [m/s]
+//! let rule = Divergence::new(&model, &scene.params, 0.0, &x, &v);
 //! solver.step_n(CHECK_EVERY)?; // an error at once if the state stops being finite
 //! solver.check_divergence(&rule)?; // an error if it is finite but past a bound
 //! assert_eq!(solver.steps(), 10);
@@ -42,6 +43,7 @@ use crate::error::{Error, Result};
 use crate::model::{Adjacency, Model};
 use crate::params::{FilterMethod, FixupMethod, Integrator, Params};
 use crate::real::{Real, Vec3};
+use crate::stats::StepStats;
 use coarse::{Aggregation, Coarse};
 use filter::{BandedFilter, ConstantFilter, DenseFilter, FilterSystem};
 use implicit::{Filter, SpringBlock};
@@ -65,17 +67,6 @@ pub struct State<R> {
     pub x: Vec<Vec3<R>>,
     /// Velocities [m/s], particle order.
     pub v: Vec<Vec3<R>>,
-}
-
-/// What one step did besides moving the cloth.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StepStats {
-    /// CG iterations used (implicit only).
-    pub cg_iterations: u32,
-    /// Final relative preconditioned residual of CG (implicit only).
-    pub cg_residual: f64,
-    /// Fix-up passes that moved something (explicit and semi-implicit).
-    pub fixup_passes: u32,
 }
 
 // Internals of the CPU solver, public only for the hidden `filter` and
@@ -535,7 +526,7 @@ impl<R: Real> CpuSolver<R> {
     /// Advances one step. A state that becomes non-finite is an error naming
     /// the step; the state is left as it was computed (for inspection).
     pub fn step(&mut self) -> Result<StepStats> {
-        let stats = match self.integrator {
+        let mut stats = match self.integrator {
             Integrator::Explicit => explicit::step(&self.sys, &mut self.state, &mut self.work),
             Integrator::Implicit => implicit::step(&self.sys, &mut self.state, &mut self.work),
             Integrator::SemiImplicit => {
@@ -544,6 +535,8 @@ impl<R: Real> CpuSolver<R> {
         };
         self.steps += 1;
         self.time += self.sys.dt.to_f64();
+        stats.steps = self.steps;
+        stats.cg_max_iterations = stats.cg_iterations;
         self.last = stats;
         if let Some(p) = diagnostics::first_non_finite(&self.state.x, &self.state.v) {
             return Err(Error::NonFinite {
@@ -555,12 +548,17 @@ impl<R: Real> CpuSolver<R> {
         Ok(stats)
     }
 
-    /// Advances `n` steps; returns the last step's stats.
+    /// Advances `n` steps; returns the last step's stats, with
+    /// [`StepStats::cg_max_iterations`] the most of the `n` steps.
     pub fn step_n(&mut self, n: u64) -> Result<StepStats> {
+        let mut most = 0;
         for _ in 0..n {
-            self.step()?;
+            most = most.max(self.step()?.cg_iterations);
         }
-        Ok(self.last)
+        Ok(StepStats {
+            cg_max_iterations: most,
+            ..self.last
+        })
     }
 
     /// Applies `rule` to the current state (see
@@ -572,13 +570,17 @@ impl<R: Real> CpuSolver<R> {
         rule.check(self.steps, self.time, &self.state.x, &self.state.v)
     }
 
-    /// The current state.
+    /// The current state in the internals' vectors (for the CLI and the
+    /// tests; an embedder reads [`CpuSolver::positions`] and
+    /// [`CpuSolver::velocities`]).
+    #[doc(hidden)]
     pub fn state(&self) -> &State<R> {
         &self.state
     }
 
     /// Replaces the state (positions and velocities, particle order). The
     /// lengths must match the model.
+    #[doc(hidden)]
     pub fn set_state(&mut self, state: State<R>) -> Result<()> {
         let n = self.state.x.len();
         if state.x.len() != n || state.v.len() != n {
@@ -592,14 +594,25 @@ impl<R: Real> CpuSolver<R> {
         Ok(())
     }
 
-    /// Positions \[m\].
-    pub fn positions(&self) -> &[Vec3<R>] {
-        &self.state.x
+    /// Positions \[m\], particle order: `glam::DVec3` for `CpuSolver<f64>`,
+    /// `glam::Vec3` for `CpuSolver<f32>` (a copy; the solver computes in
+    /// its own vector type, generic over the precision).
+    pub fn positions(&self) -> Vec<R::Vector> {
+        self.state.x.iter().map(|&p| p.into()).collect()
     }
 
-    /// Velocities [m/s].
-    pub fn velocities(&self) -> &[Vec3<R>] {
-        &self.state.v
+    /// Velocities [m/s], particle order, as [`CpuSolver::positions`].
+    pub fn velocities(&self) -> Vec<R::Vector> {
+        self.state.v.iter().map(|&v| v.into()).collect()
+    }
+
+    /// Sets positions \[m\] and velocities [m/s] (particle order, one of
+    /// each per particle), as [`CpuSolver::positions`] returns them.
+    pub fn set_positions_and_velocities(&mut self, x: &[R::Vector], v: &[R::Vector]) -> Result<()> {
+        self.set_state(State {
+            x: x.iter().map(|&p| p.into()).collect(),
+            v: v.iter().map(|&p| p.into()).collect(),
+        })
     }
 
     /// Steps taken.

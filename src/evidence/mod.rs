@@ -78,11 +78,13 @@ impl Runner {
     fn state(&self) -> Result<(Points, Points)> {
         fn conv<R: Real>(s: &CpuSolver<R>) -> (Points, Points) {
             (
-                s.positions()
+                s.state()
+                    .x
                     .iter()
                     .map(|p| Vec3::from_f64(p.to_f64()))
                     .collect(),
-                s.velocities()
+                s.state()
+                    .v
                     .iter()
                     .map(|p| Vec3::from_f64(p.to_f64()))
                     .collect(),
@@ -94,8 +96,8 @@ impl Runner {
             Runner::Gpu(s) => {
                 let st = s.read_state()?;
                 (
-                    st.x.iter().map(|p| Vec3::from_f64(p.to_f64())).collect(),
-                    st.v.iter().map(|p| Vec3::from_f64(p.to_f64())).collect(),
+                    st.x.iter().map(|p| Vec3::from_f64(p.as_dvec3())).collect(),
+                    st.v.iter().map(|p| Vec3::from_f64(p.as_dvec3())).collect(),
                 )
             }
         })

@@ -156,9 +156,9 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
     let ground = params.ground.unwrap_or(NO_GROUND);
     let dt2 = (params.dt * params.dt) as f32;
     GpuParams {
-        gravity: params.gravity.map(|g| g as f32),
+        gravity: params.gravity.as_vec3().to_array(),
         dt: params.dt as f32,
-        wind_velocity: wind.velocity.map(|c| c as f32),
+        wind_velocity: wind.velocity.as_vec3().to_array(),
         wind_drag: wind.drag as f32,
         wind_lift: wind.lift as f32,
         ground_height: ground.height as f32,

@@ -9,15 +9,16 @@ use super::semi_filter::SemiFilter;
 use super::solver::{gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND};
 use crate::error::{Error, Result};
 use crate::params::{Ground, Sphere, Wind};
+use glam::{DVec3, Vec3};
 
 impl GpuSolver {
     /// Changes gravity [m/s²] from the next recorded step on.
-    pub fn set_gravity(&mut self, gravity: [f64; 3]) -> Result<()> {
+    pub fn set_gravity(&mut self, gravity: DVec3) -> Result<()> {
         let mut p = self.host_params.clone();
         p.gravity = gravity;
         p.validate()?;
         self.host_params = p;
-        self.params.gravity = gravity.map(|g| g as f32);
+        self.params.gravity = gravity.as_vec3().to_array();
         self.upload_params();
         Ok(())
     }
@@ -31,7 +32,7 @@ impl GpuSolver {
         p.validate()?;
         self.host_params = p;
         let w = wind.unwrap_or(NO_WIND);
-        self.params.wind_velocity = w.velocity.map(|c| c as f32);
+        self.params.wind_velocity = w.velocity.as_vec3().to_array();
         self.params.wind_drag = w.drag as f32;
         self.params.wind_lift = w.lift as f32;
         self.update_features()
@@ -70,12 +71,12 @@ impl GpuSolver {
 
     /// Moves particle `p` to `position` \[m\] (for a pinned particle: a game
     /// dragging a corner). Its velocity is left as it is.
-    pub fn set_position(&mut self, p: usize, position: [f32; 3]) -> Result<()> {
+    pub fn set_position(&mut self, p: usize, position: Vec3) -> Result<()> {
         self.check_particle(p)?;
         self.queue.write_buffer(
             &self.buffers.x,
             (p * 16) as u64,
-            bytemuck::cast_slice(&position),
+            bytemuck::cast_slice(&position.to_array()),
         );
         Ok(())
     }

@@ -398,7 +398,7 @@ mod tests {
             nx,
             ny,
             size: [0.7, 1.3],
-            origin: [-0.35, 1.0, -0.65],
+            origin: glam::DVec3::new(-0.35, 1.0, -0.65),
             orientation,
             mass: 0.4,
             pins: vec![Pin::Index(0)],

@@ -39,7 +39,7 @@ pub use context::{GpuContext, BACKEND_NAMES};
 pub(crate) use errors::guarded;
 pub use grid::GridBlock;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
-pub use solver::{GpuSolver, GpuState, GpuStatus};
+pub use solver::{GpuSolver, GpuState};
 // The kernels' typed identity and the debug API that runs them one by one:
 // reached by `tests/kernel_twins.rs` and `tests/gpu_skipping.rs`.
 /// The workgroup size of every per-particle and per-spring kernel (see

@@ -17,7 +17,8 @@ use crate::error::{Error, Result};
 use crate::kernel_config::WORKGROUP;
 use crate::model::Model;
 use crate::params::{Ground, Integrator, Params, Sphere, Wind};
-use crate::real::Vec3;
+use crate::stats::StepStats;
+use glam::{DVec3, Vec3};
 
 /// A dispatch with the pipeline it runs.
 pub(super) type Entry = (Dispatch, wgpu::ComputePipeline);
@@ -39,26 +40,9 @@ pub(super) const STORAGE_BUFFERS: u32 = 13;
 #[derive(Clone, Debug, PartialEq)]
 pub struct GpuState {
     /// Positions \[m\].
-    pub x: Vec<Vec3<f32>>,
+    pub x: Vec<Vec3>,
     /// Velocities [m/s].
-    pub v: Vec<Vec3<f32>>,
-}
-
-/// What the device reports about the steps it ran.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct GpuStatus {
-    /// Steps the device has run.
-    pub steps: u64,
-    /// CG iterations of the last implicit step.
-    pub cg_iterations: u32,
-    /// Largest CG iteration count of any step since the last check.
-    pub cg_max_iterations: u32,
-    /// Checks whose window had a step stop at the adaptive budget rather
-    /// than at convergence (see [`GpuSolver::check`]).
-    pub cg_budget_hits: u64,
-    /// Fix-up passes run in the last step; when it stopped early, the last
-    /// of them found nothing over-stretched.
-    pub fixup_passes: u32,
+    pub v: Vec<Vec3>,
 }
 
 /// A cloth simulated on a wgpu device the host owns.
@@ -192,7 +176,7 @@ pub(super) fn scene_features(model: &Model, params: &Params, grid: Option<GridBl
 
 /// Uniform values when there is no wind (the kernels compile it out).
 pub(super) const NO_WIND: Wind = Wind {
-    velocity: [0.0; 3],
+    velocity: DVec3::ZERO,
     drag: 0.0,
     lift: 0.0,
 };
@@ -210,7 +194,7 @@ pub(super) fn gpu_spheres(spheres: &[Sphere]) -> [GpuSphere; MAX_SPHERES] {
     let mut out = [GpuSphere::default(); MAX_SPHERES];
     for (g, s) in out.iter_mut().zip(spheres) {
         *g = GpuSphere {
-            center: s.center.map(|c| c as f32),
+            center: s.center.as_vec3().to_array(),
             radius: s.radius as f32,
             friction: s.friction as f32,
             _pad: [0.0; 3],
@@ -442,7 +426,7 @@ impl GpuSolver {
     /// device's status word (one small read-back per call, none per step).
     /// A device error (a lost device, out of memory) is an
     /// [`Error::Gpu`], never a panic.
-    pub fn step(&mut self, n: u32) -> Result<GpuStatus> {
+    pub fn step(&mut self, n: u32) -> Result<StepStats> {
         let device = self.device.clone();
         guarded(&device, "stepping", None, || {
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -463,11 +447,11 @@ impl GpuSolver {
     /// since the last check, plus a margin (at most the configured
     /// maximum; see `src/gpu/cg_budget.rs`). A window in which some step
     /// used the whole budget restores the full maximum and is counted in
-    /// [`GpuStatus::cg_budget_hits`] (such a step stopped with its residual
+    /// [`StepStats::cg_budget_hits`] (such a step stopped with its residual
     /// above the tolerance). With no check in between, or with
     /// [`GpuTuningMut::set_adaptive_cg_budget`](super::GpuTuningMut::set_adaptive_cg_budget)`(false)`,
     /// the budget never changes and every step may use the full maximum.
-    pub fn check(&mut self) -> Result<GpuStatus> {
+    pub fn check(&mut self) -> Result<StepStats> {
         let bytes = readback::read_buffers(
             &self.device,
             &self.queue,
@@ -482,7 +466,7 @@ impl GpuSolver {
                 bytemuck::bytes_of(&0u32),
             );
         }
-        status.cg_budget_hits = self.cg.hits();
+        status.cg_budget_hits = Some(self.cg.hits());
         Ok(status)
     }
 
@@ -499,7 +483,7 @@ impl GpuSolver {
         self.cg.current()
     }
 
-    fn decode_status(&self, bytes: &[u8]) -> Result<GpuStatus> {
+    fn decode_status(&self, bytes: &[u8]) -> Result<StepStats> {
         let words: &[u32] = bytemuck::cast_slice(bytes);
         let bad = words[layout::status::BAD_STEP];
         if bad != u32::MAX {
@@ -510,11 +494,12 @@ impl GpuSolver {
                 particle: words[layout::status::BAD_PARTICLE] as usize,
             });
         }
-        Ok(GpuStatus {
+        Ok(StepStats {
             steps: widen_step(words[layout::status::STEP], self.steps_recorded),
             cg_iterations: words[layout::status::CG_ITERATIONS],
             cg_max_iterations: words[layout::status::CG_MAX_ITERATIONS],
-            cg_budget_hits: self.cg.hits(),
+            cg_residual: None,
+            cg_budget_hits: Some(self.cg.hits()),
             fixup_passes: words[layout::status::FIXUP_PASSES],
         })
     }
@@ -533,7 +518,7 @@ impl GpuSolver {
             ],
         )?;
         self.decode_status(&parts[2])?;
-        let unpack = |b: &[u8]| -> Vec<Vec3<f32>> {
+        let unpack = |b: &[u8]| -> Vec<Vec3> {
             bytemuck::cast_slice::<u8, [f32; 4]>(b)
                 .iter()
                 .map(|p| Vec3::new(p[0], p[1], p[2]))

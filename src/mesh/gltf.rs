@@ -10,6 +10,7 @@
 //! meshes and primitives are ignored.
 
 use base64::Engine as _;
+use glam::DVec3;
 use gltf::accessor::{DataType, Dimensions};
 use gltf::buffer::Source;
 use gltf::mesh::{Mode, Semantic};
@@ -84,7 +85,7 @@ pub(super) fn parse(
                 "`{positions_path}`: vertex {v} is {p:?}: coordinates must be finite numbers"
             ));
         }
-        xyz.push(p);
+        xyz.push(DVec3::from_array(p));
     }
     let indices = match primitive.indices() {
         Some(accessor) => {

@@ -31,6 +31,8 @@ mod topology;
 use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
+use glam::DVec3;
+
 use crate::error::{Error, Result};
 use crate::model::MAX_PARTICLES;
 
@@ -88,7 +90,7 @@ enum FacePlace {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mesh {
     /// Vertex positions, file order, in the file's units.
-    pub positions: Vec<[f64; 3]>,
+    pub positions: Vec<DVec3>,
     /// Faces, file order.
     pub faces: Vec<Face>,
     place: FacePlace,
@@ -230,7 +232,7 @@ impl Mesh {
             }
         }
         f.triangles().find_map(|t| {
-            let [a, b, c] = t.map(|p| self.positions[p as usize]);
+            let [a, b, c] = t.map(|p| self.positions[p as usize].to_array());
             let (area, longest) = (area(a, b, c), longest_side(a, b, c));
             (area <= DEGENERATE_AREA * longest * longest)
                 .then(|| format!("triangle {t:?} has zero area (its corners are in a line)"))

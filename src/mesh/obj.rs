@@ -8,6 +8,8 @@
 //! lines and points are ignored; any other statement is refused, so a
 //! file in another format is not read as an empty mesh.
 
+use glam::DVec3;
+
 use super::{too_many_vertices, Face, FacePlace, Mesh};
 use crate::model::MAX_PARTICLES;
 
@@ -40,7 +42,7 @@ pub(super) fn parse(bytes: &[u8]) -> Result<Mesh, String> {
                 if positions.len() >= MAX_PARTICLES {
                     return Err(at(too_many_vertices(format!("more than {MAX_PARTICLES}"))));
                 }
-                positions.push(vertex(&rest).map_err(at)?);
+                positions.push(DVec3::from_array(vertex(&rest).map_err(at)?));
             }
             "f" => faces.push(face(&rest, positions.len(), line).map_err(at)?),
             _ if IGNORED.contains(&keyword) => {}

@@ -2,6 +2,8 @@
 //! needs, in a fixed order (every spring list is sorted by its particle
 //! pair, so the model and every sum over it are the same on each run).
 
+use glam::DVec3;
+
 use super::{area, Mesh, MeshCloth};
 use crate::budget;
 use crate::error::{Error, Result};
@@ -135,13 +137,13 @@ pub struct Placement {
     /// Factor on the file's coordinates (`> 0`).
     pub scale: f64,
     /// Translation after scaling \[m\].
-    pub origin: [f64; 3],
+    pub origin: DVec3,
 }
 
 impl Placement {
     /// The world position of file position `p` \[m\].
-    pub fn apply(&self, p: [f64; 3]) -> [f64; 3] {
-        [0, 1, 2].map(|k| self.origin[k] + self.scale * p[k])
+    pub fn apply(&self, p: DVec3) -> DVec3 {
+        DVec3::from_array([0, 1, 2].map(|k| self.origin[k] + self.scale * p[k]))
     }
 }
 
@@ -181,13 +183,13 @@ impl Mesh {
             budget::model_bytes(n as u64, springs as u64, triangles as u64),
             || format!("the mesh cloth's model ({n} particles, up to {springs} springs)"),
         )?;
-        let rest: Vec<[f64; 3]> = self.positions.iter().map(|&p| placement.apply(p)).collect();
+        let rest: Vec<DVec3> = self.positions.iter().map(|&p| placement.apply(p)).collect();
         let pinned = pinned(pins, &rest)?;
         let triangles: Vec<[u32; 3]> = self.faces.iter().flat_map(|f| f.triangles()).collect();
         let mut lumped = vec![0.0; n];
         for t in &triangles {
             let [a, b, c] = t.map(|p| rest[p as usize]);
-            let third = area(a, b, c) / 3.0;
+            let third = area(a.to_array(), b.to_array(), c.to_array()) / 3.0;
             for &p in t {
                 lumped[p as usize] += third;
             }
@@ -210,7 +212,7 @@ impl Mesh {
 
 /// The pin flag of each particle at `rest`: vertex indices and boxes;
 /// a grid's corner and edge names are refused.
-fn pinned(pins: &[Pin], rest: &[[f64; 3]]) -> Result<Vec<bool>> {
+fn pinned(pins: &[Pin], rest: &[DVec3]) -> Result<Vec<bool>> {
     let n = rest.len();
     let mut pinned = vec![false; n];
     for (k, pin) in pins.iter().enumerate() {
@@ -259,22 +261,22 @@ impl MeshCloth {
             self.scale > 0.0,
             "> 0 (a factor)",
         )?;
-        for (c, v) in spec.origin.iter().enumerate() {
+        for (c, v) in spec.origin.to_array().iter().enumerate() {
             check_finite(&format!("cloth.origin[{c}]"), *v, "m")?;
         }
         check("cloth.mass", spec.mass, spec.mass > 0.0, "> 0 (kg, total)")?;
         let placement = self.placement(spec);
-        let rest: Vec<[f64; 3]> = self
+        let rest: Vec<DVec3> = self
             .mesh
             .positions
             .iter()
             .map(|&p| placement.apply(p))
             .collect();
-        if let Some(p) = rest.iter().position(|x| !x.iter().all(|c| c.is_finite())) {
+        if let Some(p) = rest.iter().position(|x| !x.is_finite()) {
             return Err(Error::InvalidParameter {
                 key: "cloth.scale".to_string(),
                 allowed: "a factor that keeps every vertex finite".to_string(),
-                got: format!("{} (vertex {p} is {:?})", self.scale, rest[p]),
+                got: format!("{} (vertex {p} is {:?})", self.scale, rest[p].to_array()),
             });
         }
         pinned(&spec.pins, &rest).map(|_| ())

@@ -2,6 +2,8 @@
 //! can reach from a fixed elevation and azimuth, far enough back that the
 //! box's bounding sphere fits the view.
 
+use glam::{Vec2, Vec3};
+
 use crate::model::Model;
 use crate::params::Params;
 use crate::scene::Scene;
@@ -31,9 +33,9 @@ struct View {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     /// Eye position \[m\].
-    pub eye: [f32; 3],
+    pub eye: Vec3,
     /// The point looked at \[m\].
-    pub target: [f32; 3],
+    pub target: Vec3,
     /// Radius of the sphere the view is fitted to \[m\].
     pub radius: f32,
     /// Column-major view-projection matrix (clip space: wgpu's, depth in
@@ -68,7 +70,7 @@ impl Camera {
         let target = [0, 1, 2].map(|k| (0.5 * (lo[k] + hi[k])) as f32);
         let half = [0, 1, 2].map(|k| (0.5 * (hi[k] - lo[k])) as f32);
         let radius = length(half).max(1e-3);
-        Camera::orbit(target, radius, aspect)
+        Camera::orbit(Vec3::from_array(target), radius, aspect)
     }
 
     /// The scene's camera: the automatic framing of
@@ -84,14 +86,14 @@ impl Camera {
             fov_y: c.fov.map_or(FOV_Y, deg),
             distance: c.distance.map(|d| d as f32),
         };
-        let target = c.target.map_or(auto.target, |t| t.map(|v| v as f32));
+        let target = c.target.map_or(auto.target, |t| t.as_vec3());
         Camera::look(target, auto.radius, view, aspect)
     }
 
     /// Looks at `target` from the fixed elevation and azimuth, far enough
     /// back that a sphere of `radius` \[m\] around it fits the view whose
     /// width / height is `aspect`.
-    pub fn orbit(target: [f32; 3], radius: f32, aspect: f32) -> Camera {
+    pub fn orbit(target: Vec3, radius: f32, aspect: f32) -> Camera {
         let view = View {
             elevation: ELEVATION,
             azimuth: AZIMUTH,
@@ -103,7 +105,8 @@ impl Camera {
 
     /// Looks at `target` as `view` says; without a distance, far enough back
     /// that a sphere of `radius` \[m\] fits.
-    fn look(target: [f32; 3], radius: f32, view: View, aspect: f32) -> Camera {
+    fn look(target: Vec3, radius: f32, view: View, aspect: f32) -> Camera {
+        let target = target.to_array();
         let half_y = 0.5 * view.fov_y;
         let half_x = (half_y.tan() * aspect).atan();
         let distance = view
@@ -122,8 +125,8 @@ impl Camera {
         let far = distance + radius * 4.0;
         let proj = perspective(view.fov_y, aspect, near, far);
         Camera {
-            eye,
-            target,
+            eye: Vec3::from_array(eye),
+            target: Vec3::from_array(target),
             radius,
             view_proj: mul(&proj, &look_at(eye, target)),
         }
@@ -132,7 +135,7 @@ impl Camera {
     /// Projects a point \[m\] to pixel coordinates (x right, y down, origin
     /// at the top-left corner) of a `width` × `height` image; `None` if it
     /// lies behind the eye or outside the depth range.
-    pub fn project(&self, p: [f32; 3], width: u32, height: u32) -> Option<[f32; 2]> {
+    pub fn project(&self, p: Vec3, width: u32, height: u32) -> Option<Vec2> {
         let m = &self.view_proj;
         let clip: [f32; 4] =
             [0, 1, 2, 3].map(|r| m[0][r] * p[0] + m[1][r] * p[1] + m[2][r] * p[2] + m[3][r]);
@@ -143,10 +146,10 @@ impl Camera {
         if !(0.0..=1.0).contains(&ndc[2]) {
             return None;
         }
-        Some([
+        Some(Vec2::new(
             (ndc[0] + 1.0) * 0.5 * width as f32,
             (1.0 - ndc[1]) * 0.5 * height as f32,
-        ])
+        ))
     }
 }
 
@@ -214,15 +217,14 @@ mod tests {
 
     #[test]
     fn the_target_projects_to_the_centre_and_the_sphere_fits() {
-        let cam = Camera::orbit([1.0, 2.0, 3.0], 0.5, 4.0 / 3.0);
+        let cam = Camera::orbit(Vec3::new(1.0, 2.0, 3.0), 0.5, 4.0 / 3.0);
         let c = cam.project(cam.target, 640, 480).expect("in front");
         assert!(
             (c[0] - 320.0).abs() < 1e-2 && (c[1] - 240.0).abs() < 1e-2,
             "{c:?}"
         );
-        for d in [[0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, -0.5]] {
-            let p = [0, 1, 2].map(|k| cam.target[k] + d[k]);
-            let q = cam.project(p, 640, 480).expect("in front");
+        for d in [Vec3::X * 0.5, Vec3::Y * 0.5, Vec3::Z * -0.5] {
+            let q = cam.project(cam.target + d, 640, 480).expect("in front");
             assert!(
                 (0.0..640.0).contains(&q[0]) && (0.0..480.0).contains(&q[1]),
                 "{q:?}"
@@ -232,9 +234,13 @@ mod tests {
 
     #[test]
     fn up_is_up_on_screen() {
-        let cam = Camera::orbit([0.0; 3], 1.0, 1.0);
-        let low = cam.project([0.0, -0.5, 0.0], 100, 100).expect("in front");
-        let high = cam.project([0.0, 0.5, 0.0], 100, 100).expect("in front");
+        let cam = Camera::orbit(Vec3::ZERO, 1.0, 1.0);
+        let low = cam
+            .project(Vec3::new(0.0, -0.5, 0.0), 100, 100)
+            .expect("in front");
+        let high = cam
+            .project(Vec3::new(0.0, 0.5, 0.0), 100, 100)
+            .expect("in front");
         assert!(high[1] < low[1]);
     }
 
@@ -244,12 +250,12 @@ mod tests {
         let model = scene.model().expect("valid");
         let auto = Camera::for_scene(&scene, &model, 4.0 / 3.0);
         assert_eq!(auto, Camera::framing(&model, &scene.params, 4.0 / 3.0));
-        scene.camera.target = Some([0.0, 0.5, 0.0]);
+        scene.camera.target = Some(glam::DVec3::new(0.0, 0.5, 0.0));
         scene.camera.distance = Some(3.0);
         scene.camera.elevation = Some(90.0 - 1.0);
         let cam = Camera::for_scene(&scene, &model, 4.0 / 3.0);
-        assert_eq!(cam.target, [0.0, 0.5, 0.0]);
-        let d = length([0, 1, 2].map(|k| cam.eye[k] - cam.target[k]));
+        assert_eq!(cam.target, Vec3::new(0.0, 0.5, 0.0));
+        let d = cam.eye.distance(cam.target);
         assert!((d - 3.0).abs() < 1e-5, "distance {d}");
         // 89° elevation: the eye is nearly straight above the target.
         assert!(cam.eye[1] - cam.target[1] > 0.99 * 3.0, "{:?}", cam.eye);

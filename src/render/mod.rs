@@ -403,7 +403,7 @@ impl Renderer {
             .spheres
             .iter()
             .map(|s| {
-                let c = s.center.map(|v| v as f32);
+                let c = s.center.as_vec3();
                 let r =
                     (s.radius as f32 - COLLIDER_INSET * camera.radius).max(0.5 * s.radius as f32);
                 instance([c[0], c[1], c[2], r], SPHERE, 0.0)

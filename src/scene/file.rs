@@ -11,6 +11,7 @@
 use std::fmt;
 use std::marker::PhantomData;
 
+use glam::DVec3;
 use serde::de::value::MapAccessDeserializer;
 use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
@@ -250,6 +251,12 @@ impl From<Whole<u32>> for u32 {
     }
 }
 
+impl From<Exactly<Number, 3>> for DVec3 {
+    fn from(v: Exactly<Number, 3>) -> Self {
+        DVec3::from_array(v.into())
+    }
+}
+
 impl<const N: usize> From<Exactly<Number, N>> for [f64; N] {
     fn from(a: Exactly<Number, N>) -> [f64; N] {
         a.0.map(f64::from)
@@ -360,7 +367,7 @@ impl SceneFile {
             .0
             .into_iter()
             .map(|Table(s)| Sphere {
-                center: s.center.map_or([0.0; 3], <[f64; 3]>::from),
+                center: s.center.map_or(DVec3::ZERO, DVec3::from),
                 radius: s.radius.0,
                 friction: s.friction.map_or(DEFAULT_FRICTION, f64::from),
             })
@@ -372,7 +379,7 @@ impl SceneFile {
         });
         let c = self.camera.0;
         let camera = CameraSpec {
-            target: c.target.map(<[f64; 3]>::from),
+            target: c.target.map(DVec3::from),
             distance: c.distance.map(f64::from),
             elevation: c.elevation.map(f64::from),
             azimuth: c.azimuth.map(f64::from),
@@ -506,7 +513,7 @@ impl<'de> Deserialize<'de> for PinEntry {
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<PinEntry, A::Error> {
                 let region = RegionPin::deserialize(MapAccessDeserializer::new(map))?;
-                Ok(PinEntry(Pin::Region(region.bounds.0.map(<[f64; 3]>::from))))
+                Ok(PinEntry(Pin::Region(region.bounds.0.map(DVec3::from))))
             }
         }
         d.deserialize_any(PinVisitor)

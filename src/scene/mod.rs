@@ -16,6 +16,7 @@
 mod file;
 mod shape;
 
+use glam::DVec3;
 use std::fmt::Write as _;
 use std::io::Read as _;
 use std::path::{Path, PathBuf};
@@ -50,7 +51,7 @@ pub struct Scene {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CameraSpec {
     /// The point looked at \[m\].
-    pub target: Option<[f64; 3]>,
+    pub target: Option<DVec3>,
     /// Distance from the eye to the target \[m\], `> 0`.
     pub distance: Option<f64>,
     /// Height of the eye as an angle above the target \[deg\], `−89..=89`.
@@ -86,8 +87,8 @@ impl CameraSpec {
             |x| (5.0..=150.0).contains(&x),
             "5 ≤ fov ≤ 150 (degrees)",
         )?;
-        for (k, c) in self.target.iter().flatten().enumerate() {
-            check_finite(&format!("camera.target[{k}]"), *c, "m")?;
+        for (k, c) in self.target.iter().flat_map(|t| t.to_array()).enumerate() {
+            check_finite(&format!("camera.target[{k}]"), c, "m")?;
         }
         Ok(())
     }
@@ -136,7 +137,7 @@ impl Scene {
             }
             Some(keys) => {
                 if !keys.origin_given {
-                    cloth.origin = [0.0; 3];
+                    cloth.origin = DVec3::ZERO;
                 }
                 if !keys.pins_given {
                     cloth.pins.clear();

@@ -2,9 +2,11 @@
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
 use wgcloth::cpu::{CpuSolver, State};
+use wgcloth::glam::DVec3;
 use wgcloth::model::{ClothSpec, Corner, Model, Orientation, Pin, Spring};
 use wgcloth::params::{Integrator, Params, SpringKind, SpringParams};
-use wgcloth::{Real, Vec3};
+use wgcloth::real::Vec3;
+use wgcloth::{Real, Vector};
 
 /// A small horizontal cloth.
 pub fn cloth(nx: usize, ny: usize, pins: Vec<Pin>) -> ClothSpec {
@@ -12,7 +14,7 @@ pub fn cloth(nx: usize, ny: usize, pins: Vec<Pin>) -> ClothSpec {
         nx,
         ny,
         size: [0.5, 0.5],
-        origin: [-0.25, 1.0, -0.25],
+        origin: DVec3::new(-0.25, 1.0, -0.25),
         orientation: Orientation::Horizontal,
         mass: 0.1,
         pins,
@@ -55,7 +57,10 @@ pub fn single_spring(
     dt: f64,
 ) -> (Model, Params) {
     let model = Model::from_parts(
-        vec![[0.0, 0.0, 0.0], [0.0, -(rest + displacement), 0.0]],
+        vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(0.0, -(rest + displacement), 0.0),
+        ],
         vec![mass, mass],
         vec![true, false],
         vec![Spring {
@@ -68,7 +73,7 @@ pub fn single_spring(
     )
     .expect("valid single spring");
     let mut params = exact_params(integrator, dt);
-    params.gravity = [0.0; 3];
+    params.gravity = DVec3::ZERO;
     params.springs = [
         SpringParams {
             stiffness: k,
@@ -92,12 +97,12 @@ pub fn run<R: Real>(model: &Model, params: &Params, steps: u64) -> CpuSolver<R> 
 }
 
 /// Largest distance between two position sets, with the particle.
-pub fn max_distance<A: Real, B: Real>(a: &[Vec3<A>], b: &[Vec3<B>]) -> (f64, usize) {
+pub fn max_distance<A: Vector, B: Vector>(a: &[A], b: &[B]) -> (f64, usize) {
     a.iter()
         .zip(b)
         .enumerate()
-        .map(|(p, (x, y))| {
-            let (x, y) = (x.to_f64(), y.to_f64());
+        .map(|(p, (&x, &y))| {
+            let (x, y) = (Vector::to_f64(x), Vector::to_f64(y));
             let d = ((x[0] - y[0]).powi(2) + (x[1] - y[1]).powi(2) + (x[2] - y[2]).powi(2)).sqrt();
             (d, p)
         })

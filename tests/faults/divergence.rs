@@ -182,7 +182,7 @@ fn stays_finite(scene: &Path, steps: u64) -> (f64, f64) {
         .fold(0.0, |m: f64, c| m.max(c.abs()));
     (
         far,
-        diagnostics::max_stretch_strain(&model, solver.positions()),
+        diagnostics::max_stretch_strain(&model, &solver.positions()),
     )
 }
 
@@ -304,8 +304,8 @@ fn windless_limit() -> f64 {
         &model,
         &scene.params,
         0.0,
-        solver.positions(),
-        solver.velocities(),
+        &solver.positions(),
+        &solver.velocities(),
     );
     let limit = rule.energy_limit(0.0);
     // The margin is the stated fraction of the drop of the whole cloth.

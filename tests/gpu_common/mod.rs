@@ -4,10 +4,11 @@
 use std::sync::OnceLock;
 
 use wgcloth::cpu::CpuSolver;
+use wgcloth::glam::{DVec3, Vec3};
 use wgcloth::gpu::{GpuContext, GpuSolver};
 use wgcloth::model::{ClothSpec, Corner, Pin};
 use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
-use wgcloth::{Model, Params, Vec3};
+use wgcloth::{Model, Params};
 
 /// The adapter every GPU test runs on. A machine without one fails the
 /// test with the library's message saying how to get one (lavapipe) — a GPU
@@ -24,22 +25,20 @@ pub fn gpu() -> &'static GpuContext {
 }
 
 /// The largest distance between GPU and CPU positions, with the particle.
-pub fn worst(gpu: &[Vec3<f32>], cpu: &[Vec3<f32>]) -> (f64, usize) {
+pub fn worst(gpu: &[Vec3], cpu: &[Vec3]) -> (f64, usize) {
     gpu.iter()
         .zip(cpu)
         .enumerate()
-        .map(|(p, (a, b))| ((*a - *b).length().to_f64(), p))
+        .map(|(p, (a, b))| (f64::from((*a - *b).length()), p))
         .fold(
             (0.0, 0),
             |m, c| if c.0 > m.0 || c.0.is_nan() { c } else { m },
         )
 }
 
-use wgcloth::Real;
-
 /// Runs `steps` on both backends and returns the largest position
 /// difference [m], the particle, and both positions there.
-pub fn compare(model: &Model, params: &Params, steps: u32) -> (f64, usize, Vec3<f32>, Vec3<f32>) {
+pub fn compare(model: &Model, params: &Params, steps: u32) -> (f64, usize, Vec3, Vec3) {
     let ctx = gpu();
     let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, params)
         .unwrap_or_else(|e| panic!("GPU solver: {e}"));
@@ -50,8 +49,9 @@ pub fn compare(model: &Model, params: &Params, steps: u32) -> (f64, usize, Vec3<
     let mut c = CpuSolver::<f32>::new(model, params).unwrap_or_else(|e| panic!("CPU solver: {e}"));
     c.step_n(u64::from(steps))
         .unwrap_or_else(|e| panic!("CPU run: {e}"));
-    let (d, p) = worst(&gs.x, c.positions());
-    (d, p, gs.x[p], c.positions()[p])
+    let cx = c.positions();
+    let (d, p) = worst(&gs.x, &cx);
+    (d, p, gs.x[p], cx[p])
 }
 
 /// Parameters that exercise every force and collider: wind with lift, a
@@ -73,12 +73,12 @@ pub fn busy_params(integrator: Integrator) -> Params {
         friction: 0.5,
     });
     p.spheres = vec![Sphere {
-        center: [0.1, 0.7, 0.0],
+        center: DVec3::new(0.1, 0.7, 0.0),
         radius: 0.2,
         friction: 0.3,
     }];
     p.wind = Some(Wind {
-        velocity: [3.0, 0.0, 1.0],
+        velocity: DVec3::new(3.0, 0.0, 1.0),
         drag: 0.6,
         lift: 0.2,
     });

@@ -5,7 +5,8 @@
 use wgcloth::cpu::twins::{self, CpuSolver, Filter, SpringBlock, State, Sym3, System, Workspace};
 use wgcloth::gpu::{DebugBuffer, Dispatch, GpuSolver, Kernel};
 use wgcloth::kernel_config::filter_kind::{FIXED, FREE, PLANE};
-use wgcloth::{Model, Params, Vec3};
+use wgcloth::real::Vec3;
+use wgcloth::{Model, Params};
 
 use crate::gpu_common::gpu;
 
