@@ -61,14 +61,10 @@ fn solver_with(
     s
 }
 
-fn quick() -> bool {
-    std::env::var_os("WGCLOTH_BENCH_QUICK").is_some()
-}
-
 fn step_time(c: &mut Criterion) {
     let mut group = c.benchmark_group("cpu_step");
-    group.sample_size(if quick() { 10 } else { 20 });
-    group.measurement_time(Duration::from_secs(if quick() { 1 } else { 3 }));
+    group.sample_size(if common::quick() { 10 } else { 20 });
+    group.measurement_time(Duration::from_secs(if common::quick() { 1 } else { 3 }));
     for integrator in Integrator::ALL {
         for n in SIZES {
             let mut s = solver(integrator, n, FilterMethod::Auto);
@@ -103,7 +99,7 @@ fn article_table() {
     for (n, fps) in ARTICLE_FPS {
         for (k, integrator) in Integrator::ALL.into_iter().enumerate() {
             let mut s = solver(integrator, n, FilterMethod::Auto);
-            let rate = 1.0 / median_step(&mut s, if quick() { 15 } else { 101 });
+            let rate = 1.0 / median_step(&mut s, if common::quick() { 15 } else { 101 });
             println!(
                 "{:>6} {:>14} {:>10.0} {:>10.0} {:>7.0}×",
                 format!("{n}²"),
@@ -123,7 +119,7 @@ const FILTER_SIZES: [usize; 5] = [15, 25, 33, 45, 65];
 fn filter_crossover(c: &mut Criterion) {
     let mut group = c.benchmark_group("semi_implicit_filter");
     group.sample_size(10);
-    group.measurement_time(Duration::from_secs(if quick() { 1 } else { 2 }));
+    group.measurement_time(Duration::from_secs(if common::quick() { 1 } else { 2 }));
     for n in FILTER_SIZES {
         for filter in [FilterMethod::Dense, FilterMethod::Banded] {
             let mut s = solver(Integrator::SemiImplicit, n, filter);
@@ -139,7 +135,7 @@ fn filter_crossover(c: &mut Criterion) {
 /// take at most 2 × 32 ms on one core of this machine.
 fn implicit_yardstick() {
     let mut s = solver_with(Integrator::Implicit, 128, FilterMethod::Auto, Some(1e-3));
-    let seconds = median_step(&mut s, if quick() { 9 } else { 31 });
+    let seconds = median_step(&mut s, if common::quick() { 9 } else { 31 });
     println!(
         "\n128² implicit, CG tolerance 1e-3, dt 0.02 s: median {:.1} ms per step ({} CG iterations in the last step; target ≤ 64 ms)",
         seconds * 1e3,

@@ -19,24 +19,17 @@
 
 mod common;
 
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
-use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
+use criterion::{criterion_group, Criterion};
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::DVec3;
 use wgcloth::gpu::{GpuContext, GpuSolver};
 use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
 
-fn quick() -> bool {
-    std::env::var_os("WGCLOTH_BENCH_QUICK").is_some()
-}
-
 fn sizes() -> Vec<usize> {
-    std::env::var("WGCLOTH_BENCH_SIZES")
-        .ok()
-        .map(|s| s.split(',').filter_map(|t| t.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![15, 33, 65, 129, 257])
+    common::sizes(&[15, 33, 65, 129, 257])
 }
 
 fn scene(integrator: Integrator, n: usize) -> (Model, Params) {
@@ -129,7 +122,7 @@ fn table(ctx: &GpuContext) {
             } else {
                 2
             };
-            let samples = if quick() || big { 3 } else { 7 };
+            let samples = if common::quick() || big { 3 } else { 7 };
             let gpu = gpu_median(&mut g, batch, samples);
             let cpu = cpu_median(&model, &params, samples);
             println!(
@@ -158,7 +151,7 @@ fn skipping_table(ctx: &GpuContext) {
         "{:>14} {:>9} {:>9} {:>8} {:>13} {:>9}",
         "integrator", "minimal", "full", "ratio", "general/spec", "dispatch"
     );
-    let samples = if quick() { 3 } else { 7 };
+    let samples = if common::quick() { 3 } else { 7 };
     for integrator in Integrator::ALL {
         let (model, mut minimal) = scene(integrator, n);
         minimal.springs[2].stiffness = 0.0;
@@ -298,7 +291,7 @@ fn grid_table(ctx: &GpuContext) {
         "{:>14} {:>9} {:>9} {:>8} {:>9}",
         "integrator", "grid", "general", "ratio", "dispatch"
     );
-    let samples = if quick() { 3 } else { 7 };
+    let samples = if common::quick() { 3 } else { 7 };
     for integrator in Integrator::ALL {
         let (model, params) = scene(integrator, n);
         let batch = if integrator == Integrator::Explicit {
@@ -323,24 +316,11 @@ fn grid_table(ctx: &GpuContext) {
 }
 
 fn gpu_step(c: &mut Criterion) {
-    let ctx = match GpuContext::new(None) {
-        Ok(c) => c,
-        Err(e) => panic!("{e}"),
-    };
-    let mut group = c.benchmark_group("gpu_step");
-    group.sample_size(10);
-    group.measurement_time(Duration::from_secs(if quick() { 1 } else { 3 }));
-    for n in sizes() {
-        for integrator in Integrator::ALL {
-            let (model, params) = scene(integrator, n);
-            let mut g = gpu_solver(&ctx, &model, &params);
-            group.throughput(Throughput::Elements((n * n) as u64));
-            group.bench_function(BenchmarkId::new(integrator.as_str(), n * n), |b| {
-                b.iter_custom(|iters| common::submit_and_wait(&ctx, &mut g, iters))
-            });
-        }
-    }
-    group.finish();
+    let ctx = GpuContext::new(None).unwrap_or_else(|e| panic!("{e}"));
+    common::gpu_step_group(c, &ctx, "gpu_step", &sizes(), |integrator, n| {
+        let (model, params) = scene(integrator, n);
+        gpu_solver(&ctx, &model, &params)
+    });
 }
 
 criterion_group!(benches, gpu_step);

@@ -21,9 +21,9 @@ mod common;
 
 use std::fmt::Write as _;
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
-use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
+use criterion::{criterion_group, Criterion};
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::DVec3;
 use wgcloth::gpu::{GpuContext, GpuSolver};
@@ -32,15 +32,8 @@ use wgcloth::model::Pin;
 use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
 
-fn quick() -> bool {
-    std::env::var_os("WGCLOTH_BENCH_QUICK").is_some()
-}
-
 fn sizes() -> Vec<usize> {
-    std::env::var("WGCLOTH_BENCH_SIZES")
-        .ok()
-        .map(|s| s.split(',').filter_map(|t| t.trim().parse().ok()).collect())
-        .unwrap_or_else(|| vec![65, 129])
+    common::sizes(&[65, 129])
 }
 
 /// The grid cloth of size `n` and the same cloth as an OBJ quad mesh
@@ -104,7 +97,7 @@ fn gpu_solver(ctx: &GpuContext, model: &Model, params: &Params) -> GpuSolver {
 /// Seconds per GPU step, median of batches of `batch` steps.
 fn gpu_time(ctx: &GpuContext, model: &Model, params: &Params, batch: u32) -> f64 {
     let mut g = gpu_solver(ctx, model, params);
-    median(if quick() { 3 } else { 7 }, || {
+    median(if common::quick() { 3 } else { 7 }, || {
         let t = Instant::now();
         g.step(batch).unwrap_or_else(|e| panic!("GPU step: {e}"));
         t.elapsed().as_secs_f64() / f64::from(batch)
@@ -115,7 +108,7 @@ fn gpu_time(ctx: &GpuContext, model: &Model, params: &Params, batch: u32) -> f64
 fn cpu_time(model: &Model, params: &Params) -> f64 {
     let mut c = CpuSolver::<f32>::new(model, params).unwrap_or_else(|e| panic!("CPU solver: {e}"));
     c.step_n(5).unwrap_or_else(|e| panic!("CPU warm-up: {e}"));
-    median(if quick() { 3 } else { 9 }, || {
+    median(if common::quick() { 3 } else { 9 }, || {
         let t = Instant::now();
         c.step().unwrap_or_else(|e| panic!("CPU step: {e}"));
         t.elapsed().as_secs_f64()
@@ -161,20 +154,10 @@ fn table(ctx: &GpuContext) {
 
 fn mesh_step(c: &mut Criterion) {
     let ctx = GpuContext::new(None).unwrap_or_else(|e| panic!("{e}"));
-    let mut group = c.benchmark_group("mesh_step");
-    group.sample_size(10);
-    group.measurement_time(Duration::from_secs(if quick() { 1 } else { 3 }));
-    for n in sizes() {
-        for integrator in Integrator::ALL {
-            let (_, mesh, params) = grid_and_mesh(integrator, n);
-            let mut g = gpu_solver(&ctx, &mesh, &params);
-            group.throughput(Throughput::Elements((n * n) as u64));
-            group.bench_function(BenchmarkId::new(integrator.as_str(), n * n), |b| {
-                b.iter_custom(|iters| common::submit_and_wait(&ctx, &mut g, iters))
-            });
-        }
-    }
-    group.finish();
+    common::gpu_step_group(c, &ctx, "mesh_step", &sizes(), |integrator, n| {
+        let (_, mesh, params) = grid_and_mesh(integrator, n);
+        gpu_solver(&ctx, &mesh, &params)
+    });
 }
 
 criterion_group!(benches, mesh_step);

@@ -43,3 +43,44 @@ pub fn submit_and_wait(ctx: &GpuContext, g: &mut GpuSolver, steps: u64) -> Durat
     }
     t.elapsed()
 }
+
+/// `WGCLOTH_BENCH_QUICK` set: shorter criterion measurements.
+pub fn quick() -> bool {
+    std::env::var_os("WGCLOTH_BENCH_QUICK").is_some()
+}
+
+/// The cloth sizes (particles per side) to time: `WGCLOTH_BENCH_SIZES`
+/// (comma-separated) or `default`.
+#[allow(dead_code, reason = "cpu_step times its own sizes")]
+pub fn sizes(default: &[usize]) -> Vec<usize> {
+    std::env::var("WGCLOTH_BENCH_SIZES")
+        .ok()
+        .map(|s| s.split(',').filter_map(|t| t.trim().parse().ok()).collect())
+        .unwrap_or_else(|| default.to_vec())
+}
+
+/// A criterion group `name` timing one GPU step of the solver `solver`
+/// makes for each integrator and size, throughput in particles.
+#[allow(dead_code, reason = "cpu_step times no GPU")]
+pub fn gpu_step_group(
+    c: &mut criterion::Criterion,
+    ctx: &GpuContext,
+    name: &str,
+    sizes: &[usize],
+    mut solver: impl FnMut(Integrator, usize) -> GpuSolver,
+) {
+    use criterion::{BenchmarkId, Throughput};
+    let mut group = c.benchmark_group(name);
+    group.sample_size(10);
+    group.measurement_time(Duration::from_secs(if quick() { 1 } else { 3 }));
+    for &n in sizes {
+        for integrator in Integrator::ALL {
+            let mut g = solver(integrator, n);
+            group.throughput(Throughput::Elements((n * n) as u64));
+            group.bench_function(BenchmarkId::new(integrator.as_str(), n * n), |b| {
+                b.iter_custom(|iters| submit_and_wait(ctx, &mut g, iters))
+            });
+        }
+    }
+    group.finish();
+}

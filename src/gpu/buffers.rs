@@ -73,12 +73,22 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_DST)
     .union(wgpu::BufferUsages::COPY_SRC);
 
+/// A buffer holding `contents`. A binding may not be empty, and a cloth
+/// may have no springs (every stiffness zero) or no triangles: an empty
+/// array gets one zeroed `vec4`'s worth, which no kernel reads (each stops
+/// at its count).
 fn init(
     device: &wgpu::Device,
     label: &str,
     contents: &[u8],
     usage: wgpu::BufferUsages,
 ) -> wgpu::Buffer {
+    const EMPTY: [u8; 16] = [0; 16];
+    let contents = if contents.is_empty() {
+        &EMPTY
+    } else {
+        contents
+    };
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),
         contents,

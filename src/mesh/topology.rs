@@ -143,7 +143,7 @@ pub struct Placement {
 impl Placement {
     /// The world position of file position `p` \[m\].
     pub fn apply(&self, p: DVec3) -> DVec3 {
-        DVec3::from_array([0, 1, 2].map(|k| self.origin[k] + self.scale * p[k]))
+        self.origin + self.scale * p
     }
 }
 
