@@ -33,11 +33,11 @@ pub const STEPS: u32 = 400;
 /// straddle two roots over the range solved (the tests check that the
 /// shape found grows monotonically with `Γ` and never bends past
 /// vertical).
-const SCAN: u32 = 200;
+pub const SCAN: u32 = 200;
 
 /// Bisection halvings of the bracket (`Γ / 400` wide): 60 bring it to
 /// below the `f64` resolution of the root.
-const BISECTIONS: u32 = 60;
+pub const BISECTIONS: u32 = 60;
 
 /// Largest `Γ` solved: ten times the bench's range. Past it the tip angle
 /// is within `1e-6` rad of vertical and the clamp curvature so large that
