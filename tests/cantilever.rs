@@ -106,3 +106,49 @@ fn refuses_impossible_options() {
         assert!(cantilever(&options).is_err(), "{options:?}");
     }
 }
+
+#[test]
+fn cli_writes_the_csv_and_chart_it_describes() -> anyhow::Result<()> {
+    let dir = std::env::temp_dir().join(format!("wgcloth-cantilever-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let (csv, svg) = (dir.join("c.csv"), dir.join("c.svg"));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_wgcloth"))
+        .args(["bench", "cantilever", "--quick", "--csv"])
+        .arg(&csv)
+        .arg("--chart")
+        .arg(&svg)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()?;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("largest relative deviation"), "{stdout}");
+    let text = std::fs::read_to_string(&csv)?;
+    let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+    assert_eq!(
+        lines.next(),
+        Some(
+            "segments,integrator,gamma,bend_stiffness,reference,simulated,deviation,steps,settled"
+        )
+    );
+    // One row per Γ of the quick sweep, each with a finite drop.
+    let rows: Vec<&str> = lines.collect();
+    assert_eq!(
+        rows.len(),
+        CantileverOptions::quick().gammas.len(),
+        "{text}"
+    );
+    for row in &rows {
+        let simulated: f64 = row.split(',').nth(5).unwrap_or("").parse()?;
+        assert!(simulated.is_finite() && simulated > 0.0, "{row}");
+    }
+    let chart = std::fs::read_to_string(&svg)?;
+    // The elastica's line and one dot per strip.
+    assert!(chart.contains("<polyline") && chart.ends_with("</svg>\n"));
+    assert_eq!(chart.matches("<circle").count(), rows.len());
+    std::fs::remove_dir_all(&dir)?;
+    Ok(())
+}
