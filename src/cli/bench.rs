@@ -1,19 +1,22 @@
-//! `wgcloth bench accuracy` and `wgcloth bench stability`: run the
+//! `wgcloth bench accuracy`, `stability` and `cantilever`: run the
 //! measurements of [`wgcloth::evidence`], write a CSV and an SVG chart, and
 //! print a short table.
 
 use std::fmt::Write as _;
 use std::fs;
+use std::io::Write as _;
 use std::path::Path;
 
 use anyhow::Context as _;
+use wgcloth::atomic_file::{commit_all, AtomicFile};
 use wgcloth::evidence::{
-    self, AccuracyOptions, AccuracyReport, GpuHandles, StabilityOptions, StabilityReport,
+    self, AccuracyOptions, AccuracyReport, CantileverOptions, CantileverReport, GpuHandles,
+    StabilityOptions, StabilityReport,
 };
 use wgcloth::gpu::GpuContext;
 use wgcloth::Scene;
 
-use super::{chart, BenchAccuracyArgs, BenchStabilityArgs};
+use super::{chart, BenchAccuracyArgs, BenchCantileverArgs, BenchStabilityArgs};
 
 /// Stiffness range [N/m] the article reached with its semi-implicit
 /// integrator (see `docs/integrators.md`): 10⁵.
@@ -228,6 +231,107 @@ fn stability_table(r: &StabilityReport) -> String {
             s,
             "{i}: stable at some swept dt over a stiffness range of {range:.0e} \
              (the article reached {ARTICLE_STIFFNESS:.0e}, Desbrun claimed {DESBRUN_STIFFNESS:.0e})"
+        );
+    }
+    s
+}
+
+/// `wgcloth bench cantilever`.
+pub fn cantilever(args: &BenchCantileverArgs) -> anyhow::Result<()> {
+    let options = if args.quick {
+        CantileverOptions::quick()
+    } else {
+        CantileverOptions::default()
+    };
+    // Both destinations are checked before the sweep runs.
+    let csv = args.csv.as_deref().map(AtomicFile::create).transpose()?;
+    let svg = args.chart.as_deref().map(AtomicFile::create).transpose()?;
+    let report = evidence::cantilever(&options)?;
+    let mut files = Vec::new();
+    for (file, text) in [
+        (csv, cantilever_csv(&report)),
+        (svg, chart::cantilever_svg(&report)),
+    ] {
+        if let Some(mut f) = file {
+            f.write_with(|out| out.write_all(text.as_bytes()))?;
+            files.push(f);
+        }
+    }
+    let paths: Vec<String> = files
+        .iter()
+        .map(|f| f.path().display().to_string())
+        .collect();
+    commit_all(files)?;
+    for p in paths {
+        println!("wrote {p}");
+    }
+    print!("{}", cantilever_table(&report));
+    Ok(())
+}
+
+/// The cantilever CSV: `#` comment lines, then
+/// `segments,integrator,gamma,bend_stiffness,reference,simulated,deviation,steps,settled`.
+pub fn cantilever_csv(r: &CantileverReport) -> String {
+    use evidence::cantilever::{CALIBRATION_GAMMA, LENGTH, LINE_MASS, ROWS};
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# strips of {ROWS} rows, {LENGTH} m free length, {LINE_MASS} kg/m per row, implicit settling; tip drop over length"
+    );
+    for (segments, k) in &r.calibrations {
+        let _ = writeln!(
+            s,
+            "# {segments} segments: B calibrated at Gamma = {CALIBRATION_GAMMA} with bend stiffness {k:.6e} N/m; largest |deviation| {:.3}",
+            r.worst_deviation(*segments)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "segments,integrator,gamma,bend_stiffness,reference,simulated,deviation,steps,settled"
+    );
+    for row in &r.rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{}",
+            row.segments,
+            row.integrator,
+            row.gamma,
+            row.bend_stiffness,
+            row.reference,
+            row.simulated,
+            row.deviation,
+            row.steps,
+            row.settled
+        );
+    }
+    s
+}
+
+fn cantilever_table(r: &CantileverReport) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "{:>8} {:<14} {:>9} {:>11} {:>11} {:>10}",
+        "segments", "integrator", "Γ", "elastica", "simulated", "deviation"
+    );
+    for row in &r.rows {
+        let _ = writeln!(
+            s,
+            "{:>8} {:<14} {:>9.3e} {:>11.4e} {:>11.4e} {:>+9.1}%{}",
+            row.segments,
+            row.integrator.as_str(),
+            row.gamma,
+            row.reference,
+            row.simulated,
+            100.0 * row.deviation,
+            if row.settled { "" } else { "  not settled" }
+        );
+    }
+    for (segments, _) in &r.calibrations {
+        let _ = writeln!(
+            s,
+            "{segments} segments: largest relative deviation {:.1} %",
+            100.0 * r.worst_deviation(*segments)
         );
     }
     s

@@ -8,7 +8,7 @@
 
 use std::fmt::Write as _;
 
-use wgcloth::evidence::{AccuracyReport, Backend, StabilityReport};
+use wgcloth::evidence::{elastica, AccuracyReport, Backend, CantileverReport, StabilityReport};
 use wgcloth::Integrator;
 
 /// Chart size [px].
@@ -66,6 +66,12 @@ fn decades(values: impl Iterator<Item = f64>) -> (i32, i32) {
     (a, b.max(a + 1))
 }
 
+/// The pixel coordinate of a value on a log axis spanning the decades
+/// `e0..=e1` from pixel `from` to pixel `to`.
+fn log_scale((e0, e1): (i32, i32), from: f64, to: f64) -> impl Fn(f64) -> f64 {
+    move |v| from + (v.log10() - f64::from(e0)) / f64::from(e1 - e0) * (to - from)
+}
+
 /// Error (RMS, log) against wall time per simulated second (log), one
 /// colour per integrator, one marker per backend; the Pareto front joined
 /// by a black line.
@@ -73,11 +79,8 @@ pub fn accuracy_svg(report: &AccuracyReport) -> String {
     let stable: Vec<_> = report.rows.iter().filter(|r| r.stable).collect();
     let (x0, x1) = decades(stable.iter().map(|r| r.wall_per_sim_second));
     let (y0, y1) = decades(stable.iter().map(|r| r.rms_error));
-    let px =
-        |v: f64| MARGIN + (v.log10() - f64::from(x0)) / f64::from(x1 - x0) * (WIDTH - 2.0 * MARGIN);
-    let py = |v: f64| {
-        HEIGHT - MARGIN - (v.log10() - f64::from(y0)) / f64::from(y1 - y0) * (HEIGHT - 2.0 * MARGIN)
-    };
+    let px = log_scale((x0, x1), MARGIN, WIDTH - MARGIN);
+    let py = log_scale((y0, y1), HEIGHT - MARGIN, MARGIN);
     let mut s = header(&format!(
         "{}: RMS position error vs cost ({} particles, reference dt = {:.3e} s)",
         report.scene, report.particles, report.reference_dt
@@ -205,6 +208,82 @@ pub fn stability_svg(report: &StabilityReport) -> String {
         HEIGHT / 2.0,
         HEIGHT / 2.0
     );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// Points of the elastica's curve per decade of Γ.
+const CURVE_POINTS_PER_DECADE: i32 = 20;
+
+/// Colours of the strips' resolutions, in report order.
+const RESOLUTION_COLOURS: [&str; 4] = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd"];
+
+/// Tip drop over length (log) against Γ (log): the elastica as a black
+/// line, each resolution's strips as dots joined by a line of its colour.
+pub fn cantilever_svg(report: &CantileverReport) -> String {
+    let (x0, x1) = decades(report.rows.iter().map(|r| r.gamma));
+    let (y0, y1) = decades(report.rows.iter().flat_map(|r| [r.reference, r.simulated]));
+    let px = log_scale((x0, x1), MARGIN, WIDTH - MARGIN);
+    let py = log_scale((y0, y1), HEIGHT - MARGIN, MARGIN);
+    let mut s = header("Cantilever: tip drop of clamped strips against the heavy elastica");
+    axes(
+        &mut s,
+        (x0, x1),
+        (y0, y1),
+        "Γ = ρ g L³ / B",
+        "tip drop / length",
+    );
+    let curve: Vec<String> = (x0 * CURVE_POINTS_PER_DECADE..=x1 * CURVE_POINTS_PER_DECADE)
+        .filter_map(|e| {
+            let gamma = 10f64.powf(f64::from(e) / f64::from(CURVE_POINTS_PER_DECADE));
+            let drop = elastica::tip(gamma).ok()?.drop;
+            (drop > 10f64.powi(y0)).then(|| format!("{:.1},{:.1}", px(gamma), py(drop)))
+        })
+        .collect();
+    let _ = writeln!(
+        s,
+        r#"<polyline points="{}" fill="none" stroke="black" stroke-width="2"/>"#,
+        curve.join(" ")
+    );
+    let mut y = MARGIN + 10.0;
+    let _ = writeln!(
+        s,
+        r#"<text x="{:.0}" y="{y:.0}">— heavy elastica</text>"#,
+        MARGIN + 10.0
+    );
+    for (k, (segments, _)) in report.calibrations.iter().enumerate() {
+        let fill = RESOLUTION_COLOURS[k % RESOLUTION_COLOURS.len()];
+        let mut rows: Vec<_> = report
+            .rows
+            .iter()
+            .filter(|r| r.segments == *segments)
+            .collect();
+        rows.sort_by(|a, b| a.gamma.total_cmp(&b.gamma));
+        let pts: Vec<String> = rows
+            .iter()
+            .map(|r| format!("{:.1},{:.1}", px(r.gamma), py(r.simulated)))
+            .collect();
+        let _ = writeln!(
+            s,
+            r#"<polyline points="{}" fill="none" stroke="{fill}"/>"#,
+            pts.join(" ")
+        );
+        for r in &rows {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{fill}"/>"#,
+                px(r.gamma),
+                py(r.simulated)
+            );
+        }
+        y += 16.0;
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.0}" y="{y:.0}" fill="{fill}">● cloth, {segments} segments (B calibrated at Γ = {})</text>"#,
+            MARGIN + 10.0,
+            wgcloth::evidence::cantilever::CALIBRATION_GAMMA
+        );
+    }
     s.push_str("</svg>\n");
     s
 }

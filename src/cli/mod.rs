@@ -80,6 +80,9 @@ enum BenchCommand {
     /// Stable or not over stretch stiffness × time step, per integrator
     /// (`stability.csv`, `stability.svg`).
     Stability(BenchStabilityArgs),
+    /// Tip drop of clamped strips settled under their own weight against
+    /// the heavy elastica, over Γ = ρ g L³ / B from 10⁻² to 10².
+    Cantilever(BenchCantileverArgs),
 }
 
 /// The options of `wgcloth bench accuracy`.
@@ -117,6 +120,22 @@ struct BenchStabilityArgs {
     /// A sweep of seconds: 9 × 9 particles, 0.5 s, at most 500 steps.
     #[arg(long)]
     quick: bool,
+}
+
+/// The options of `wgcloth bench cantilever`.
+#[derive(Args, Debug)]
+struct BenchCantileverArgs {
+    /// A run of seconds: 8 segments, one Γ a decade.
+    #[arg(long)]
+    quick: bool,
+
+    /// Write the table as CSV to FILE.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+
+    /// Write an SVG chart of both curves to FILE.
+    #[arg(long, value_name = "FILE.svg")]
+    chart: Option<PathBuf>,
 }
 
 /// The options of `wgcloth render`.
@@ -401,6 +420,7 @@ pub fn main() -> ExitCode {
         Some(Command::Render(args)) => render::render(&args),
         Some(Command::Bench(BenchCommand::Accuracy(args))) => bench::accuracy(&args),
         Some(Command::Bench(BenchCommand::Stability(args))) => bench::stability(&args),
+        Some(Command::Bench(BenchCommand::Cantilever(args))) => bench::cantilever(&args),
         None => render::render(&RenderArgs::default_job()),
     };
     match outcome {

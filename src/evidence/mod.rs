@@ -1,15 +1,19 @@
 //! Measured evidence for `docs/integrators.md`: accuracy against a converged
-//! reference trajectory ([`mod@accuracy`]) and stability regions over stiffness
-//! and time step ([`mod@stability`]).
+//! reference trajectory ([`mod@accuracy`]), stability regions over stiffness
+//! and time step ([`mod@stability`]) and a clamped strip against the heavy
+//! elastica ([`mod@cantilever`], [`mod@elastica`]).
 //!
 //! Pure functions over a [`Scene`](crate::Scene): no files, no printing, no
 //! device creation (the GPU is borrowed, like everywhere in the library), so
 //! the `wgcloth bench` subcommands and the tests share them.
 
 pub mod accuracy;
+pub mod cantilever;
+pub mod elastica;
 pub mod stability;
 
 pub use accuracy::{accuracy, AccuracyOptions, AccuracyReport, AccuracyRow, Backend};
+pub use cantilever::{cantilever, CantileverOptions, CantileverReport, CantileverRow};
 pub use stability::{stability, StabilityCell, StabilityOptions, StabilityReport, Verdict};
 
 use crate::cpu::CpuSolver;

@@ -1,0 +1,341 @@
+//! The cantilever: strips of the project's cloth bending under their own
+//! weight, against the heavy elastica ([`mod@super::elastica`]).
+//!
+//! A strip is a grid cloth of `segments + 2` columns along `+x` and
+//! [`ROWS`] rows, horizontal, clamped by pinning its first two columns (the
+//! clamp is the second, at `x = 0`, and the first holds the strip level
+//! there). Its free length is [`LENGTH`], each row weighs [`LINE_MASS`] per
+//! metre. Stretch and shear springs are [`STRETCH_OVER_BEND`] and
+//! [`SHEAR_OVER_BEND`] times stiffer than the bend springs, so the strip is
+//! inextensible next to its bending; the bend springs alone resist bending.
+//!
+//! # What `B` is
+//!
+//! A bend spring joins particles two apart along a row. When the joint
+//! between them turns by `θ` its chord shortens from `2h` to
+//! `2h cos(θ/2)`, by `h θ² / 4`: second order. Its energy is
+//! `k h² θ⁴ / 32` and its moment `k h² θ³ / 8`, so with curvature
+//! `κ = θ / h` a row bends by the **cubic** law `M = C κ³`,
+//! `C = k h⁵ / 8`, not the elastica's `M = B κ`: the cloth has no linear
+//! bending stiffness. Its small-deflection tip drop is, for many segments,
+//! `δ = (3/8) L^{8/3} (λ g / 2C)^{1/3}` (integrate `κ = (M / C)^{1/3}` with
+//! `M = λ g (L − x)² / 2`, `λ` the mass per length of a row), and
+//! [`chord_law_drop`] for the discrete strip: it grows as the cube root of
+//! the load, where the elastica's grows linearly, and a linear `B` fitted
+//! at one load is wrong by a factor `(load ratio)^{2/3}` at another, at
+//! every resolution.
+//!
+//! To place the cloth on the elastica's `Γ` axis anyway, `B` is calibrated
+//! once per resolution in the small-deflection limit: the bend stiffness
+//! `k_cal` is tuned until the strip's tip drops as far as the elastica's at
+//! [`CALIBRATION_GAMMA`], and `B` is then taken to scale with `k` as a
+//! linear stiffness would. `Γ` is varied through the bend stiffness,
+//! `k(Γ) = k_cal Γ_cal / Γ`, at fixed length, mass and gravity.
+//!
+//! # Settling
+//!
+//! The strip starts level and at rest and is stepped with the implicit
+//! integrator (CPU, `f64`) at [`SETTLE_DT`]: backward Euler damps every
+//! mode and its rest state is exact equilibrium whatever the step (with
+//! `v = 0` and zero net force a step changes nothing), so large steps
+//! reach rest fastest. A strip is at rest when no particle moves faster
+//! than [`REST_SPEED`]; a run that does not get there within
+//! [`MAX_STEPS`] is reported as not settled.
+
+use super::{elastica, GpuHandles, Runner};
+use crate::error::{Error, Result};
+use crate::evidence::Backend;
+use crate::model::{ClothSpec, Model, Orientation, Pin};
+use crate::params::{Integrator, Params, SpringKind};
+
+/// Free length of every strip \[m\].
+pub const LENGTH: f64 = 1.0;
+
+/// Rows across the strip: two, so that it has a width and its cells can
+/// be held square by shear springs.
+pub const ROWS: usize = 2;
+
+/// Width of the strip \[m\] (the spacing of its rows).
+pub const WIDTH: f64 = 0.05;
+
+/// Mass per metre of each row [kg/m]. Only `Γ` matters to the shape, and
+/// the chord law needs a bend stiffness `∝ λ N⁵ / Γ³` (module docs): this
+/// light a strip keeps every stiffness of the default sweep within the
+/// parameters' `1e9 N/m`.
+pub const LINE_MASS: f64 = 1e-7;
+
+/// Stretch stiffness over bend stiffness: the stretch springs carry the
+/// bend springs' compression at a strain `θ² / 400`, `θ` the turning
+/// angle of one joint, and give the bend springs 1 % of extra compliance
+/// in series.
+pub const STRETCH_OVER_BEND: f64 = 100.0;
+
+/// Shear stiffness over bend stiffness (holds the cells square).
+pub const SHEAR_OVER_BEND: f64 = 100.0;
+
+/// Time step of the settling runs \[s\] (see the module docs).
+pub const SETTLE_DT: f64 = 0.02;
+
+/// Relative CG tolerance of the settling steps: the stiff stretch springs
+/// (`k dt² / m` near `1e11` at `Γ = 10⁻²`) keep a looser solve's error
+/// moving the strip faster than [`REST_SPEED`].
+pub const CG_TOLERANCE: f64 = 1e-10;
+
+/// Most CG iterations of a settling step: several times the 108 unknowns
+/// of the finest default strip (36 particles).
+pub const CG_MAX_ITERATIONS: u32 = 1000;
+
+/// Speed under which every particle counts as at rest [m/s]. At this
+/// speed the settled drops of 4, 8 and 16 segments agree to 0.5 % and
+/// follow the chord law to 1 %: what motion is left is below what the
+/// bench resolves.
+pub const REST_SPEED: f64 = 1e-6;
+
+/// Steps between two checks for rest.
+pub const CHECK_EVERY: u64 = 25;
+
+/// Most steps of one settling run (200 s of simulated time).
+pub const MAX_STEPS: u64 = 10_000;
+
+/// `Γ` at which `B` is calibrated: small deflection (tip drop 1.25 % of
+/// the length). Calibrating at `10⁻²` would need a spring 1000 times
+/// stiffer (the chord law's `Γ⁻³`), past the parameters' `1e9 N/m` at 16
+/// segments.
+pub const CALIBRATION_GAMMA: f64 = 0.1;
+
+/// Rounds of the calibration of `k_cal` (each scales `k` by the cube of the
+/// drop's ratio to the target, the chord law's exponent; three bring it
+/// within 1e-4 (relative) of the target in the runs measured).
+pub const CALIBRATION_ROUNDS: u32 = 3;
+
+/// What [`cantilever`] measures.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CantileverOptions {
+    /// Resolutions: segments along the free length (each ≥ 2).
+    pub segments: Vec<usize>,
+    /// `Γ = ρ g L³ / B` values, within `(0,` [`elastica::MAX_GAMMA`]`]`.
+    pub gammas: Vec<f64>,
+    /// Integrators run at each point (calibration uses the first).
+    pub integrators: Vec<Integrator>,
+}
+
+impl Default for CantileverOptions {
+    /// Γ from 10⁻² to 10² at five points a decade, 4, 8 and 16 segments,
+    /// implicit.
+    fn default() -> Self {
+        CantileverOptions {
+            segments: vec![4, 8, 16],
+            gammas: (-10..=10).map(|e| 10f64.powf(f64::from(e) / 5.0)).collect(),
+            integrators: vec![Integrator::Implicit],
+        }
+    }
+}
+
+impl CantileverOptions {
+    /// A run of seconds: 8 segments, one point a decade.
+    pub fn quick() -> Self {
+        CantileverOptions {
+            segments: vec![8],
+            gammas: (-2..=2).map(|e| 10f64.powi(e)).collect(),
+            ..CantileverOptions::default()
+        }
+    }
+}
+
+/// One settled strip.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CantileverRow {
+    /// Segments along the free length.
+    pub segments: usize,
+    /// The integrator.
+    pub integrator: Integrator,
+    /// `Γ` (dimensionless).
+    pub gamma: f64,
+    /// Bend stiffness of the run [N/m].
+    pub bend_stiffness: f64,
+    /// The elastica's tip drop over length.
+    pub reference: f64,
+    /// The strip's tip drop over length (mean over its rows).
+    pub simulated: f64,
+    /// `(simulated − reference) / reference`.
+    pub deviation: f64,
+    /// Steps the run took.
+    pub steps: u64,
+    /// `false`: not at rest after [`MAX_STEPS`] (the drop is where it was).
+    pub settled: bool,
+}
+
+/// Result of [`cantilever`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct CantileverReport {
+    /// Per resolution: `(segments, k_cal [N/m])`.
+    pub calibrations: Vec<(usize, f64)>,
+    /// The measurements, per resolution, integrator and `Γ`.
+    pub rows: Vec<CantileverRow>,
+}
+
+impl CantileverReport {
+    /// The largest `|deviation|` over the rows of `segments` (NaN when none).
+    pub fn worst_deviation(&self, segments: usize) -> f64 {
+        self.rows
+            .iter()
+            .filter(|r| r.segments == segments)
+            .map(|r| r.deviation.abs())
+            .fold(f64::NAN, f64::max)
+    }
+}
+
+fn invalid(key: &str, allowed: &str, got: impl std::fmt::Debug) -> Error {
+    Error::InvalidParameter {
+        key: key.to_string(),
+        allowed: allowed.to_string(),
+        got: format!("{got:?}"),
+    }
+}
+
+/// Segment length \[m\].
+fn spacing(segments: usize) -> f64 {
+    LENGTH / segments as f64
+}
+
+/// The chord law's small-deflection tip drop over length of a strip of
+/// `segments` whose bend springs have stiffness `k` [N/m] under gravity
+/// `gravity` [m/s²], summed joint by joint as the discrete strip carries
+/// it: joint `i` (at `x = i h`) bears the moment `λ g h² n (n + 1) / 2` of
+/// the `n = N − i` particles beyond it, turns by `θ = (8 M / (k h²))^{1/3}`,
+/// and lowers the tip by `θ n h`. Its limit for many segments is
+/// `(3/8) L^{8/3} (λ g / 2C)^{1/3}` (module docs).
+pub fn chord_law_drop(segments: usize, k: f64, gravity: f64) -> f64 {
+    let h = spacing(segments);
+    (1..=segments)
+        .map(|n| {
+            let n = n as f64;
+            let moment = LINE_MASS * gravity * h * h * n * (n + 1.0) / 2.0;
+            (8.0 * moment / (k * h * h)).cbrt() * n * h
+        })
+        .sum::<f64>()
+        / LENGTH
+}
+
+/// The strip's model and parameters at bend stiffness `k`.
+fn strip(segments: usize, k: f64, integrator: Integrator) -> Result<(Model, Params)> {
+    let h = spacing(segments);
+    let nx = segments + 2;
+    let spec = ClothSpec {
+        nx,
+        ny: ROWS,
+        size: [(nx - 1) as f64 * h, WIDTH],
+        origin: [-h, 0.0, 0.0],
+        orientation: Orientation::Horizontal,
+        mass: LINE_MASS * h * (nx * ROWS) as f64,
+        pins: (0..ROWS)
+            .flat_map(|r| [Pin::Index(r * nx), Pin::Index(r * nx + 1)])
+            .collect(),
+    };
+    let mut params = Params {
+        integrator,
+        dt: SETTLE_DT,
+        ..Params::default()
+    };
+    for (kind, ratio) in [
+        (SpringKind::Stretch, STRETCH_OVER_BEND),
+        (SpringKind::Shear, SHEAR_OVER_BEND),
+        (SpringKind::Bend, 1.0),
+    ] {
+        let s = &mut params.springs[kind.index()];
+        s.stiffness = k * ratio;
+        s.damping = 0.0;
+        s.max_stretch = None;
+    }
+    params.fixup.iterations = 0;
+    params.implicit.tolerance = CG_TOLERANCE;
+    params.implicit.max_iterations = CG_MAX_ITERATIONS;
+    Ok((Model::new(&spec, &params.springs)?, params))
+}
+
+/// A settled strip: tip drop over length, steps, at rest.
+fn settle(segments: usize, k: f64, integrator: Integrator) -> Result<(f64, u64, bool)> {
+    let (model, params) = strip(segments, k, integrator)?;
+    let Some(mut runner) = Runner::new(Backend::CpuF64, None::<GpuHandles<'_>>, &model, &params)?
+    else {
+        return Err(invalid("bench.cantilever", "a CPU backend", "none"));
+    };
+    let nx = segments + 2;
+    let tips: Vec<usize> = (0..ROWS).map(|r| r * nx + nx - 1).collect();
+    let mut steps = 0;
+    loop {
+        runner.advance(CHECK_EVERY)?;
+        steps += CHECK_EVERY;
+        let (x, v) = runner.state()?;
+        let at_rest = v.iter().all(|v| v.length() < REST_SPEED);
+        if at_rest || steps >= MAX_STEPS {
+            let drop = tips.iter().map(|&t| -x[t].y).sum::<f64>() / (ROWS as f64 * LENGTH);
+            return Ok((drop, steps, at_rest));
+        }
+    }
+}
+
+/// Measures the strips of `options` against the elastica (module docs).
+pub fn cantilever(options: &CantileverOptions) -> Result<CantileverReport> {
+    if let Some(s) = options.segments.iter().find(|&&s| s < 2) {
+        return Err(invalid("bench.cantilever.segments", "≥ 2", s));
+    }
+    if let Some(g) = options
+        .gammas
+        .iter()
+        .find(|&&g| !(g > 0.0 && g <= elastica::MAX_GAMMA))
+    {
+        return Err(invalid(
+            "bench.cantilever.gammas",
+            &format!("0 < Γ ≤ {}", elastica::MAX_GAMMA),
+            g,
+        ));
+    }
+    let (Some(&first), false) = (options.integrators.first(), options.gammas.is_empty()) else {
+        return Err(invalid(
+            "bench.cantilever",
+            "at least one integrator and one Γ",
+            options,
+        ));
+    };
+    let gravity = -Params::default().gravity[1];
+    let target = elastica::tip(CALIBRATION_GAMMA)?.drop;
+    let mut report = CantileverReport {
+        calibrations: Vec::new(),
+        rows: Vec::new(),
+    };
+    for &segments in &options.segments {
+        // The chord law's own prediction as the first guess.
+        let mut k = k_for_drop(segments, target, gravity);
+        for _ in 0..CALIBRATION_ROUNDS {
+            let (drop, _, _) = settle(segments, k, first)?;
+            k *= (drop / target).powi(3);
+        }
+        report.calibrations.push((segments, k));
+        for &integrator in &options.integrators {
+            for &gamma in &options.gammas {
+                let bend = k * CALIBRATION_GAMMA / gamma;
+                let (simulated, steps, settled) = settle(segments, bend, integrator)?;
+                let reference = elastica::tip(gamma)?.drop;
+                report.rows.push(CantileverRow {
+                    segments,
+                    integrator,
+                    gamma,
+                    bend_stiffness: bend,
+                    reference,
+                    simulated,
+                    deviation: (simulated - reference) / reference,
+                    steps,
+                    settled,
+                });
+            }
+        }
+    }
+    Ok(report)
+}
+
+/// The bend stiffness [N/m] at which [`chord_law_drop`] is `drop`.
+fn k_for_drop(segments: usize, drop: f64, gravity: f64) -> f64 {
+    // δ ∝ k^(-1/3): scale from the drop at 1 N/m.
+    (chord_law_drop(segments, 1.0, gravity) / drop).powi(3)
+}
