@@ -47,6 +47,7 @@ use crate::error::{Error, Result};
 use crate::evidence::Backend;
 use crate::model::{ClothSpec, Model, Orientation, Pin};
 use crate::params::{Integrator, Params, SpringKind};
+use glam::DVec3;
 
 /// Free length of every strip \[m\].
 pub const LENGTH: f64 = 1.0;
@@ -225,7 +226,7 @@ fn strip(segments: usize, k: f64, integrator: Integrator) -> Result<(Model, Para
         nx,
         ny: ROWS,
         size: [(nx - 1) as f64 * h, WIDTH],
-        origin: [-h, 0.0, 0.0],
+        origin: DVec3::new(-h, 0.0, 0.0),
         orientation: Orientation::Horizontal,
         mass: LINE_MASS * h * (nx * ROWS) as f64,
         pins: (0..ROWS)
@@ -298,7 +299,7 @@ pub fn cantilever(options: &CantileverOptions) -> Result<CantileverReport> {
             options,
         ));
     };
-    let gravity = -Params::default().gravity[1];
+    let gravity = -Params::default().gravity.y;
     let target = elastica::tip(CALIBRATION_GAMMA)?.drop;
     let mut report = CantileverReport {
         calibrations: Vec::new(),

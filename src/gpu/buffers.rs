@@ -73,17 +73,17 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_DST)
     .union(wgpu::BufferUsages::COPY_SRC);
 
-/// A buffer holding `contents`. A binding may not be empty, and a cloth
-/// may have no springs (every stiffness zero) or no triangles: an empty
-/// array gets one zeroed `vec4`'s worth, which no kernel reads (each stops
-/// at its count).
+/// A buffer holding `contents`. A binding must hold at least one element
+/// of its array, and a cloth may have no springs (every stiffness zero):
+/// an empty array gets one zeroed element of the largest type bound (a
+/// `Spring`, 32 bytes), which no kernel reads (each stops at its count).
 fn init(
     device: &wgpu::Device,
     label: &str,
     contents: &[u8],
     usage: wgpu::BufferUsages,
 ) -> wgpu::Buffer {
-    const EMPTY: [u8; 16] = [0; 16];
+    const EMPTY: [u8; std::mem::size_of::<GpuSpring>()] = [0; std::mem::size_of::<GpuSpring>()];
     let contents = if contents.is_empty() {
         &EMPTY
     } else {
