@@ -73,17 +73,20 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_DST)
     .union(wgpu::BufferUsages::COPY_SRC);
 
-/// A buffer holding `contents`. A binding must hold at least one element
-/// of its array, and a cloth may have no springs (every stiffness zero):
-/// an empty array gets one zeroed element of the largest type bound (a
-/// `Spring`, 32 bytes), which no kernel reads (each stops at its count).
+/// The smallest storage buffer made \[bytes\]. A binding must hold at least
+/// one element of its array, and a cloth may have no springs (every
+/// stiffness zero): an empty array gets one zeroed element of the largest
+/// type bound (a `Spring`), which no kernel reads (each stops at its count).
+const MIN_BINDING: usize = std::mem::size_of::<GpuSpring>();
+
+/// A buffer holding `contents` (at least [`MIN_BINDING`] bytes).
 fn init(
     device: &wgpu::Device,
     label: &str,
     contents: &[u8],
     usage: wgpu::BufferUsages,
 ) -> wgpu::Buffer {
-    const EMPTY: [u8; std::mem::size_of::<GpuSpring>()] = [0; std::mem::size_of::<GpuSpring>()];
+    const EMPTY: [u8; MIN_BINDING] = [0; MIN_BINDING];
     let contents = if contents.is_empty() {
         &EMPTY
     } else {
@@ -96,10 +99,11 @@ fn init(
     })
 }
 
+/// A zeroed storage buffer of `size` bytes (at least [`MIN_BINDING`]).
 fn zeroed(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
-        size: size.max(16),
+        size: size.max(MIN_BINDING as u64),
         usage: STORAGE,
         mapped_at_creation: false,
     })
