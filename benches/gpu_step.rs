@@ -178,6 +178,7 @@ fn skipping_table(ctx: &GpuContext) {
             center: DVec3::new(0.0, 0.5, 0.0),
             radius: 0.3,
             friction: 0.3,
+            velocity: DVec3::ZERO,
         }];
         full.fixup.iterations = 10;
         let batch = if integrator == Integrator::Explicit {

@@ -78,11 +78,17 @@ fn integrate_particle(p: u32, x0: vec4<f32>, v0: vec4<f32>, f: vec3<f32>) {
         vn = vec3<f32>(0.0);
     }
     if (FUSED) {
+        let clock = particle_clock(p);
         if (w > 0.0) {
-            let r = collide_particle(xn, vn);
+            let r = collide_particle(xn, vn, clock);
+            xn = r[0];
+            vn = r[1];
+        } else {
+            let r = pin_step(p, clock, xn);
             xn = r[0];
             vn = r[1];
         }
+        advance_clock(p, clock);
         // A state that is not finite is not stored: the last finite one
         // is (see store_state).
         let ok = finite_or_reported(p, xn, vn);

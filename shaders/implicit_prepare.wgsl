@@ -9,9 +9,6 @@
 #include "common/coarse.wgsl"
 #include "generated/grid_block.wgsl"
 
-// Twin: cpu::collide::CONTACT_SLOP.
-const CONTACT_SLOP: f32 = 1e-5;
-
 @compute @workgroup_size(WORKGROUP)
 fn implicit_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
@@ -145,16 +142,20 @@ fn prepare_particle(
     var normal = vec3<f32>(0.0);
     var friction = 0.0;
     var z = vec3<f32>(0.0);
+    let clock = particle_clock(p);
     if (x0.w <= 0.0) {
         kind = FILTER_FIXED;
-        z = -vp;
+        // A moving pin's prescribed change of velocity (Baraff–Witkin's z).
+        z = pin_velocity(p, clock, x0.xyz) - vp;
     } else {
-        let c = find_contact(x0.xyz, CONTACT_SLOP);
-        if (c.found && (dot3(f, c.normal) < 0.0 || dot3(vp, c.normal) < 0.0)) {
+        let c = find_contact(x0.xyz, CONTACT_SLOP, clock);
+        if (c.found && (dot3(f, c.normal) < 0.0 || dot3(vp - c.velocity, c.normal) < 0.0)) {
             kind = FILTER_PLANE;
             normal = c.normal;
             friction = c.friction;
-            z = normal * (-min(dot3(vp, normal), 0.0));
+            // The approach speed relative to the collider.
+            let vc = contact_velocity(x0.xyz, clock);
+            z = normal * (-min(dot3(vp - vc, normal), 0.0));
         }
     }
     let rhs = (f + kv * params.dt) * params.dt;

@@ -28,6 +28,14 @@ pub const SUM_GROUP: u32 = 256;
 /// Most spheres the GPU solver takes (they live in the uniform block).
 pub const MAX_SPHERES: usize = 16;
 
+/// Most capsules the GPU solver takes (they live in the uniform block too).
+pub const MAX_CAPSULES: usize = 16;
+
+/// The most steps one frame of pin motion may span: a pin moves while
+/// its goal's step count is 1 to this many steps ahead of its clock, so a
+/// count that wrapped past 2³² never reads as a move.
+pub const MAX_FRAME_STEPS: u32 = 1 << 30;
+
 /// Sections of the per-particle `work` buffer: section `s` of particle `p`
 /// is `vec4<f32>` number `s × particles + p` (WGSL: `W_*`, `wi`).
 pub mod work {
@@ -68,8 +76,17 @@ pub mod work {
     /// Coarse levels: the correction z = D⁻¹ Πᵀr (w: the coarse terms of
     /// δ, level-2 aggregates only).
     pub const COARSE_Z: u32 = 16;
+    /// A pinned particle's target (`cpu::motion`): xyz where it is to be
+    /// \[m\], w (as `u32` bits) the particle's step count at which it is
+    /// there; written by the host, read by the steps' last kernels.
+    pub const PIN_TARGET: u32 = 17;
+    /// x (as `u32` bits): the steps this particle has finished, counted by
+    /// the steps' last kernels (a per-particle clock, so no kernel reads a
+    /// count another invocation of its own dispatch is changing); the
+    /// moving colliders' and pins' time. yzw unused.
+    pub const CLOCK: u32 = 18;
     /// Number of sections.
-    pub const COUNT: u32 = 17;
+    pub const COUNT: u32 = 19;
 
     /// The start-of-step positions of an implicit step on a grid with
     /// colliders, from which implicit_finish computes the spring blocks
@@ -112,6 +129,8 @@ pub mod work {
         "COARSE_INV_D",
         "COARSE_INV_O",
         "COARSE_Z",
+        "PIN_TARGET",
+        "CLOCK",
     ];
 }
 
@@ -206,11 +225,15 @@ pub mod filter_kind {
 // between their first and the CG slots.
 const _: () = assert!(status::BETA_SLOT < status::COUNT);
 const _: () = assert!(status::FIXUP_FLAG + 3 <= status::ALPHA_SLOT);
-const _: () = assert!(work::COARSE_Z < work::COUNT);
+const _: () = assert!(work::CLOCK < work::COUNT);
 
 /// `(WGSL name, value)` of every unsigned constant.
 fn wgsl_u32() -> Vec<(String, u32)> {
-    let mut out = vec![("MAX_SPHERES".to_string(), MAX_SPHERES as u32)];
+    let mut out = vec![
+        ("MAX_SPHERES".to_string(), MAX_SPHERES as u32),
+        ("MAX_CAPSULES".to_string(), MAX_CAPSULES as u32),
+        ("MAX_FRAME_STEPS".to_string(), MAX_FRAME_STEPS),
+    ];
     out.extend(
         work::NAMES
             .iter()

@@ -59,7 +59,7 @@ pub use error::{Error, Result};
 pub use glam;
 pub use gpu::{GpuContext, GpuSolver};
 pub use model::{ClothSpec, Model};
-pub use params::{Integrator, Params};
+pub use params::{Integrator, Params, PinTarget};
 pub use real::{Real, Vector};
 pub use scene::Scene;
 pub use stats::StepStats;

@@ -2,7 +2,7 @@
 //!
 //! These are the validated, in-memory form of a scene file's
 //! `[simulation]`, `[springs.*]`, `[fixup]`, `[implicit]`, `[semi_implicit]`,
-//! `[ground]`, `[[sphere]]` and `[wind]` tables. [`Params::validate`] is the
+//! `[ground]`, `[[sphere]]`, `[[capsule]]` and `[wind]` tables. [`Params::validate`] is the
 //! single place that decides what is physically admissible; the scene loader
 //! and the library API both go through it, so a parameter that passes here
 //! never needs re-checking inside a solver.
@@ -195,15 +195,47 @@ pub struct Ground {
     pub friction: f64,
 }
 
-/// A static sphere collider.
+/// A sphere collider, moving at a constant velocity from `center`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
-    /// Centre \[m\].
+    /// Centre \[m\] when the sphere was set (the solver's start, or the
+    /// last `set_spheres`).
     pub center: DVec3,
     /// Radius \[m\], `> 0`.
     pub radius: f64,
-    /// Coulomb friction coefficient (dimensionless, `≥ 0`).
+    /// Coulomb friction coefficient (dimensionless, `≥ 0`), acting on the
+    /// particle's velocity relative to the sphere's.
     pub friction: f64,
+    /// Velocity [m/s] (zero: static).
+    pub velocity: DVec3,
+}
+
+/// A capsule collider: the points within `radius` of the segment `a`–`b`,
+/// moving at a constant velocity from where it was set. `a == b` is a
+/// sphere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Capsule {
+    /// One end of the segment \[m\] when the capsule was set.
+    pub a: DVec3,
+    /// The other end \[m\].
+    pub b: DVec3,
+    /// Radius \[m\], `> 0`.
+    pub radius: f64,
+    /// Coulomb friction coefficient (dimensionless, `≥ 0`), acting on the
+    /// particle's velocity relative to the capsule's.
+    pub friction: f64,
+    /// Velocity [m/s] of the whole capsule (zero: static).
+    pub velocity: DVec3,
+}
+
+/// Where a pinned particle is to be at the end of a frame
+/// (`set_pin_targets` on [`crate::GpuSolver`] and [`crate::CpuSolver`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PinTarget {
+    /// The pinned particle's index.
+    pub particle: usize,
+    /// Its position \[m\] after the frame's simulated time.
+    pub position: glam::Vec3,
 }
 
 /// A uniform wind acting on the cloth's triangles.
@@ -239,6 +271,8 @@ pub struct Params {
     pub ground: Option<Ground>,
     /// Sphere colliders, any number.
     pub spheres: Vec<Sphere>,
+    /// Capsule colliders, any number.
+    pub capsules: Vec<Capsule>,
     /// Optional wind.
     pub wind: Option<Wind>,
 }
@@ -284,6 +318,7 @@ impl Default for Params {
             },
             ground: None,
             spheres: Vec::new(),
+            capsules: Vec::new(),
             wind: None,
         }
     }
@@ -355,7 +390,7 @@ fn invalid(key: &str, allowed: &str, got: f64) -> Error {
 }
 
 /// Checks the three components of a vector; `unit` is their unit.
-fn check_vec(key: &str, v: DVec3, unit: &str) -> Result<()> {
+pub(crate) fn check_vec(key: &str, v: DVec3, unit: &str) -> Result<()> {
     for (c, value) in v.to_array().iter().enumerate() {
         check_finite(&format!("{key}[{c}]"), *value, unit)?;
     }
@@ -441,6 +476,24 @@ impl Params {
                 s.friction >= 0.0,
                 "friction ≥ 0",
             )?;
+            check_vec(&format!("sphere[{n}].velocity"), s.velocity, "m/s")?;
+        }
+        for (n, c) in self.capsules.iter().enumerate() {
+            check_vec(&format!("capsule[{n}].a"), c.a, "m")?;
+            check_vec(&format!("capsule[{n}].b"), c.b, "m")?;
+            check(
+                &format!("capsule[{n}].radius"),
+                c.radius,
+                c.radius > 0.0,
+                "radius > 0 (m)",
+            )?;
+            check(
+                &format!("capsule[{n}].friction"),
+                c.friction,
+                c.friction >= 0.0,
+                "friction ≥ 0",
+            )?;
+            check_vec(&format!("capsule[{n}].velocity"), c.velocity, "m/s")?;
         }
         if let Some(w) = &self.wind {
             check_vec("wind.velocity", w.velocity, "m/s")?;

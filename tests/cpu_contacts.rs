@@ -27,6 +27,7 @@ fn dropped_cloth(integrator: Integrator, friction: f64) -> (Model, Params) {
         center: DVec3::new(0.0, 0.6, 0.0),
         radius: 0.15,
         friction,
+        velocity: DVec3::ZERO,
     }];
     let model = Model::new(&cloth(9, 9, vec![]), &params.springs).expect("valid");
     (model, params)

@@ -214,13 +214,16 @@ fn a_file_with_every_key_gives_exactly_those_values() {
                 center: DVec3::new(0.0, 1.0, 0.0),
                 radius: 0.5,
                 friction: 0.1,
+                velocity: DVec3::ZERO,
             },
             Sphere {
                 center: DVec3::new(1.0, 0.5, 0.0),
                 radius: 0.25,
                 friction: 0.0,
+                velocity: DVec3::ZERO,
             },
         ],
+        capsules: vec![],
         wind: Some(Wind {
             velocity: DVec3::new(3.0, 0.0, -1.0),
             drag: 0.7,
@@ -277,7 +280,8 @@ fn empty_collider_and_wind_tables_take_the_documented_defaults() {
         [Sphere {
             center: DVec3::ZERO,
             radius: 1.0,
-            friction: 0.5
+            friction: 0.5,
+            velocity: DVec3::ZERO,
         }]
     );
     assert_eq!(

@@ -2,7 +2,7 @@
 //! every Pod twin matches its WGSL struct field by field.
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
-use wgcloth::gpu::layout::{GpuParams, GpuSphere, GpuSpring};
+use wgcloth::gpu::layout::{GpuCapsule, GpuParams, GpuSphere, GpuSpring};
 use wgcloth::gpu::shaders;
 use wgcloth::gpu::{GridBlock, Kernel};
 
@@ -153,7 +153,9 @@ fn pod_twins_match_their_wgsl_structs() {
             kind_kd,
             kind_a,
             coarse,
-            spheres
+            motion,
+            spheres,
+            capsules
         }),
         std::mem::size_of::<GpuParams>(),
     );
@@ -174,9 +176,21 @@ fn pod_twins_match_their_wgsl_structs() {
         offsets!(GpuSphere {
             center,
             radius,
+            velocity,
             friction
         }),
         std::mem::size_of::<GpuSphere>(),
+    );
+    check(
+        "Capsule",
+        offsets!(GpuCapsule {
+            a,
+            radius,
+            b,
+            friction,
+            velocity
+        }),
+        std::mem::size_of::<GpuCapsule>(),
     );
 }
 

@@ -7,7 +7,7 @@
 // status words), generated from src/kernel_config.rs where each is
 // documented: W_* (`work` sections), S_* (`spring_work` sections), P_* and
 // C_* (`partials` slots and CG scalars), STATUS_* (`status` words),
-// FILTER_* (filter kinds), MAX_SPHERES, and the overrides WORKGROUP and
+// FILTER_* (filter kinds), MAX_SPHERES, MAX_CAPSULES, and the overrides WORKGROUP and
 // SUM_GROUP (set per pipeline by src/gpu/kernels.rs).
 #include "generated/config.wgsl"
 
@@ -15,6 +15,7 @@
 // removed by the compiler (constant-folded branch).
 override HAS_WIND: bool = true;
 override HAS_GROUND: bool = true;
+// Some sphere or capsule collider.
 override HAS_SPHERES: bool = true;
 // Some particle can be constrained in CG (pins or colliders).
 override HAS_FILTER: bool = true;
@@ -33,12 +34,22 @@ override COARSE: bool = false;
 
 // Twin: layout::GpuSphere.
 struct Sphere {
+    // Centre when set [m]; it moves at `velocity` [m/s] from there.
     center: vec3<f32>,
     radius: f32,
+    velocity: vec3<f32>,
     friction: f32,
+}
+
+// Twin: layout::GpuCapsule. The segment a–b when set [m], moving at
+// `velocity` [m/s].
+struct Capsule {
+    a: vec3<f32>,
+    radius: f32,
+    b: vec3<f32>,
+    friction: f32,
+    velocity: vec3<f32>,
     _pad0: f32,
-    _pad1: f32,
-    _pad2: f32,
 }
 
 // Twin: layout::GpuParams.
@@ -81,7 +92,11 @@ struct Params {
     // The implicit CG's coarse levels (common/coarse.wgsl): columns, rows,
     // level-1 aggregates, level-2 aggregates.
     coarse: vec4<u32>,
-    spheres: array<Sphere, 16>,
+    // Moving colliders: capsules in use, the step counts at which the
+    // spheres and the capsules were set, unused.
+    motion: vec4<u32>,
+    spheres: array<Sphere, MAX_SPHERES>,
+    capsules: array<Capsule, MAX_CAPSULES>,
 }
 
 // Twin: layout::GpuSpring.

@@ -302,66 +302,168 @@ fn add_wind(p: u32, f_in: vec3<f32>, sec: u32) -> vec3<f32> {
     return f;
 }
 
+// Twin: cpu::collide::CONTACT_SLOP.
+const CONTACT_SLOP: f32 = 1e-5;
+
 // Twin: cpu::collide::Contact.
 struct Contact {
     found: bool,
     normal: vec3<f32>,
     distance: f32,
     friction: f32,
+    velocity: vec3<f32>,
 }
 
-// Twin: cpu::collide::contact. The deepest collider closer than `slop`.
-fn find_contact(xp: vec3<f32>, slop: f32) -> Contact {
-    var best = Contact(false, vec3<f32>(0.0, 1.0, 0.0), 0.0, 0.0);
+// The steps particle p has finished: its clock (twin: Workspace::clock).
+// Each particle keeps its own, advanced by the step's last kernel, so no
+// kernel reads a count another invocation of its dispatch is changing.
+fn particle_clock(p: u32) -> u32 {
+    return bitcast<u32>(work[wi(W_CLOCK, p)].x);
+}
+
+fn advance_clock(p: u32, clock: u32) {
+    work[wi(W_CLOCK, p)] = vec4<f32>(bitcast<f32>(clock + 1u), 0.0, 0.0, 0.0);
+}
+
+// Twin: cpu::collide::collider_time. Seconds since a collider set at step
+// count `base`, at the count `clock`.
+fn collider_time(clock: u32, base: u32) -> f32 {
+    return f32(clock - base) * params.dt;
+}
+
+// Twins: cpu::collide::larger and smaller.
+fn larger(a: f32, b: f32) -> f32 {
+    return select(b, a, a > b);
+}
+
+fn smaller(a: f32, b: f32) -> f32 {
+    return select(b, a, a < b);
+}
+
+// Twin: cpu::collide::closest_on_segment.
+fn closest_on_segment(a: vec3<f32>, b: vec3<f32>, xp: vec3<f32>) -> vec3<f32> {
+    let d = b - a;
+    let dd = dot3(d, d);
+    var t = 0.0;
+    if (dd > 0.0) {
+        t = smaller(larger(dot3(xp - a, d) / dd, 0.0), 1.0);
+    }
+    return a + d * t;
+}
+
+// Twin: cpu::collide::ball.
+fn ball(xp: vec3<f32>, centre: vec3<f32>, radius: f32, friction: f32, velocity: vec3<f32>) -> Contact {
+    let d = xp - centre;
+    let l = len3(d);
+    var n = vec3<f32>(0.0, 1.0, 0.0);
+    if (l > TINY) {
+        n = d / l;
+    }
+    return Contact(true, n, l - radius, friction, velocity);
+}
+
+// Twin: cpu::collide::contact. The deepest collider closer than `slop`,
+// the colliders where they are at the particle clock `clock`.
+fn find_contact(xp: vec3<f32>, slop: f32, clock: u32) -> Contact {
+    var best = Contact(false, vec3<f32>(0.0, 1.0, 0.0), 0.0, 0.0, vec3<f32>(0.0));
     if (HAS_GROUND) {
         let d = xp.y - params.ground_height;
         if (d < slop) {
-            best = Contact(true, vec3<f32>(0.0, 1.0, 0.0), d, params.ground_friction);
+            best = Contact(true, vec3<f32>(0.0, 1.0, 0.0), d, params.ground_friction, vec3<f32>(0.0));
         }
     }
     if (HAS_SPHERES) {
+        let ts = collider_time(clock, params.motion.y);
         for (var k = 0u; k < params.sphere_count; k++) {
             let sph = params.spheres[k];
-            let d = xp - sph.center;
-            let l = len3(d);
-            var n = vec3<f32>(0.0, 1.0, 0.0);
-            if (l > TINY) {
-                n = d / l;
+            let centre = sph.center + unseen3(sph.velocity * ts);
+            let c = ball(xp, centre, sph.radius, sph.friction, sph.velocity);
+            if (c.distance < slop && (!best.found || c.distance < best.distance)) {
+                best = c;
             }
-            let dist = l - sph.radius;
-            if (dist < slop && (!best.found || dist < best.distance)) {
-                best = Contact(true, n, dist, sph.friction);
+        }
+        let tc = collider_time(clock, params.motion.z);
+        for (var k = 0u; k < params.motion.x; k++) {
+            let cap = params.capsules[k];
+            let shift = unseen3(cap.velocity * tc);
+            let q = closest_on_segment(cap.a + shift, cap.b + shift, xp);
+            let c = ball(xp, q, cap.radius, cap.friction, cap.velocity);
+            if (c.distance < slop && (!best.found || c.distance < best.distance)) {
+                best = c;
             }
         }
     }
     return best;
 }
 
-// Twin: cpu::collide::collide for one free particle; returns (x, v).
-fn collide_particle(x_in: vec3<f32>, v_in: vec3<f32>) -> array<vec3<f32>, 2> {
+// `a` itself, through an xor with the uniform's opaque zero
+// (`params.kind_k[3]`, as `unseen4` in common/cg.wgsl): a product passed
+// through here is rounded before the sum it feeds, as the CPU rounds it,
+// instead of being fused into a multiply-add.
+fn unseen3(a: vec3<f32>) -> vec3<f32> {
+    return bitcast<vec3<f32>>(bitcast<vec3<u32>>(a) ^ vec3<u32>(bitcast<u32>(params.kind_k[3])));
+}
+
+// Twin: cpu::collide::after_contact.
+fn after_contact(c: Contact, tangential: vec3<f32>, vn: f32) -> vec3<f32> {
+    let speed = len3(tangential);
+    let loss = c.friction * (-vn);
+    var kept = 0.0;
+    if (speed > loss && speed > TINY) {
+        kept = (speed - loss) / speed;
+    }
+    return c.velocity + unseen3(tangential * kept);
+}
+
+// Twin: cpu::collide::collide for one free particle, at the end of the
+// step that starts at `clock`; returns (x, v).
+fn collide_particle(x_in: vec3<f32>, v_in: vec3<f32>, clock: u32) -> array<vec3<f32>, 2> {
     var xp = x_in;
     var vp = v_in;
     if (HAS_GROUND || HAS_SPHERES) {
         for (var round = 0u; round < 2u; round++) {
-            let c = find_contact(xp, 0.0);
+            let c = find_contact(xp, 0.0, clock + 1u);
             if (!c.found) {
                 break;
             }
             xp -= c.normal * c.distance;
-            let vn = dot3(vp, c.normal);
+            let relative = vp - c.velocity;
+            let vn = dot3(relative, c.normal);
             if (vn < 0.0) {
-                let tangential = vp - c.normal * vn;
-                let speed = len3(tangential);
-                let loss = c.friction * (-vn);
-                var kept = 0.0;
-                if (speed > loss && speed > TINY) {
-                    kept = (speed - loss) / speed;
-                }
-                vp = tangential * kept;
+                vp = after_contact(c, relative - c.normal * vn, vn);
             }
         }
     }
     return array<vec3<f32>, 2>(xp, vp);
+}
+
+// Twin: cpu::motion::pin_velocity. Pinned particle p at `xp` in the step
+// that starts at `clock`: towards its goal, or still.
+fn pin_velocity(p: u32, clock: u32, xp: vec3<f32>) -> vec3<f32> {
+    let goal = work[wi(W_PIN_TARGET, p)];
+    let remaining = bitcast<u32>(goal.w) - clock;
+    if (remaining - 1u < MAX_FRAME_STEPS) {
+        return (goal.xyz - xp) / (f32(remaining) * params.dt);
+    }
+    return vec3<f32>(0.0);
+}
+
+// Twin: cpu::motion::pin_step; returns (x, v) at the step's end: the goal
+// itself on its last step.
+fn pin_step(p: u32, clock: u32, xp: vec3<f32>) -> array<vec3<f32>, 2> {
+    let vp = pin_velocity(p, clock, xp);
+    let goal = work[wi(W_PIN_TARGET, p)];
+    if (bitcast<u32>(goal.w) - clock == 1u) {
+        return array<vec3<f32>, 2>(goal.xyz, vp);
+    }
+    return array<vec3<f32>, 2>(xp + vp * params.dt, vp);
+}
+
+// Twin: contact_velocity in cpu::implicit. The velocity of the collider a
+// particle at `xp` touches at the start of the step.
+fn contact_velocity(xp: vec3<f32>, clock: u32) -> vec3<f32> {
+    let c = find_contact(xp, CONTACT_SLOP, clock);
+    return select(vec3<f32>(0.0), c.velocity, c.found);
 }
 
 // Writes the end-of-step state of particle p, unless it is not finite: then

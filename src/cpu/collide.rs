@@ -1,10 +1,17 @@
-//! Ground plane and sphere colliders.
+//! Ground plane, sphere and capsule colliders.
 //!
 //! After a step, a free particle found inside a collider is moved to its
-//! surface, loses its inward normal velocity, and its tangential velocity is
-//! reduced by Coulomb friction: by at most `μ` times the normal velocity it
-//! lost (so a particle resting on the ground under gravity stops sliding
-//! once `μ g dt` exceeds its tangential speed change per step).
+//! surface, loses its inward normal velocity relative to the collider, and
+//! its tangential velocity relative to the collider is reduced by Coulomb
+//! friction: by at most `μ` times the normal velocity it lost (so a particle
+//! resting on the ground under gravity stops sliding once `μ g dt` exceeds
+//! its tangential speed change per step, and one resting on a moving
+//! collider is carried along).
+//!
+//! Spheres and capsules move at a constant velocity from where they were
+//! set: at a particle's clock `c` (its finished steps, [`super::motion`])
+//! a sphere set at step `base` is at `center + velocity × (c − base) dt`,
+//! the same expression, in the same order, as the kernels'.
 //!
 //! The implicit integrator also asks [`contact`] at the start of a step which
 //! particles are touching, to constrain them in the CG filter.
@@ -28,11 +35,77 @@ pub struct Contact<R> {
     pub distance: R,
     /// Coulomb friction coefficient of this collider.
     pub friction: R,
+    /// The collider's velocity [m/s] (zero for the ground).
+    pub velocity: Vec3<R>,
+}
+
+/// The time \[s\] since a collider set at step `base` at the step count
+/// `clock` (twin: `collider_time` in `shaders/common/physics.wgsl`). The
+/// count converts exactly below 2²⁴ steps since the collider was set.
+pub fn collider_time<R: Real>(sys: &System<R>, clock: u32, base: u32) -> R {
+    R::from_f64(f64::from(clock.wrapping_sub(base))) * sys.dt
+}
+
+/// The larger of two values, written as the kernels write it
+/// (`select(b, a, a > b)`).
+fn larger<R: Real>(a: R, b: R) -> R {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The smaller of two values (`select(b, a, a < b)`).
+fn smaller<R: Real>(a: R, b: R) -> R {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// The point of the segment `a`–`b` closest to `x` (`a` when the segment
+/// has no length; a length that rounds to almost nothing still clamps
+/// to the segment).
+fn closest_on_segment<R: Real>(a: Vec3<R>, b: Vec3<R>, x: Vec3<R>) -> Vec3<R> {
+    let d = b - a;
+    let dd = d.dot(d);
+    let mut t = R::ZERO;
+    if dd > R::ZERO {
+        t = smaller(larger((x - a).dot(d) / dd, R::ZERO), R::ONE);
+    }
+    a + d * t
+}
+
+/// The contact of `x` with a ball of `radius` around `centre`.
+fn ball<R: Real>(
+    x: Vec3<R>,
+    centre: Vec3<R>,
+    radius: R,
+    friction: R,
+    velocity: Vec3<R>,
+) -> Contact<R> {
+    let d = x - centre;
+    let len = d.length();
+    // At the exact centre the direction is undefined: push up.
+    let normal = if len > R::TINY {
+        d / len
+    } else {
+        Vec3::new(R::ZERO, R::ONE, R::ZERO)
+    };
+    Contact {
+        normal,
+        distance: len - radius,
+        friction,
+        velocity,
+    }
 }
 
 /// The deepest collider contact of a particle at `x`, if any collider is
-/// closer than `slop` (pass zero to find only penetrations).
-pub fn contact<R: Real>(sys: &System<R>, x: Vec3<R>, slop: R) -> Option<Contact<R>> {
+/// closer than `slop` (pass zero to find only penetrations), with the
+/// colliders where they are at the particle clock `clock`.
+pub fn contact<R: Real>(sys: &System<R>, x: Vec3<R>, slop: R, clock: u32) -> Option<Contact<R>> {
     let mut best: Option<Contact<R>> = None;
     let mut consider = |c: Contact<R>| {
         if c.distance < slop && best.is_none_or(|b| c.distance < b.distance) {
@@ -44,32 +117,50 @@ pub fn contact<R: Real>(sys: &System<R>, x: Vec3<R>, slop: R) -> Option<Contact<
             normal: Vec3::new(R::ZERO, R::ONE, R::ZERO),
             distance: x.y - g.height,
             friction: g.friction,
+            velocity: Vec3::ZERO,
         });
     }
+    let t = collider_time(sys, clock, sys.sphere_base);
     for s in &sys.spheres {
-        let d = x - s.center;
-        let len = d.length();
-        // At the exact centre the direction is undefined: push up.
-        let normal = if len > R::TINY {
-            d / len
-        } else {
-            Vec3::new(R::ZERO, R::ONE, R::ZERO)
-        };
-        consider(Contact {
-            normal,
-            distance: len - s.radius,
-            friction: s.friction,
-        });
+        let centre = s.center + s.velocity * t;
+        consider(ball(x, centre, s.radius, s.friction, s.velocity));
+    }
+    let t = collider_time(sys, clock, sys.capsule_base);
+    for c in &sys.capsules {
+        let shift = c.velocity * t;
+        let q = closest_on_segment(c.a + shift, c.b + shift, x);
+        consider(ball(x, q, c.radius, c.friction, c.velocity));
     }
     best
 }
 
-/// Resolves every free particle's penetration of the colliders in place.
-/// Returns the number of particles that were moved.
-pub fn collide<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], v: &mut [Vec3<R>]) -> usize {
+/// The velocity [m/s] after a contact that removed the normal velocity
+/// `vn` (< 0) relative to the collider: the collider's velocity plus the
+/// relative tangential velocity `tangential`, reduced by friction.
+pub(crate) fn after_contact<R: Real>(c: &Contact<R>, tangential: Vec3<R>, vn: R) -> Vec3<R> {
+    let speed = tangential.length();
+    let loss = c.friction * (-vn);
+    let kept = if speed > loss && speed > R::TINY {
+        (speed - loss) / speed
+    } else {
+        R::ZERO
+    };
+    c.velocity + tangential * kept
+}
+
+/// Resolves every free particle's penetration of the colliders in place,
+/// with the colliders where they are at the end of the step whose start
+/// clock is `clock`. Returns the number of particles that were moved.
+pub fn collide<R: Real>(
+    sys: &System<R>,
+    x: &mut [Vec3<R>],
+    v: &mut [Vec3<R>],
+    clock: u32,
+) -> usize {
     if !sys.has_colliders() {
         return 0;
     }
+    let end = clock.wrapping_add(1);
     let mut moved = 0;
     for p in 0..x.len() {
         if sys.inv_mass[p] <= R::ZERO {
@@ -79,21 +170,14 @@ pub fn collide<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], v: &mut [Vec3<R>]) -
         // ground and a sphere at once); two passes settle a corner contact.
         let mut hit = false;
         for _ in 0..2 {
-            let Some(c) = contact(sys, x[p], R::ZERO) else {
+            let Some(c) = contact(sys, x[p], R::ZERO, end) else {
                 break;
             };
             x[p] -= c.normal * c.distance;
-            let vn = v[p].dot(c.normal);
+            let relative = v[p] - c.velocity;
+            let vn = relative.dot(c.normal);
             if vn < R::ZERO {
-                let tangential = v[p] - c.normal * vn;
-                let speed = tangential.length();
-                let loss = c.friction * (-vn);
-                let kept = if speed > loss && speed > R::TINY {
-                    (speed - loss) / speed
-                } else {
-                    R::ZERO
-                };
-                v[p] = tangential * kept;
+                v[p] = after_contact(&c, relative - c.normal * vn, vn);
             }
             hit = true;
         }

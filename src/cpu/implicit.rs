@@ -38,6 +38,7 @@ use super::cg::{self, apply_a_unfiltered};
 use super::collide::{collide, contact, CONTACT_SLOP};
 use super::forces::{gather_signed, spring_force, spring_frame, total_force, wind_forces};
 use super::mat3::Sym3;
+use super::motion::{self, pin_velocity};
 use super::{State, StepStats, System, Workspace};
 use crate::real::{Real, Vec3};
 
@@ -86,7 +87,15 @@ impl<R: Real> SpringBlock<R> {
     }
 }
 
-/// Coulomb friction at the contacts the filter constrained.
+/// The velocity [m/s] of the collider a particle at `x` touches at the
+/// start of the step (twin: `contact_velocity` in
+/// `shaders/common/physics.wgsl`): the filter's contact, found again.
+fn contact_velocity<R: Real>(sys: &System<R>, x: Vec3<R>, clock: u32) -> Vec3<R> {
+    contact(sys, x, R::from_f64(CONTACT_SLOP), clock).map_or(Vec3::ZERO, |c| c.velocity)
+}
+
+/// Coulomb friction at the contacts the filter constrained, relative to
+/// the collider's velocity.
 ///
 /// The filter removed the contacts' normal motion before anything could
 /// measure it, so friction is computed from the constraint impulse instead:
@@ -104,7 +113,8 @@ fn contact_friction<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspa
         if impulse <= R::ZERO {
             continue;
         }
-        let v = st.v[p];
+        let vc = contact_velocity(sys, st.x[p], w.clock);
+        let v = st.v[p] - vc;
         let tangential = v - normal * v.dot(normal);
         let speed = tangential.length();
         let loss = mu * impulse / sys.mass[p];
@@ -113,7 +123,7 @@ fn contact_friction<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspa
         } else {
             R::ZERO
         };
-        st.v[p] = normal * v.dot(normal) + tangential * kept;
+        st.v[p] = vc + (normal * v.dot(normal) + tangential * kept);
     }
 }
 
@@ -167,21 +177,27 @@ pub fn prepare<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
         w.filter[p] = if sys.inv_mass[p] <= R::ZERO {
             Filter::Fixed
         } else {
-            match contact(sys, st.x[p], R::from_f64(CONTACT_SLOP)) {
+            match contact(sys, st.x[p], R::from_f64(CONTACT_SLOP), w.clock) {
                 // Constrain only a particle pushed or moving into the surface:
                 // one pulled away is free to lift off this step.
                 Some(c)
-                    if w.force[p].dot(c.normal) < R::ZERO || st.v[p].dot(c.normal) < R::ZERO =>
+                    if w.force[p].dot(c.normal) < R::ZERO
+                        || (st.v[p] - c.velocity).dot(c.normal) < R::ZERO =>
                 {
                     Filter::Plane(c.normal, c.friction)
                 }
                 _ => Filter::Free,
             }
         };
-        // z: the prescribed Δv in constrained directions.
+        // z: the prescribed Δv in constrained directions: a contact's
+        // approach speed relative to its collider, a pin's change to its
+        // prescribed velocity (Baraff–Witkin's moving constraints).
         w.z[p] = match w.filter[p] {
-            Filter::Plane(nrm, _) => nrm * (-st.v[p].dot(nrm).min(R::ZERO)),
-            Filter::Fixed => -st.v[p],
+            Filter::Plane(nrm, _) => {
+                let vc = contact_velocity(sys, st.x[p], w.clock);
+                nrm * (-(st.v[p] - vc).dot(nrm).min(R::ZERO))
+            }
+            Filter::Fixed => pin_velocity(sys, &w.pin_goal[p], w.clock, st.x[p]) - st.v[p],
             Filter::Free => Vec3::ZERO,
         };
         let kv = gather_signed(&sys.spring_adj, &w.kv, p);
@@ -237,12 +253,16 @@ pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>)
     if w.filter.iter().any(|f| matches!(f, Filter::Plane(..))) {
         contact_friction(sys, st, w);
     }
+    motion::move_pins(sys, &mut st.x, &mut st.v, w);
     for p in 0..st.x.len() {
-        st.x[p] += st.v[p] * sys.dt;
+        if sys.inv_mass[p] > R::ZERO {
+            st.x[p] += st.v[p] * sys.dt;
+        }
     }
     // Particles that were not touching at the start of the step can still
     // end it inside a collider.
-    collide(sys, &mut st.x, &mut st.v);
+    collide(sys, &mut st.x, &mut st.v, w.clock);
+    w.clock = w.clock.wrapping_add(1);
 }
 
 /// One implicit step: the GPU's kernels in its order.

@@ -30,6 +30,8 @@ pub mod fixup;
 pub(crate) mod forces;
 pub(crate) mod implicit;
 pub(crate) mod mat3;
+#[doc(hidden)]
+pub mod motion;
 pub(crate) mod semi_implicit;
 pub(crate) mod torque;
 #[doc(hidden)]
@@ -41,7 +43,7 @@ use crate::budget::{self, try_collect, try_vec, Counts};
 use crate::diagnostics;
 use crate::error::{Error, Result};
 use crate::model::{Adjacency, Model};
-use crate::params::{FilterMethod, FixupMethod, Integrator, Params};
+use crate::params::{Capsule, FilterMethod, FixupMethod, Integrator, Params, PinTarget, Sphere};
 use crate::real::{Real, Vec3};
 use crate::stats::StepStats;
 use coarse::{Aggregation, Coarse};
@@ -107,6 +109,24 @@ pub struct SphereR<R> {
     pub radius: R,
     /// Friction coefficient.
     pub friction: R,
+    /// Velocity [m/s].
+    pub velocity: Vec3<R>,
+}
+
+/// A capsule collider in the solver's precision.
+#[derive(Clone, Copy, Debug)]
+#[doc(hidden)]
+pub struct CapsuleR<R> {
+    /// Segment ends when set \[m\].
+    pub a: Vec3<R>,
+    /// The other end \[m\].
+    pub b: Vec3<R>,
+    /// Radius \[m\].
+    pub radius: R,
+    /// Friction coefficient.
+    pub friction: R,
+    /// Velocity [m/s].
+    pub velocity: Vec3<R>,
 }
 
 /// Wind in the solver's precision.
@@ -154,6 +174,13 @@ pub struct System<R> {
     pub ground: Option<GroundR<R>>,
     /// Spheres.
     pub spheres: Vec<SphereR<R>>,
+    /// The step count at which the spheres were set (their velocity moves
+    /// them from there).
+    pub sphere_base: u32,
+    /// Capsule colliders.
+    pub capsules: Vec<CapsuleR<R>>,
+    /// The step count at which the capsules were set.
+    pub capsule_base: u32,
     /// Wind.
     pub wind: Option<WindR<R>>,
     /// Fix-up passes (0 = off).
@@ -236,15 +263,10 @@ impl<R: Real> System<R> {
                 height: R::from_f64(g.height),
                 friction: R::from_f64(g.friction),
             }),
-            spheres: params
-                .spheres
-                .iter()
-                .map(|s| SphereR {
-                    center: Vec3::from_f64(s.center),
-                    radius: R::from_f64(s.radius),
-                    friction: R::from_f64(s.friction),
-                })
-                .collect(),
+            spheres: spheres_r(&params.spheres),
+            sphere_base: 0,
+            capsules: capsules_r(&params.capsules),
+            capsule_base: 0,
             wind: params.wind.map(|w| WindR {
                 velocity: Vec3::from_f64(w.velocity),
                 drag: R::from_f64(w.drag),
@@ -261,8 +283,35 @@ impl<R: Real> System<R> {
 
     /// `true` when there is a ground plane or at least one sphere.
     pub fn has_colliders(&self) -> bool {
-        self.ground.is_some() || !self.spheres.is_empty()
+        self.ground.is_some() || !self.spheres.is_empty() || !self.capsules.is_empty()
     }
+}
+
+/// Spheres in the solver's precision.
+fn spheres_r<R: Real>(spheres: &[Sphere]) -> Vec<SphereR<R>> {
+    spheres
+        .iter()
+        .map(|s| SphereR {
+            center: Vec3::from_f64(s.center),
+            radius: R::from_f64(s.radius),
+            friction: R::from_f64(s.friction),
+            velocity: Vec3::from_f64(s.velocity),
+        })
+        .collect()
+}
+
+/// Capsules in the solver's precision.
+fn capsules_r<R: Real>(capsules: &[Capsule]) -> Vec<CapsuleR<R>> {
+    capsules
+        .iter()
+        .map(|c| CapsuleR {
+            a: Vec3::from_f64(c.a),
+            b: Vec3::from_f64(c.b),
+            radius: R::from_f64(c.radius),
+            friction: R::from_f64(c.friction),
+            velocity: Vec3::from_f64(c.velocity),
+        })
+        .collect()
 }
 
 /// Scratch buffers, allocated once per solver.
@@ -326,6 +375,10 @@ pub struct Workspace<R> {
     /// The implicit CG's coarse levels (a grid cloth with
     /// [`crate::params::ImplicitParams::coarse_levels`]).
     pub coarse: Option<Coarse<R>>,
+    /// Each pinned particle's goal (the GPU's `W_PIN_TARGET`).
+    pub pin_goal: Vec<motion::PinGoal<R>>,
+    /// The steps finished (the GPU's per-particle `W_CLOCK`).
+    pub clock: u32,
 }
 
 impl<R: Real> Workspace<R> {
@@ -363,6 +416,8 @@ impl<R: Real> Workspace<R> {
             constant_filter: None,
             scratch: Vec::new(),
             coarse: None,
+            pin_goal: try_vec(particles, motion::PinGoal::default(), WHAT)?,
+            clock: 0,
         })
     }
 }
@@ -387,9 +442,10 @@ pub(crate) fn predict<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Works
 /// something, every free particle's velocity rebuilt from its
 /// displacement, `v = (x* − x) / dt`; then collisions. Reads `x_old` (the
 /// GPU's `x`), `x*` and `v*` in `st` (the fix-up's result section and
-/// `W_V_NEW`); writes `st`. Pinned particles keep their position and zero
-/// velocity.
-pub fn finish_step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &Workspace<R>, moved: bool) {
+/// `W_V_NEW`); writes `st`. Pinned particles move towards their goals
+/// (`motion::move_pins`); the colliders are where they are at the step's
+/// end; the clock advances.
+pub fn finish_step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>, moved: bool) {
     if moved {
         let inv_dt = R::ONE / sys.dt;
         for p in 0..st.x.len() {
@@ -398,7 +454,9 @@ pub fn finish_step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &Workspace<R>
             }
         }
     }
-    collide::collide(sys, &mut st.x, &mut st.v);
+    motion::move_pins(sys, &mut st.x, &mut st.v, w);
+    collide::collide(sys, &mut st.x, &mut st.v, w.clock);
+    w.clock = w.clock.wrapping_add(1);
 }
 
 /// The shared tail of the explicit and semi-implicit steps, after their
@@ -644,6 +702,89 @@ impl<R: Real> CpuSolver<R> {
     #[doc(hidden)]
     pub fn system(&self) -> &System<R> {
         &self.sys
+    }
+
+    /// Replaces the sphere colliders; each moves at its velocity from its
+    /// `center` from now on (a game moving a ball calls this every frame
+    /// with the ball's position and velocity).
+    pub fn set_spheres(&mut self, spheres: &[Sphere]) -> Result<()> {
+        self.check_colliders(spheres, &[])?;
+        self.sys.spheres = spheres_r(spheres);
+        self.sys.sphere_base = self.work.clock;
+        Ok(())
+    }
+
+    /// Replaces the capsule colliders, as [`CpuSolver::set_spheres`] the
+    /// spheres.
+    pub fn set_capsules(&mut self, capsules: &[Capsule]) -> Result<()> {
+        self.check_colliders(&[], capsules)?;
+        self.sys.capsules = capsules_r(capsules);
+        self.sys.capsule_base = self.work.clock;
+        Ok(())
+    }
+
+    /// Validates colliders as [`Params::validate`] does.
+    fn check_colliders(&self, spheres: &[Sphere], capsules: &[Capsule]) -> Result<()> {
+        Params {
+            spheres: spheres.to_vec(),
+            capsules: capsules.to_vec(),
+            ..Params::default()
+        }
+        .validate()
+    }
+
+    /// Pins (`true`) or releases (`false`) particle `p`. A newly pinned
+    /// particle stops where it is; a released one keeps its velocity (a
+    /// flick). A semi-implicit solver rebuilds its filter.
+    pub fn set_pinned(&mut self, p: usize, pinned: bool) -> Result<()> {
+        let n = self.sys.mass.len();
+        if p >= n {
+            return Err(Error::InvalidParameter {
+                key: "particle".into(),
+                allowed: format!("an index below {n}"),
+                got: p.to_string(),
+            });
+        }
+        if (self.sys.inv_mass[p] <= R::ZERO) == pinned {
+            return Ok(());
+        }
+        let before = (self.sys.inv_mass[p], self.sys.pinned_count);
+        if pinned {
+            self.sys.inv_mass[p] = R::ZERO;
+            self.sys.pinned_count += 1;
+            self.state.v[p] = Vec3::ZERO;
+        } else {
+            self.sys.inv_mass[p] = R::ONE / self.sys.mass[p];
+            self.sys.pinned_count -= 1;
+        }
+        self.work.pin_goal[p] = motion::PinGoal::default();
+        if self.integrator == Integrator::SemiImplicit {
+            if let Err(e) = self.build_filter() {
+                (self.sys.inv_mass[p], self.sys.pinned_count) = before;
+                return Err(e);
+            }
+        }
+        Ok(())
+    }
+
+    /// Sets where pinned particles are to be after `frame_seconds` \[s\] of
+    /// simulated time: each moves at constant velocity over the frame's
+    /// steps (the nearest whole number of steps, at least one) and lands on
+    /// its target at the last of them (see [`motion`]). An index out of
+    /// range, an unpinned particle or a non-finite position is an error
+    /// naming it, and then nothing is changed.
+    pub fn set_pin_targets(&mut self, targets: &[PinTarget], frame_seconds: f64) -> Result<()> {
+        let steps = motion::frame_steps(frame_seconds, self.sys.dt.to_f64())?;
+        let inv_mass = &self.sys.inv_mass;
+        motion::check_targets(targets, |p| inv_mass[p] <= R::ZERO, inv_mass.len())?;
+        let end = self.work.clock.wrapping_add(steps);
+        for t in targets {
+            self.work.pin_goal[t.particle] = motion::PinGoal {
+                position: Vec3::from_f64(t.position.as_dvec3()),
+                end,
+            };
+        }
+        Ok(())
     }
 
     /// Changes the time step \[s\]; a semi-implicit solver rebuilds its filter.

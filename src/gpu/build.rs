@@ -9,7 +9,7 @@ use super::kernels::GpuKernels;
 use super::layout::{GpuParams, GpuSpring};
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 use super::solver::{
-    gpu_spheres, plan_inputs, scene_features, GpuSolver, Prepared, NO_GROUND, NO_WIND,
+    gpu_capsules, gpu_spheres, plan_inputs, scene_features, GpuSolver, Prepared, NO_GROUND, NO_WIND,
 };
 use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_with_capacity};
@@ -193,7 +193,9 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
         coarse: Aggregation::for_scene(model, params).map_or([0; 4], |a| {
             [a.nx, a.ny, a.count(0), a.count(1)].map(|c| c as u32)
         }),
+        motion: [params.capsules.len() as u32, 0, 0, 0],
         spheres: gpu_spheres(&params.spheres),
+        capsules: gpu_capsules(&params.capsules),
     }
 }
 

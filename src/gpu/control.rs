@@ -1,14 +1,18 @@
 //! Changing a [`GpuSolver`]'s scene between steps: gravity, wind, ground,
-//! spheres, pins, pinned positions and the kernel variants. Nothing is
+//! spheres and capsules (moving ones too), pins, pinned positions and pin
+//! targets, and the kernel variants. Nothing is
 //! rebuilt but what the change invalidates.
 
 use super::grid::GridBlock;
 use super::kernels::Features;
-use super::layout::MAX_SPHERES;
+use super::layout::section;
 use super::semi_filter::SemiFilter;
-use super::solver::{gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND};
+use super::solver::{
+    check_collider_counts, gpu_capsules, gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND,
+};
+use crate::cpu::motion;
 use crate::error::{Error, Result};
-use crate::params::{Ground, Sphere, Wind};
+use crate::params::{Capsule, Ground, PinTarget, Sphere, Wind};
 use glam::{DVec3, Vec3};
 
 impl GpuSolver {
@@ -50,23 +54,90 @@ impl GpuSolver {
         self.update_features()
     }
 
-    /// Replaces the sphere colliders (at most [`MAX_SPHERES`]); a game
-    /// moving a ball calls this every frame.
+    /// Replaces the sphere colliders (at most [`MAX_SPHERES`](super::layout::MAX_SPHERES)); each moves
+    /// at its velocity from its `center` from the next recorded step on. A
+    /// game moving a ball calls this every frame with the ball's position
+    /// and velocity; the steps of one submit see it move (the kernels
+    /// compute its position from the steps since this call).
     pub fn set_spheres(&mut self, spheres: &[Sphere]) -> Result<()> {
-        if spheres.len() > MAX_SPHERES {
-            return Err(Error::InvalidParameter {
-                key: "sphere".into(),
-                allowed: format!("at most {MAX_SPHERES} spheres on the GPU backend"),
-                got: spheres.len().to_string(),
-            });
-        }
+        check_collider_counts(spheres.len(), 0)?;
         let mut p = self.host_params.clone();
         p.spheres = spheres.to_vec();
         p.validate()?;
         self.host_params = p;
         self.params.spheres = gpu_spheres(spheres);
         self.params.sphere_count = spheres.len() as u32;
+        self.params.motion[1] = self.steps_recorded as u32;
         self.update_features()
+    }
+
+    /// Replaces the capsule colliders (at most [`MAX_CAPSULES`](super::layout::MAX_CAPSULES)), as
+    /// [`GpuSolver::set_spheres`] the spheres.
+    pub fn set_capsules(&mut self, capsules: &[Capsule]) -> Result<()> {
+        check_collider_counts(0, capsules.len())?;
+        let mut p = self.host_params.clone();
+        p.capsules = capsules.to_vec();
+        p.validate()?;
+        self.host_params = p;
+        self.params.capsules = gpu_capsules(capsules);
+        self.params.motion[0] = capsules.len() as u32;
+        self.params.motion[2] = self.steps_recorded as u32;
+        self.update_features()
+    }
+
+    /// Sets where pinned particles are to be after `frame_seconds` \[s\] of
+    /// simulated time: each moves at constant velocity over the frame's
+    /// steps (the nearest whole number of steps, at least one) and lands
+    /// exactly on its target at the last of them (see
+    /// [`crate::cpu::motion`]); after that it stands still until the next
+    /// call. A mouse drag is [`GpuSolver::set_pinned`]`(p, true)` then this
+    /// every frame; `set_pinned(p, false)` lets go, keeping the velocity.
+    /// An index out of range, an unpinned particle or a non-finite position
+    /// is an error naming it, and then nothing is changed.
+    pub fn set_pin_targets(&mut self, targets: &[PinTarget], frame_seconds: f64) -> Result<()> {
+        let steps = motion::frame_steps(frame_seconds, self.host_params.dt)?;
+        let pinned = &self.model.pinned;
+        motion::check_targets(targets, |p| pinned[p], pinned.len())?;
+        let end = (self.steps_recorded as u32).wrapping_add(steps);
+        for t in targets {
+            let mut goal = t.position.extend(0.0).to_array();
+            goal[3] = f32::from_bits(end);
+            self.write_pin_goal(t.particle, goal);
+        }
+        Ok(())
+    }
+
+    /// The time step \[s\].
+    pub fn dt(&self) -> f64 {
+        self.host_params.dt
+    }
+
+    /// The spheres and the capsules where they are after the steps
+    /// recorded so far (positions moved by their velocities in `f64`;
+    /// velocities as set): what a renderer draws
+    /// ([`crate::render::Renderer::set_colliders`]).
+    pub fn colliders(&self) -> (Vec<Sphere>, Vec<Capsule>) {
+        let now = self.steps_recorded as u32;
+        let since = |base: u32| f64::from(now.wrapping_sub(base)) * self.host_params.dt;
+        let (ts, tc) = (since(self.params.motion[1]), since(self.params.motion[2]));
+        let spheres = self.host_params.spheres.iter().map(|s| Sphere {
+            center: s.center + s.velocity * ts,
+            ..*s
+        });
+        let capsules = self.host_params.capsules.iter().map(|c| Capsule {
+            a: c.a + c.velocity * tc,
+            b: c.b + c.velocity * tc,
+            ..*c
+        });
+        (spheres.collect(), capsules.collect())
+    }
+
+    /// Writes particle `p`'s pin goal (`work` section `PIN_TARGET`).
+    fn write_pin_goal(&self, p: usize, goal: [f32; 4]) {
+        let n = self.params.particle_count as u64;
+        let offset = (u64::from(section::PIN_TARGET) * n + p as u64) * 16;
+        self.queue
+            .write_buffer(&self.buffers.work, offset, bytemuck::cast_slice(&goal));
     }
 
     /// Moves particle `p` to `position` \[m\] (for a pinned particle: a game
@@ -82,7 +153,7 @@ impl GpuSolver {
     }
 
     /// Pins (`true`) or releases (`false`) particle `p`. A newly pinned
-    /// particle stops. A semi-implicit solver with the dense filter rebuilds
+    /// particle stops; a released one keeps its velocity (a flick). A semi-implicit solver with the dense filter rebuilds
     /// its filter on the host (the pins are constrained inside it).
     pub fn set_pinned(&mut self, p: usize, pinned: bool) -> Result<()> {
         self.check_particle(p)?;
@@ -105,6 +176,8 @@ impl GpuSolver {
             self.queue
                 .write_buffer(&self.buffers.v, base, bytemuck::cast_slice(&[0f32; 3]));
         }
+        // A new pin stands still until it is given a target.
+        self.write_pin_goal(p, [0.0; 4]);
         self.params.torque_compensation = u32::from(
             self.host_params.semi_implicit.torque_compensation && self.model.pinned_count() == 0,
         );

@@ -5,22 +5,41 @@
 
 use bytemuck::{Pod, Zeroable};
 
-pub use crate::kernel_config::{status, work as section, MAX_SPHERES};
+pub use crate::kernel_config::{status, work as section, MAX_CAPSULES, MAX_SPHERES};
 
 /// Twin of WGSL `Sphere`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuSphere {
-    /// Centre \[m\].
+    /// Centre \[m\] when set.
     pub center: [f32; 3],
     /// Radius \[m\].
     pub radius: f32,
+    /// Velocity [m/s].
+    pub velocity: [f32; 3],
     /// Friction coefficient.
     pub friction: f32,
-    /// Padding to the WGSL struct's 16-byte alignment.
-    pub _pad: [f32; 3],
 }
 const _: () = assert!(std::mem::size_of::<GpuSphere>() == 32);
+
+/// Twin of WGSL `Capsule`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuCapsule {
+    /// One end of the segment \[m\] when set.
+    pub a: [f32; 3],
+    /// Radius \[m\].
+    pub radius: f32,
+    /// The other end \[m\] when set.
+    pub b: [f32; 3],
+    /// Friction coefficient.
+    pub friction: f32,
+    /// Velocity [m/s].
+    pub velocity: [f32; 3],
+    /// Padding to the WGSL struct's 16-byte alignment.
+    pub _pad: f32,
+}
+const _: () = assert!(std::mem::size_of::<GpuCapsule>() == 48);
 
 /// Twin of WGSL `Params` (the uniform block).
 #[repr(C)]
@@ -88,10 +107,16 @@ pub struct GpuParams {
     /// The implicit CG's coarse levels (`cpu/coarse.rs`): columns,
     /// rows, level-1 and level-2 aggregates; zero without them.
     pub coarse: [u32; 4],
+    /// Moving colliders: capsules in use, the step counts at which the
+    /// spheres and the capsules were set (their time origin), unused.
+    pub motion: [u32; 4],
     /// Sphere colliders; the first `sphere_count` are used.
     pub spheres: [GpuSphere; MAX_SPHERES],
+    /// Capsule colliders; the first `motion[0]` are used.
+    pub capsules: [GpuCapsule; MAX_CAPSULES],
 }
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 240 + 32 * MAX_SPHERES);
+const _: () =
+    assert!(std::mem::size_of::<GpuParams>() == 256 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES);
 
 /// Twin of WGSL `Spring`.
 #[repr(C)]

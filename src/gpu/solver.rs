@@ -6,7 +6,7 @@ use super::errors::guarded;
 use super::grid::{GridBlock, GridLayout};
 use super::kernel::{Dispatch, Kernel, Launch};
 use super::kernels::{Features, GpuKernels};
-use super::layout::{self, GpuParams, GpuSphere, MAX_SPHERES};
+use super::layout::{self, GpuCapsule, GpuParams, GpuSphere, MAX_CAPSULES, MAX_SPHERES};
 use super::plan::{self, Plan, PlanInputs};
 use super::readback;
 use super::semi_filter::SemiFilter;
@@ -16,7 +16,7 @@ use crate::cpu::filter::FilterSystem;
 use crate::error::{Error, Result};
 use crate::kernel_config::WORKGROUP;
 use crate::model::Model;
-use crate::params::{Ground, Integrator, Params, Sphere, Wind};
+use crate::params::{Capsule, Ground, Integrator, Params, Sphere, Wind};
 use crate::stats::StepStats;
 use glam::{DVec3, Vec3};
 
@@ -157,11 +157,13 @@ impl Prepared {
 /// What the scene uses, for the kernel variants.
 /// `grid`: the block shape of the grid kernels, `None` without grid layout.
 pub(super) fn scene_features(model: &Model, params: &Params, grid: Option<GridBlock>) -> Features {
-    let colliders = params.ground.is_some() || !params.spheres.is_empty();
+    let round = !params.spheres.is_empty() || !params.capsules.is_empty();
+    let colliders = params.ground.is_some() || round;
     Features {
         wind: params.wind.is_some(),
         ground: params.ground.is_some(),
-        spheres: !params.spheres.is_empty(),
+        // The kernels' HAS_SPHERES covers both round colliders.
+        spheres: round,
         filter: colliders || model.pinned_count() > 0,
         damping: params
             .springs
@@ -196,11 +198,45 @@ pub(super) fn gpu_spheres(spheres: &[Sphere]) -> [GpuSphere; MAX_SPHERES] {
         *g = GpuSphere {
             center: s.center.as_vec3().to_array(),
             radius: s.radius as f32,
+            velocity: s.velocity.as_vec3().to_array(),
             friction: s.friction as f32,
-            _pad: [0.0; 3],
         };
     }
     out
+}
+
+/// Capsules as the uniform block holds them (the caller checks the count).
+pub(super) fn gpu_capsules(capsules: &[Capsule]) -> [GpuCapsule; MAX_CAPSULES] {
+    let mut out = [GpuCapsule::default(); MAX_CAPSULES];
+    for (g, c) in out.iter_mut().zip(capsules) {
+        *g = GpuCapsule {
+            a: c.a.as_vec3().to_array(),
+            radius: c.radius as f32,
+            b: c.b.as_vec3().to_array(),
+            friction: c.friction as f32,
+            velocity: c.velocity.as_vec3().to_array(),
+            _pad: 0.0,
+        };
+    }
+    out
+}
+
+/// Refuses more spheres or capsules than the uniform block holds, before
+/// anything runs.
+pub(super) fn check_collider_counts(spheres: usize, capsules: usize) -> Result<()> {
+    for (key, count, max) in [
+        ("sphere", spheres, MAX_SPHERES),
+        ("capsule", capsules, MAX_CAPSULES),
+    ] {
+        if count > max {
+            return Err(Error::InvalidParameter {
+                key: key.into(),
+                allowed: format!("at most {max} {key}s on the GPU backend"),
+                got: count.to_string(),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Refuses `needed` when the device's limit `name` is only `available`;
@@ -295,13 +331,7 @@ impl GpuSolver {
             limits.max_compute_workgroups_per_dimension.into(),
             groups,
         )?;
-        if params.spheres.len() > MAX_SPHERES {
-            return Err(Error::InvalidParameter {
-                key: "sphere".into(),
-                allowed: format!("at most {MAX_SPHERES} spheres on the GPU backend"),
-                got: params.spheres.len().to_string(),
-            });
-        }
+        check_collider_counts(params.spheres.len(), params.capsules.len())?;
         let what = if dense {
             format!(
                 "the GPU solver for {n} particles with the dense semi-implicit filter \

@@ -16,16 +16,17 @@ use serde::de::value::MapAccessDeserializer;
 use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
 
+use super::animation::{Character, Key};
 use super::shape::{Exactly, Form, List, Number, Table, Whole};
 use super::CameraSpec;
 use crate::model::{ClothSpec, Orientation, Pin};
 use crate::params::{
-    FilterMethod, FixupMethod, Ground, Integrator, Params, Sphere, SpringKind, Wind,
+    Capsule, FilterMethod, FixupMethod, Ground, Integrator, Params, Sphere, SpringKind, Wind,
 };
 
 /// `[simulation] duration` when absent \[s\].
 pub(super) const DEFAULT_DURATION: f64 = 2.0;
-/// Friction of a `[ground]` or `[[sphere]]` that does not give one: a plain
+/// Friction of a `[ground]`, `[[sphere]]` or `[[capsule]]` that does not give one: a plain
 /// cloth-on-floor value, so a dropped cloth settles instead of sliding away.
 pub(super) const DEFAULT_FRICTION: f64 = 0.5;
 /// `[wind] drag` when absent [kg/m³]: `½ ρ_air C_d` with `ρ_air = 1.2` and
@@ -54,6 +55,9 @@ pub(super) struct SceneFile {
     ground: Option<Table<GroundTable>>,
     #[serde(default)]
     sphere: List<Table<SphereTable>>,
+    #[serde(default)]
+    capsule: List<Table<CapsuleTable>>,
+    character: Option<Table<CharacterTable>>,
     wind: Option<Table<WindTable>>,
     #[serde(default)]
     camera: Table<CameraTable>,
@@ -164,6 +168,37 @@ struct SphereTable {
     /// Required: no radius is a sensible default.
     radius: Number,
     friction: Option<Number>,
+    velocity: Option<Vec3>,
+}
+
+/// `[character]`: its capsules and its keyed path (`scene/animation.rs`).
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct CharacterTable {
+    #[serde(default)]
+    capsule: List<Table<CapsuleTable>>,
+    #[serde(default)]
+    key: List<Table<KeyTable>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct KeyTable {
+    /// Required, as `position`: a key is a time and a place.
+    time: Number,
+    position: Vec3,
+    yaw: Option<Number>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CapsuleTable {
+    /// Required, as `b` and `radius`: no segment is a sensible default.
+    a: Vec3,
+    b: Vec3,
+    radius: Number,
+    friction: Option<Number>,
+    velocity: Option<Vec3>,
 }
 
 #[derive(Deserialize)]
@@ -199,6 +234,7 @@ table_form!(SemiImplicitTable, "semi_implicit");
 table_form!(GroundTable, "ground");
 table_form!(WindTable, "wind");
 table_form!(CameraTable, "camera");
+table_form!(CharacterTable, "character");
 
 impl Form for SpringsTable {
     const ONE: &'static str = "a table of spring kinds: `[springs.stretch]`, \
@@ -207,11 +243,26 @@ impl Form for SpringsTable {
     const MANY: &'static str = "`[springs]` tables";
 }
 
-/// The one array of tables: `[[sphere]]`, once per sphere.
+/// The arrays of tables: `[[sphere]]`, once per sphere, and
+/// `[[capsule]]`, once per capsule.
 impl Form for SphereTable {
     const ONE: &'static str = "a table: a `[[sphere]]` line with its keys on the lines below";
     const MANY: &'static str =
         "tables, each a `[[sphere]]` line (double brackets) with its keys on the lines below";
+}
+
+impl Form for KeyTable {
+    const ONE: &'static str =
+        "a table: a `[[character.key]]` line with its keys on the lines below";
+    const MANY: &'static str =
+        "tables, each a `[[character.key]]` line (double brackets) with its \
+                                keys on the lines below";
+}
+
+impl Form for CapsuleTable {
+    const ONE: &'static str = "a table: a `[[capsule]]` line with its keys on the lines below";
+    const MANY: &'static str =
+        "tables, each a `[[capsule]]` line (double brackets) with its keys on the lines below";
 }
 
 impl Form for PinEntry {
@@ -370,8 +421,10 @@ impl SceneFile {
                 center: s.center.map_or(DVec3::ZERO, DVec3::from),
                 radius: s.radius.0,
                 friction: s.friction.map_or(DEFAULT_FRICTION, f64::from),
+                velocity: s.velocity.map_or(DVec3::ZERO, DVec3::from),
             })
             .collect();
+        p.capsules = capsules(self.capsule);
         p.wind = self.wind.map(|Table(w)| Wind {
             velocity: w.velocity.into(),
             drag: w.drag.map_or(DEFAULT_WIND_DRAG, f64::from),
@@ -387,6 +440,39 @@ impl SceneFile {
         };
         let duration = s.duration.map_or(DEFAULT_DURATION, f64::from);
         (cloth, p, duration, camera)
+    }
+}
+
+/// The capsules of a `[[capsule]]` or `[[character.capsule]]` list.
+fn capsules(list: List<Table<CapsuleTable>>) -> Vec<Capsule> {
+    list.0
+        .into_iter()
+        .map(|Table(c)| Capsule {
+            a: c.a.into(),
+            b: c.b.into(),
+            radius: c.radius.0,
+            friction: c.friction.map_or(DEFAULT_FRICTION, f64::from),
+            velocity: c.velocity.map_or(DVec3::ZERO, DVec3::from),
+        })
+        .collect()
+}
+
+impl SceneFile {
+    /// The file's `[character]`, taken out (not yet validated).
+    pub(super) fn take_character(&mut self) -> Option<Character> {
+        self.character.take().map(|Table(c)| Character {
+            capsules: capsules(c.capsule),
+            keys: c
+                .key
+                .0
+                .into_iter()
+                .map(|Table(k)| Key {
+                    time: k.time.0,
+                    position: k.position.into(),
+                    yaw: k.yaw.map_or(0.0, f64::from),
+                })
+                .collect(),
+        })
     }
 }
 

@@ -13,6 +13,7 @@
 //! to the scene file's folder, so a bad mesh fails the load. A built-in
 //! scene's mesh is embedded in the crate with the scene.
 
+pub mod animation;
 mod file;
 mod shape;
 
@@ -43,6 +44,10 @@ pub struct Scene {
     /// How `wgcloth render` looks at it (`[camera]`; absent keys: framed
     /// automatically).
     pub camera: CameraSpec,
+    /// The scripted character (`[character]`), whose capsules are the last
+    /// of `params.capsules` (posed at its first key) and which carries the
+    /// cloth's pins; see [`Scene::animation`].
+    pub character: Option<animation::Character>,
 }
 
 /// The `[camera]` table: each key overrides one choice of the automatic
@@ -119,10 +124,16 @@ impl Scene {
                 e.message().trim_end()
             ))
         })?;
-        let parsed: file::SceneFile =
+        let mut parsed: file::SceneFile =
             serde_path_to_error::deserialize(de).map_err(|e| fail(describe(text, &e)))?;
         let mesh_keys = parsed.mesh_keys().map_err(fail)?;
-        let (mut cloth, params, duration, camera) = parsed.into_parts();
+        let character = parsed.take_character();
+        let (mut cloth, mut params, duration, camera) = parsed.into_parts();
+        if let Some(c) = &character {
+            c.validate().map_err(|e| fail(e.to_string()))?;
+            let start = c.keys.first().map_or(0.0, |k| k.time);
+            params.capsules.extend(c.capsules_at(start));
+        }
         // The key names in `InvalidParameter` are already the file's
         // spelling, so its message is the scene message as is.
         params
@@ -170,6 +181,17 @@ impl Scene {
             params,
             duration,
             camera,
+            character,
+        })
+    }
+
+    /// The animation of this scene's `[character]` on `model` (this scene's
+    /// model), `None` without one: a host calls its
+    /// [`apply`](animation::Animation::apply) once per frame.
+    pub fn animation(&self, model: &Model) -> Option<animation::Animation> {
+        self.character.as_ref().map(|c| {
+            let others = self.params.capsules.len().saturating_sub(c.capsules.len());
+            animation::Animation::new(c, &self.params.capsules[..others], model)
         })
     }
 
@@ -194,6 +216,7 @@ impl Scene {
             "drape",
             "tablecloth",
             "banner",
+            "cape",
         ]
     }
 
@@ -207,6 +230,7 @@ impl Scene {
             "drape" => include_str!("../../scenes/drape.toml"),
             "tablecloth" => include_str!("../../scenes/tablecloth.toml"),
             "banner" => include_str!("../../scenes/banner.toml"),
+            "cape" => include_str!("../../scenes/cape.toml"),
             _ => {
                 return Err(Error::UnknownScene {
                     name: name.to_string(),
@@ -420,7 +444,10 @@ fn expected_shape(key: &str) -> Option<&'static str> {
         "simulation.gravity" => "[x, y, z], three numbers in m/s²",
         "cloth.resolution" => "[nx, ny], two whole numbers of particles",
         "cloth.size" => "[width, height], two numbers in m",
-        "cloth.origin" | "sphere.center" => "[x, y, z], three numbers in m",
+        "cloth.origin" | "sphere.center" | "capsule.a" | "capsule.b" => {
+            "[x, y, z], three numbers in m"
+        }
+        "sphere.velocity" | "capsule.velocity" => "[x, y, z], three numbers in m/s",
         "cloth.mass" => "a number of kg (the whole cloth)",
         "cloth.pins" => {
             "an array of pin names, particle indices and boxes, e.g. \
@@ -436,8 +463,10 @@ fn expected_shape(key: &str) -> Option<&'static str> {
         "fixup.iterations" | "implicit.max_iterations" => "a whole number",
         "fixup.omega" | "implicit.tolerance" => "a number",
         "semi_implicit.torque_compensation" | "implicit.coarse_levels" => "true or false",
-        "ground.height" | "sphere.radius" => "a number in m",
-        "ground.friction" | "sphere.friction" => "a number (friction coefficient)",
+        "ground.height" | "sphere.radius" | "capsule.radius" => "a number in m",
+        "ground.friction" | "sphere.friction" | "capsule.friction" => {
+            "a number (friction coefficient)"
+        }
         "wind.velocity" => "[x, y, z], three numbers in m/s",
         "wind.drag" | "wind.lift" => "a number in kg/m³",
         "camera.target" => "[x, y, z], three numbers in m",

@@ -54,6 +54,16 @@ pub fn compare(model: &Model, params: &Params, steps: u32) -> (f64, usize, Vec3,
     (d, p, gs.x[p], cx[p])
 }
 
+/// A GPU solver that records the full CG budget every step, so its
+/// implicit steps iterate as the `f32` mirror's do (the adaptive budget
+/// may stop a step whose colliders or pins just changed earlier).
+pub fn exact_gpu(model: &Model, params: &Params) -> GpuSolver {
+    let ctx = gpu();
+    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, params).expect("GPU solver");
+    g.tuning_mut().set_adaptive_cg_budget(false);
+    g
+}
+
 /// Parameters that exercise every force and collider: wind with lift, a
 /// ground and a sphere the falling cloth reaches within ~100 steps; Jacobi
 /// fix-up (the GPU's); dt 1 ms for explicit, 1/120 s otherwise.
@@ -76,6 +86,7 @@ pub fn busy_params(integrator: Integrator) -> Params {
         center: DVec3::new(0.1, 0.7, 0.0),
         radius: 0.2,
         friction: 0.3,
+        velocity: DVec3::ZERO,
     }];
     p.wind = Some(Wind {
         velocity: DVec3::new(3.0, 0.0, 1.0),
