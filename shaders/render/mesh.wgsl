@@ -78,19 +78,38 @@ fn vs_cloth_strain(@builtin(vertex_index) v: u32) -> VertexOut {
 }
 
 // A collider: a unit mesh (slot 0) scaled and moved by its instance
-// (slot 1: centre xyz, scale w; colour rgb, checker flag w).
+// (slot 1: centre xyz, scale w; colour rgb, checker flag w; half the
+// capsule's segment xyz). A capsule mesh's vertex (|y| ≥ 1 up to
+// rounding) follows the end of its sign: the unit capsule's ends at y = ±1
+// go to centre ± axis, its cross-sections turned to face the axis; a zero
+// axis draws a sphere. A quad (y = 0) follows neither.
 @vertex
 fn vs_collider(
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) place: vec4<f32>,
     @location(3) colour: vec4<f32>,
+    @location(4) axis: vec4<f32>,
 ) -> VertexOut {
     var out: VertexOut;
-    let world = place.xyz + place.w * position;
+    let side = select(0.0, sign(position.y), abs(position.y) > 0.5);
+    // A right-handed frame (v, u, w) with u along the axis: v × u = w.
+    var u = vec3<f32>(0.0, 1.0, 0.0);
+    var v = vec3<f32>(1.0, 0.0, 0.0);
+    var w = vec3<f32>(0.0, 0.0, 1.0);
+    let len = length(axis.xyz);
+    if (len > 1e-6) {
+        u = axis.xyz / len;
+        let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 0.0, 1.0), abs(u.x) > 0.9);
+        w = normalize(cross(helper, u));
+        v = cross(u, w);
+    }
+    let p = vec3<f32>(position.x, position.y - side, position.z);
+    let turned = p.x * v + p.y * u + p.z * w;
+    let world = place.xyz + place.w * turned + side * axis.xyz;
     out.clip = globals.view_proj * vec4<f32>(world, 1.0);
     out.world = world;
-    out.normal = normal;
+    out.normal = normal.x * v + normal.y * u + normal.z * w;
     out.front = colour;
     out.back = colour.rgb;
     return out;

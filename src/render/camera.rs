@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3};
 
 use crate::model::Model;
-use crate::params::Params;
+use crate::params::{Capsule, Params};
 use crate::scene::Scene;
 
 /// Vertical field of view [rad] (45°).
@@ -46,8 +46,14 @@ pub struct Camera {
 impl Camera {
     /// Frames `model` under `params`: the cloth's rest bounding box, grown
     /// downwards by the cloth's largest extent (room for it to fall or hang
-    /// down) but not below the ground, plus the spheres.
+    /// down) but not below the ground, plus the spheres and capsules.
     pub fn framing(model: &Model, params: &Params, aspect: f32) -> Camera {
+        Camera::framing_with(model, params, &[], aspect)
+    }
+
+    /// [`Camera::framing`] with `more` capsules in the frame too (where a
+    /// scene's character goes).
+    fn framing_with(model: &Model, params: &Params, more: &[Capsule], aspect: f32) -> Camera {
         let mut lo = [f64::INFINITY; 3];
         let mut hi = [f64::NEG_INFINITY; 3];
         for p in &model.rest_positions {
@@ -61,10 +67,16 @@ impl Camera {
         if let Some(ground) = &params.ground {
             lo[1] = lo[1].max(ground.height);
         }
-        for s in &params.spheres {
+        let balls = params.spheres.iter().map(|s| (s.center, s.radius));
+        let ends = params
+            .capsules
+            .iter()
+            .chain(more)
+            .flat_map(|c| [(c.a, c.radius), (c.b, c.radius)]);
+        for (centre, radius) in balls.chain(ends) {
             for k in 0..3 {
-                lo[k] = lo[k].min(s.center[k] - s.radius);
-                hi[k] = hi[k].max(s.center[k] + s.radius);
+                lo[k] = lo[k].min(centre[k] - radius);
+                hi[k] = hi[k].max(centre[k] + radius);
             }
         }
         let target = [0, 1, 2].map(|k| (0.5 * (lo[k] + hi[k])) as f32);
@@ -75,9 +87,15 @@ impl Camera {
 
     /// The scene's camera: the automatic framing of
     /// [`Camera::framing`] with the choices its `[camera]` table makes
-    /// instead (target, distance, elevation, azimuth, field of view).
+    /// instead (target, distance, elevation, azimuth, field of view). A
+    /// scene's character is framed at every key of its path.
     pub fn for_scene(scene: &Scene, model: &Model, aspect: f32) -> Camera {
-        let auto = Camera::framing(model, &scene.params, aspect);
+        let path: Vec<Capsule> = scene
+            .character
+            .iter()
+            .flat_map(|c| c.keys.iter().flat_map(|k| c.capsules_at(k.time)))
+            .collect();
+        let auto = Camera::framing_with(model, &scene.params, &path, aspect);
         let c = &scene.camera;
         let deg = |d: f64| (d as f32).to_radians();
         let view = View {

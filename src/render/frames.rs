@@ -10,6 +10,7 @@ use super::{Camera, FrameTarget, Renderer, COLOR_FORMAT, DEPTH_FORMAT};
 use crate::budget;
 use crate::error::{Error, Result};
 use crate::gpu::{guarded, readback, GpuKernels, GpuSolver};
+use crate::scene::animation::Animation;
 use crate::scene::Scene;
 
 /// Staging buffers in rotation, and so frames in flight between two status
@@ -97,8 +98,24 @@ pub fn render_frames(
     solver: &mut GpuSolver,
     renderer: &Renderer,
     options: &FrameOptions,
+    progress: impl FnMut(u32) -> ControlFlow<()>,
+) -> Result<u32> {
+    render_animated_frames(device, solver, renderer, options, None, progress)
+}
+
+/// [`render_frames`] with `animation` (a scene's character) applied before
+/// each frame's steps, as a game would: the colliders and pin targets of
+/// the frame from its start time. Every frame draws the colliders where
+/// they are at its end ([`GpuSolver::colliders`]).
+pub fn render_animated_frames(
+    device: &wgpu::Device,
+    solver: &mut GpuSolver,
+    renderer: &Renderer,
+    options: &FrameOptions,
+    animation: Option<&Animation>,
     mut progress: impl FnMut(u32) -> ControlFlow<()>,
 ) -> Result<u32> {
+    let frame_seconds = f64::from(options.steps_per_frame) * solver.dt();
     let (width, height) = (options.width, options.height);
     let formats = renderer.formats();
     if formats.color != COLOR_FORMAT {
@@ -129,8 +146,13 @@ pub fn render_frames(
                 label: Some("wgcloth.render.frame"),
             });
             if frame > 0 {
+                if let Some(a) = animation {
+                    a.apply(solver, f64::from(frame - 1) * frame_seconds, frame_seconds)?;
+                }
                 solver.encode_steps(&mut encoder, options.steps_per_frame);
             }
+            let (spheres, capsules) = solver.colliders();
+            renderer.set_colliders(&spheres, &capsules);
             solver.encode_normals(&mut encoder);
             renderer.encode_frame(&mut encoder, solver, &target);
             copy_to_staging(&mut encoder, &target.color, &staging[slot], row);
@@ -259,7 +281,15 @@ pub fn render_scene_with_kernels(
         }
         Ok(renderer)
     })?;
-    render_frames(device, &mut solver, &renderer, options, progress)
+    let animation = scene.animation(&model);
+    render_animated_frames(
+        device,
+        &mut solver,
+        &renderer,
+        options,
+        animation.as_ref(),
+        progress,
+    )
 }
 
 /// Reads `texture`'s colour back now (blocking): tightly packed rows of 4

@@ -1,5 +1,6 @@
-//! The collider meshes, made once: a unit quad (the ground) and a unit UV
-//! sphere, as interleaved position + normal vertices.
+//! The collider meshes, made once: a unit quad (the ground) and a unit
+//! capsule (spheres and capsules), as interleaved position + normal
+//! vertices.
 
 /// Latitude bands of the sphere mesh.
 const STACKS: u32 = 24;
@@ -23,10 +24,27 @@ pub fn quad() -> Mesh {
     }
 }
 
-/// The unit sphere around the origin.
-pub fn sphere() -> Mesh {
-    let mut vertices = Vec::with_capacity(((STACKS + 1) * (SLICES + 1)) as usize);
-    for i in 0..=STACKS {
+/// The unit capsule: the unit sphere's upper half raised to y = 1 and its
+/// lower half lowered to y = −1, joined by a cylinder (the equator ring
+/// twice). Every vertex has |y| ≥ 1 (up to the rounding of cos(π/2)),
+/// whose sign says which end it follows:
+/// `vs_collider` puts the ends at `centre ± axis` and shrinks the gap
+/// between them to nothing, so with a zero axis it draws a sphere.
+pub fn capsule() -> Mesh {
+    let half = STACKS / 2;
+    let rings: Vec<(u32, f32)> = (0..=half)
+        .map(|i| (i, 1.0))
+        .chain((half..=STACKS).map(|i| (i, -1.0)))
+        .collect();
+    banded(&rings)
+}
+
+/// A surface of revolution through `rings`, each a latitude band number
+/// of the unit UV sphere (0 at +y, [`STACKS`] at −y) and a shift along y.
+fn banded(rings: &[(u32, f32)]) -> Mesh {
+    let count = rings.len() as u32;
+    let mut vertices = Vec::with_capacity((count * (SLICES + 1)) as usize);
+    for &(i, shift) in rings {
         let theta = std::f32::consts::PI * i as f32 / STACKS as f32;
         for j in 0..=SLICES {
             let phi = std::f32::consts::TAU * j as f32 / SLICES as f32;
@@ -35,12 +53,12 @@ pub fn sphere() -> Mesh {
                 theta.cos(),
                 theta.sin() * phi.sin(),
             ];
-            vertices.push([n[0], n[1], n[2], n[0], n[1], n[2]]);
+            vertices.push([n[0], n[1] + shift, n[2], n[0], n[1], n[2]]);
         }
     }
-    let mut indices = Vec::with_capacity((STACKS * SLICES * 6) as usize);
+    let mut indices = Vec::with_capacity(((count - 1) * SLICES * 6) as usize);
     let at = |i: u32, j: u32| i * (SLICES + 1) + j;
-    for i in 0..STACKS {
+    for i in 0..count - 1 {
         for j in 0..SLICES {
             let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
             indices.extend_from_slice(&[a, d, b, b, d, c]);
@@ -56,8 +74,19 @@ mod tests {
     /// Every triangle turns counter-clockwise seen from outside: its
     /// geometric normal points along the vertex normals.
     #[test]
+    fn every_capsule_vertex_says_which_end_it_follows() {
+        // `vs_collider` reads the end from |y| > 0.5 (a quad has y = 0).
+        let least = capsule()
+            .vertices
+            .iter()
+            .map(|v| v[1].abs())
+            .fold(f32::MAX, f32::min);
+        assert!(least > 0.999, "a capsule vertex at |y| = {least}");
+    }
+
+    #[test]
     fn triangles_face_outwards() {
-        for mesh in [quad(), sphere()] {
+        for mesh in [quad(), capsule()] {
             for t in mesh.indices.chunks_exact(3) {
                 let p = [t[0], t[1], t[2]].map(|i| mesh.vertices[i as usize]);
                 let e1 = [0, 1, 2].map(|k| p[1][k] - p[0][k]);

@@ -31,8 +31,10 @@ pub use png_writer::{existing_frames, frame_name, is_frame_name, remove_frames, 
 
 use crate::error::{Error, Result};
 use crate::gpu::{guarded, GpuSolver};
+use crate::kernel_config::{MAX_CAPSULES, MAX_SPHERES};
 use crate::model::Model;
-use crate::params::Params;
+use crate::params::{Capsule, Params, Sphere};
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// Default colour format of the targets the renderer draws into, and the
 /// one the PNG frames are read from. Not sRGB: the shader gamma-encodes,
@@ -146,14 +148,19 @@ const _: () = assert!(std::mem::size_of::<Globals>() == 128);
 /// shader tests check the WGSL struct has the same).
 pub const GLOBALS_BYTES: u32 = std::mem::size_of::<Globals>() as u32;
 
-/// One collider instance: centre and scale, colour and checker flag
-/// (`place` and `colour` of `vs_collider`).
+/// One collider instance: centre and scale, colour and checker flag, half
+/// a capsule's segment (`place`, `colour` and `axis` of `vs_collider`).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable)]
 struct Instance {
     place: [f32; 4],
     colour: [f32; 4],
+    axis: [f32; 4],
 }
+
+/// The most round colliders (spheres and capsules) a renderer draws: all
+/// the GPU solver takes.
+const MAX_ROUND: usize = MAX_SPHERES + MAX_CAPSULES;
 
 /// A unit mesh with its instances.
 #[derive(Debug)]
@@ -162,7 +169,8 @@ struct Collider {
     indices: wgpu::Buffer,
     index_count: u32,
     instances: wgpu::Buffer,
-    instance_count: u32,
+    /// Instances drawn (the round colliders change it per frame).
+    instance_count: AtomicU32,
 }
 
 /// Pipelines, the camera's uniform and the collider meshes of one scene.
@@ -181,7 +189,12 @@ pub struct Renderer {
     cloth: wgpu::RenderPipeline,
     collider: wgpu::RenderPipeline,
     ground: Option<Collider>,
-    spheres: Option<Collider>,
+    /// Spheres and capsules, all drawn with the capsule mesh (a sphere is
+    /// a capsule without length); [`Renderer::set_colliders`] moves them.
+    round: Collider,
+    /// How much smaller than they collide colliders are drawn \[m\]
+    /// (`COLLIDER_INSET` of the camera's radius).
+    inset: f32,
 }
 
 /// A colour texture and its depth buffer, the size of one frame.
@@ -339,7 +352,8 @@ impl Renderer {
         ];
         // A collider mesh (interleaved position, normal) and its instances.
         let mesh_attributes = [vec3_at(0, 0), vec3_at(1, 12)];
-        let instance_attributes = wgpu::vertex_attr_array![2 => Float32x4, 3 => Float32x4];
+        let instance_attributes =
+            wgpu::vertex_attr_array![2 => Float32x4, 3 => Float32x4, 4 => Float32x4];
         let collider_buffers = [
             Some(vertex_layout(
                 24,
@@ -399,18 +413,11 @@ impl Renderer {
                 &[instance(place, GROUND, 1.0)],
             )
         });
-        let spheres: Vec<Instance> = params
-            .spheres
-            .iter()
-            .map(|s| {
-                let c = s.center.as_vec3();
-                let r =
-                    (s.radius as f32 - COLLIDER_INSET * camera.radius).max(0.5 * s.radius as f32);
-                instance([c[0], c[1], c[2], r], SPHERE, 0.0)
-            })
-            .collect();
-        let spheres = (!spheres.is_empty())
-            .then(|| Collider::new(device, "spheres", &mesh::sphere(), &spheres));
+        let inset = COLLIDER_INSET * camera.radius;
+        let mut round = [Instance::default(); MAX_ROUND];
+        let count = round_instances(&params.spheres, &params.capsules, inset, &mut round);
+        let round = Collider::new(device, "round", &mesh::capsule(), &round);
+        round.instance_count.store(count, Ordering::Relaxed);
         let renderer = Renderer {
             queue: queue.clone(),
             formats,
@@ -423,7 +430,8 @@ impl Renderer {
             cloth,
             collider,
             ground,
-            spheres,
+            round,
+            inset,
         };
         renderer.set_camera(camera);
         renderer
@@ -461,7 +469,22 @@ impl Renderer {
         ));
     }
 
-    /// Records the cloth, the ground and the spheres into `pass`, a pass
+    /// Draws `spheres` and `capsules` where they are given from the next
+    /// submit on (at most [`MAX_SPHERES`] and [`MAX_CAPSULES`]; more are
+    /// left out): a host moving colliders passes where they are each
+    /// frame, e.g. [`GpuSolver::colliders`].
+    pub fn set_colliders(&self, spheres: &[Sphere], capsules: &[Capsule]) {
+        let mut round = [Instance::default(); MAX_ROUND];
+        let count = round_instances(spheres, capsules, self.inset, &mut round);
+        self.queue.write_buffer(
+            &self.round.instances,
+            0,
+            bytemuck::cast_slice(&round[..count as usize]),
+        );
+        self.round.instance_count.store(count, Ordering::Relaxed);
+    }
+
+    /// Records the cloth, the ground, the spheres and the capsules into `pass`, a pass
     /// whose colour and depth targets have this renderer's
     /// [`formats`](Renderer::formats). The cloth's normals must have been recorded
     /// (`GpuSolver::encode_normals`) since its last step.
@@ -477,11 +500,15 @@ impl Renderer {
             pass.draw_indexed(0..solver.index_count(), 0, 0..1);
         }
         pass.set_pipeline(&self.collider);
-        for c in self.ground.iter().chain(&self.spheres) {
+        for c in self.ground.iter().chain([&self.round]) {
+            let instances = c.instance_count.load(Ordering::Relaxed);
+            if instances == 0 {
+                continue;
+            }
             pass.set_vertex_buffer(0, c.vertices.slice(..));
             pass.set_vertex_buffer(1, c.instances.slice(..));
             pass.set_index_buffer(c.indices.slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..c.index_count, 0, 0..c.instance_count);
+            pass.draw_indexed(0..c.index_count, 0, 0..instances);
         }
     }
 
@@ -643,7 +670,32 @@ fn instance(place: [f32; 4], colour: [f32; 3], checker: f32) -> Instance {
     Instance {
         place,
         colour: [colour[0], colour[1], colour[2], checker],
+        axis: [0.0; 4],
     }
+}
+
+/// Writes the instances of `spheres` and then `capsules` into `out` (as
+/// many as fit), each drawn `inset` \[m\] thinner than it collides (at
+/// least half its radius); returns how many.
+fn round_instances(
+    spheres: &[Sphere],
+    capsules: &[Capsule],
+    inset: f32,
+    out: &mut [Instance],
+) -> u32 {
+    let drawn = |r: f64| (r as f32 - inset).max(0.5 * r as f32);
+    let balls = spheres.iter().map(|s| (s.center, s.center, s.radius));
+    let sticks = capsules.iter().map(|c| (c.a, c.b, c.radius));
+    let mut count = 0;
+    for (slot, (a, b, r)) in out.iter_mut().zip(balls.chain(sticks)) {
+        let (centre, half) = (((a + b) * 0.5).as_vec3(), ((b - a) * 0.5).as_vec3());
+        *slot = Instance {
+            axis: half.extend(0.0).to_array(),
+            ..instance(centre.extend(drawn(r)).to_array(), SPHERE, 0.0)
+        };
+        count += 1;
+    }
+    count
 }
 
 impl Collider {
@@ -675,9 +727,9 @@ impl Collider {
             instances: buffer(
                 "instances",
                 bytemuck::cast_slice(instances),
-                wgpu::BufferUsages::VERTEX,
+                wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
             ),
-            instance_count: instances.len() as u32,
+            instance_count: AtomicU32::new(instances.len() as u32),
         }
     }
 }
