@@ -38,10 +38,12 @@ impl Host {
     /// Opens a device that can present to `window`, configures its surface
     /// and builds `scene`'s renderer and cloth on that device.
     pub fn new(window: Arc<Window>, scene: &wgcloth::Scene) -> anyhow::Result<(Host, Sim)> {
-        // wgpu's defaults, adjusted by its environment variables
-        // (`WGPU_BACKEND`, …).
-        let instance =
-            wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        // wgpu's defaults, adjusted by its environment variables; the
+        // backends, unless `WGPU_BACKEND` names them, are those
+        // `GpuContext` searches (Vulkan, Metal, DX12), not OpenGL.
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        desc.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        let instance = wgpu::Instance::new(desc);
         let size = window.inner_size();
         let surface = instance
             .create_surface(window)

@@ -130,15 +130,21 @@ impl Sim {
 
     /// Switches to `integrator`: a solver built from the scene with it,
     /// its pipelines taken from the shared kernel library, given the
-    /// current positions (read back once; a state that stopped being
-    /// finite starts over from rest). Velocities start from zero: the
-    /// solver has no setter for them. A held particle stays held. On an
-    /// error the running solver is kept.
+    /// current positions and velocities (read back once; a state that
+    /// stopped being finite starts over from rest). A held particle stays
+    /// held. On an error the running solver is kept.
     pub fn switch(&mut self, integrator: Integrator) -> anyhow::Result<()> {
-        let positions = self.positions().ok();
+        let state = self.solver.read_state().ok();
         let mut solver = self.build(integrator)?;
-        for (i, x) in positions.into_iter().flatten().enumerate() {
-            solver.set_position(i, x)?;
+        if let Some(state) = state {
+            let particles = state.x.into_iter().zip(state.v).zip(&self.model.pinned);
+            for (i, ((x, v), &pinned)) in particles.enumerate() {
+                solver.set_position(i, x)?;
+                // The scene's pins stand still.
+                if !pinned {
+                    solver.set_velocity(i, v)?;
+                }
+            }
         }
         self.solver = solver;
         self.scene.params.integrator = integrator;
