@@ -312,3 +312,36 @@ fn a_scripted_drag_pulls_the_cloth_to_the_cursor() {
         picture.passed();
     }
 }
+
+/// Where the swap chain cannot be copied, the screenshot is the same frame
+/// drawn again offscreen: the same picture, byte for byte, as the copy of
+/// the presented texture (same pipelines, formats and state).
+#[test]
+fn the_offscreen_screenshot_is_the_presented_picture() {
+    let presented = screenshot("presented", FRAMES, &[]);
+    let offscreen = screenshot("offscreen", FRAMES, &["--offscreen-screenshot"]);
+    assert_eq!(
+        (offscreen.width, offscreen.height),
+        (presented.width, presented.height)
+    );
+    let differ = presented
+        .rgba
+        .chunks(4)
+        .zip(offscreen.rgba.chunks(4))
+        .filter(|(a, b)| a != b)
+        .count();
+    assert_eq!(
+        differ,
+        0,
+        "{} and {}: {differ} pixels differ",
+        presented.path.display(),
+        offscreen.path.display()
+    );
+    assert!(
+        !presented.cloth().is_empty(),
+        "{}: no cloth, so the comparison shows nothing",
+        presented.path.display()
+    );
+    presented.passed();
+    offscreen.passed();
+}

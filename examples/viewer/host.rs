@@ -36,8 +36,14 @@ pub struct Host {
 
 impl Host {
     /// Opens a device that can present to `window`, configures its surface
-    /// and builds `scene`'s renderer and cloth on that device.
-    pub fn new(window: Arc<Window>, scene: &wgcloth::Scene) -> anyhow::Result<(Host, Sim)> {
+    /// and builds `scene`'s renderer and cloth on that device. With
+    /// `offscreen_screenshots`, screenshots are redrawn offscreen even
+    /// where the swap chain could be copied (to test that path).
+    pub fn new(
+        window: Arc<Window>,
+        scene: &wgcloth::Scene,
+        offscreen_screenshots: bool,
+    ) -> anyhow::Result<(Host, Sim)> {
         // wgpu's defaults, adjusted by its environment variables; the
         // backends, unless `WGPU_BACKEND` names them, are those
         // `GpuContext` searches (Vulkan, Metal, DX12), not OpenGL.
@@ -76,7 +82,8 @@ impl Host {
                 adapter.get_info().name
             );
         };
-        let copyable = caps.usages.contains(wgpu::TextureUsages::COPY_SRC);
+        let copyable =
+            caps.usages.contains(wgpu::TextureUsages::COPY_SRC) && !offscreen_screenshots;
         let config = surface
             .get_default_config(&adapter, size.width.max(1), size.height.max(1))
             .context("the window's surface has no configuration on this adapter")?;

@@ -59,6 +59,10 @@ struct Options {
     /// frames, and hold it there (needs --frames).
     #[arg(long, requires = "frames", value_parser = parse_drag, value_name = "X0,Y0:X1,Y1")]
     drag: Option<(Vec2, Vec2)>,
+    /// Take the screenshot from the frame redrawn offscreen, even where
+    /// the swap chain can be copied (the fallback path, for its test).
+    #[arg(long, hide = true, requires = "screenshot")]
+    offscreen_screenshot: bool,
 }
 
 /// `X0,Y0:X1,Y1` in pixels.
@@ -174,7 +178,11 @@ impl App {
                 .create_window(attributes)
                 .context("opening the window")?,
         );
-        let (host, sim) = Host::new(Arc::clone(&window), &self.scene)?;
+        let (host, sim) = Host::new(
+            Arc::clone(&window),
+            &self.scene,
+            self.options.offscreen_screenshot,
+        )?;
         if self.options.screenshot.is_some() {
             host.check_screenshot()?;
         }
