@@ -159,18 +159,19 @@ impl Sim {
     }
 }
 
-/// Moves the grabbed `particle` towards `target` \[m\] over the coming
-/// frame of `frame_seconds` \[s\]: pinned, and placed at the target (it
-/// takes effect from the next recorded step). `frame_seconds` is for a
-/// pin that moves at a constant velocity across the frame's steps
-/// instead of jumping.
+/// Moves the grabbed `particle` to `target` \[m\] for the coming frame
+/// of `frame_seconds` \[s\]: pins it and places it there, from the next
+/// recorded step on. Placed, a pinned particle jumps and stands still, so
+/// it is let go from rest; a pin target reached at constant velocity
+/// across the frame's steps (`GpuSolver::set_pin_targets` of issue #18,
+/// which takes `frame_seconds`) moves it smoothly and lets it go with its
+/// velocity.
 fn drag_to(
     solver: &mut GpuSolver,
     particle: usize,
     target: Vec3,
-    frame_seconds: f64,
+    _frame_seconds: f64,
 ) -> wgcloth::Result<()> {
-    let _ = frame_seconds;
     solver.set_pinned(particle, true)?;
     solver.set_position(particle, target)
 }
