@@ -129,7 +129,13 @@ fn viewer() -> &'static Path {
         }
         let status = build.status().expect("running cargo");
         assert!(status.success(), "building the viewer example failed");
-        profile_dir.join("examples").join("viewer")
+        let built = profile_dir.join("examples").join("viewer");
+        assert!(
+            built.is_file(),
+            "cargo built the viewer, but not at {} (a --target build puts it elsewhere)",
+            built.display()
+        );
+        built
     })
 }
 
