@@ -112,6 +112,14 @@ impl Sim {
         });
     }
 
+    /// Wants the held particle, if any, at `target` \[m\] from the next
+    /// frame on.
+    pub fn pull_to(&mut self, target: Vec3) {
+        if let Some(grab) = &mut self.grab {
+            grab.target = target;
+        }
+    }
+
     /// Lets go of the held particle: it is free again (unless the scene
     /// pins it).
     pub fn release(&mut self) -> wgcloth::Result<()> {

@@ -32,7 +32,9 @@ const TITLE_EVERY: Duration = Duration::from_millis(500);
 /// a particle.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Held {
+    /// The camera turns with the mouse.
     Turning,
+    /// A particle follows the cursor.
     Dragging,
 }
 
@@ -148,6 +150,7 @@ impl View {
         self.rate = (Instant::now(), 0, 0);
     }
 
+    /// A key was pressed: quit, pause, step, reset or switch integrators.
     pub fn key(&mut self, event_loop: &ActiveEventLoop, key: &Key) -> anyhow::Result<()> {
         let integrator = |i| Some(i);
         let switch = match key.as_ref() {
@@ -190,6 +193,8 @@ impl View {
         Ok(())
     }
 
+    /// A mouse button went down or up: a left press on the cloth grabs it,
+    /// anywhere else (or a right press) turns the camera.
     pub fn button(&mut self, button: MouseButton, state: ElementState) -> anyhow::Result<()> {
         match (button, state) {
             (MouseButton::Left, ElementState::Pressed) if self.held.is_none() => {
@@ -216,6 +221,8 @@ impl View {
         Ok(())
     }
 
+    /// The cursor moved to `cursor` \[pixels\]: turns the camera or drags
+    /// the held particle.
     pub fn cursor_to(&mut self, cursor: Vec2) -> anyhow::Result<()> {
         let moved = cursor - self.cursor;
         self.cursor = cursor;
@@ -262,7 +269,7 @@ impl View {
             .ray(self.cursor)
             .and_then(|ray| pick::drag_target(&ray, grab.target, forward))
         {
-            self.sim.grab(grab.particle, target);
+            self.sim.pull_to(target);
         }
     }
 
