@@ -190,7 +190,7 @@ impl GpuSolver {
         self.update_features()
     }
 
-    fn check_particle(&self, p: usize) -> Result<()> {
+    pub(super) fn check_particle(&self, p: usize) -> Result<()> {
         if p < self.params.particle_count as usize {
             Ok(())
         } else {

@@ -34,6 +34,7 @@ mod semi_filter;
 pub mod shaders;
 mod solver;
 mod tuning;
+mod velocity;
 
 pub use context::{GpuContext, BACKEND_NAMES};
 pub(crate) use errors::guarded;

@@ -1,0 +1,185 @@
+//! The cloth the viewer shows: a scene's GPU solver on the host's device,
+//! the per-frame update, the grab under the mouse and the integrator
+//! switch.
+
+use anyhow::Context as _;
+use wgcloth::glam::Vec3;
+use wgcloth::gpu::GpuKernels;
+use wgcloth::params::Integrator;
+use wgcloth::{GpuSolver, Model, Scene};
+
+/// Frames between the viewer's status checks: one small read-back each,
+/// so a blow-up stops the cloth within a fraction of a second.
+const CHECK_EVERY_FRAMES: u64 = 10;
+
+/// A particle held under the mouse.
+#[derive(Clone, Copy, Debug)]
+pub struct Grab {
+    /// Its index.
+    pub particle: usize,
+    /// Whether the scene pins it (it stays pinned when let go).
+    was_pinned: bool,
+    /// Where the cursor wants it \[m\].
+    pub target: Vec3,
+}
+
+/// A scene's cloth on the GPU and what the user did to it.
+pub struct Sim {
+    /// The scene, its integrator the one running.
+    pub scene: Scene,
+    model: Model,
+    kernels: GpuKernels,
+    queue: wgpu::Queue,
+    /// The solver (rebuilt on reset and on an integrator switch).
+    pub solver: GpuSolver,
+    /// The particle held under the mouse, if any.
+    pub grab: Option<Grab>,
+    /// Frames advanced since the last status check.
+    frames_since_check: u64,
+}
+
+impl Sim {
+    /// Builds `scene`'s solver from the host's kernel library (its device)
+    /// and queue.
+    pub fn new(scene: Scene, kernels: &GpuKernels, queue: &wgpu::Queue) -> anyhow::Result<Sim> {
+        let model = scene.model()?;
+        let solver = GpuSolver::with_kernels(kernels, queue, &model, &scene.params)
+            .with_context(|| format!("building the solver of `{}`", scene.name))?;
+        Ok(Sim {
+            scene,
+            model,
+            kernels: kernels.clone(),
+            queue: queue.clone(),
+            solver,
+            grab: None,
+            frames_since_check: 0,
+        })
+    }
+
+    /// The model the solver was built from.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// Solver time step \[s\].
+    pub fn dt(&self) -> f64 {
+        self.scene.params.dt
+    }
+
+    /// The per-frame scene update and the frame's `steps` solver steps
+    /// (`frame_seconds` = `steps` × dt \[s\]), recorded into the host's
+    /// `encoder` with the normals the drawing needs. Everything that moves
+    /// with the frame (the grabbed particle; an animated scene's colliders
+    /// and pins) is set here, before the steps are recorded.
+    pub fn advance(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        steps: u32,
+        frame_seconds: f64,
+    ) -> anyhow::Result<()> {
+        if let Some(grab) = self.grab {
+            drag_to(&mut self.solver, grab.particle, grab.target, frame_seconds)?;
+        }
+        self.solver.encode_steps(encoder, steps);
+        self.solver.encode_normals(encoder);
+        self.frames_since_check += 1;
+        Ok(())
+    }
+
+    /// Every [`CHECK_EVERY_FRAMES`] frames, after the frame was submitted:
+    /// did the cloth stay finite? (One small read-back.)
+    pub fn check_now_and_then(&mut self) -> wgcloth::Result<()> {
+        if self.frames_since_check < CHECK_EVERY_FRAMES {
+            return Ok(());
+        }
+        self.frames_since_check = 0;
+        self.solver.check().map(|_| ())
+    }
+
+    /// The particles' positions \[m\], read back (blocking): once per
+    /// mouse press, for picking.
+    pub fn positions(&self) -> wgcloth::Result<Vec<Vec3>> {
+        Ok(self.solver.read_state()?.x)
+    }
+
+    /// Holds `particle` under the mouse, wanting it at `target` \[m\].
+    pub fn grab(&mut self, particle: usize, target: Vec3) {
+        let was_pinned = self.model.pinned.get(particle).copied().unwrap_or(false);
+        self.grab = Some(Grab {
+            particle,
+            was_pinned,
+            target,
+        });
+    }
+
+    /// Wants the held particle, if any, at `target` \[m\] from the next
+    /// frame on.
+    pub fn pull_to(&mut self, target: Vec3) {
+        if let Some(grab) = &mut self.grab {
+            grab.target = target;
+        }
+    }
+
+    /// Lets go of the held particle: it is free again (unless the scene
+    /// pins it).
+    pub fn release(&mut self) -> wgcloth::Result<()> {
+        match self.grab.take() {
+            Some(grab) => self.solver.set_pinned(grab.particle, grab.was_pinned),
+            None => Ok(()),
+        }
+    }
+
+    /// Starts the scene over with the running integrator.
+    pub fn reset(&mut self) -> anyhow::Result<()> {
+        self.grab = None;
+        self.solver = self.build(self.scene.params.integrator)?;
+        Ok(())
+    }
+
+    /// Switches to `integrator`: a solver built from the scene with it,
+    /// its pipelines taken from the shared kernel library, given the
+    /// current positions and velocities (read back once; a state that
+    /// stopped being finite starts over from rest). A held particle stays
+    /// held. On an error the running solver is kept.
+    pub fn switch(&mut self, integrator: Integrator) -> anyhow::Result<()> {
+        let state = self.solver.read_state().ok();
+        let mut solver = self.build(integrator)?;
+        if let Some(state) = state {
+            let particles = state.x.into_iter().zip(state.v).zip(&self.model.pinned);
+            for (i, ((x, v), &pinned)) in particles.enumerate() {
+                solver.set_position(i, x)?;
+                // The scene's pins stand still.
+                if !pinned {
+                    solver.set_velocity(i, v)?;
+                }
+            }
+        }
+        self.solver = solver;
+        self.scene.params.integrator = integrator;
+        Ok(())
+    }
+
+    fn build(&self, integrator: Integrator) -> anyhow::Result<GpuSolver> {
+        let mut params = self.scene.params.clone();
+        params.integrator = integrator;
+        GpuSolver::with_kernels(&self.kernels, &self.queue, &self.model, &params)
+            .with_context(|| format!("building the {integrator} solver of `{}`", self.scene.name))
+    }
+}
+
+/// Moves the grabbed `particle` to `target` \[m\] for the coming frame
+/// of `frame_seconds` \[s\]: pins it and places it there, from the next
+/// recorded step on. Placed, a pinned particle jumps and stands still, so
+/// it is let go from rest; a pin target reached at constant velocity
+/// across the frame's steps (`GpuSolver::set_pin_targets` of issue #18,
+/// which takes `frame_seconds`) moves it smoothly and lets it go with its
+/// velocity.
+fn drag_to(
+    solver: &mut GpuSolver,
+    particle: usize,
+    target: Vec3,
+    _frame_seconds: f64,
+) -> wgcloth::Result<()> {
+    solver.set_pinned(particle, true)?;
+    solver.set_position(particle, target)
+}
