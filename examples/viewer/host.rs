@@ -179,6 +179,9 @@ impl Host {
             });
         if steps > 0 {
             sim.advance(&mut encoder, steps, f64::from(steps) * sim.dt())?;
+            // Colliders drawn where the frame's steps leave them.
+            let (spheres, capsules) = sim.solver.colliders();
+            self.renderer.set_colliders(&spheres, &capsules);
         }
         {
             let mut pass = self

@@ -6,7 +6,8 @@ use anyhow::Context as _;
 use wgcloth::glam::Vec3;
 use wgcloth::gpu::GpuKernels;
 use wgcloth::params::Integrator;
-use wgcloth::{GpuSolver, Model, Scene};
+use wgcloth::scene::animation::Animation;
+use wgcloth::{GpuSolver, Model, PinTarget, Scene};
 
 /// Frames between the viewer's status checks: one small read-back each,
 /// so a blow-up stops the cloth within a fraction of a second.
@@ -34,6 +35,10 @@ pub struct Sim {
     pub solver: GpuSolver,
     /// The particle held under the mouse, if any.
     pub grab: Option<Grab>,
+    /// The scene's scripted character (`cape`), if it has one.
+    animation: Option<Animation>,
+    /// Simulated time since the start \[s\] (the animation's clock).
+    time: f64,
     /// Frames advanced since the last status check.
     frames_since_check: u64,
 }
@@ -45,6 +50,7 @@ impl Sim {
         let model = scene.model()?;
         let solver = GpuSolver::with_kernels(kernels, queue, &model, &scene.params)
             .with_context(|| format!("building the solver of `{}`", scene.name))?;
+        let animation = scene.animation(&model);
         Ok(Sim {
             scene,
             model,
@@ -52,6 +58,8 @@ impl Sim {
             queue: queue.clone(),
             solver,
             grab: None,
+            animation,
+            time: 0.0,
             frames_since_check: 0,
         })
     }
@@ -77,9 +85,13 @@ impl Sim {
         steps: u32,
         frame_seconds: f64,
     ) -> anyhow::Result<()> {
+        if let Some(animation) = &self.animation {
+            animation.apply(&mut self.solver, self.time, frame_seconds)?;
+        }
         if let Some(grab) = self.grab {
             drag_to(&mut self.solver, grab.particle, grab.target, frame_seconds)?;
         }
+        self.time += frame_seconds;
         self.solver.encode_steps(encoder, steps);
         self.solver.encode_normals(encoder);
         self.frames_since_check += 1;
@@ -133,6 +145,7 @@ impl Sim {
     pub fn reset(&mut self) -> anyhow::Result<()> {
         self.grab = None;
         self.solver = self.build(self.scene.params.integrator)?;
+        self.time = 0.0;
         Ok(())
     }
 
@@ -167,19 +180,23 @@ impl Sim {
     }
 }
 
-/// Moves the grabbed `particle` to `target` \[m\] for the coming frame
-/// of `frame_seconds` \[s\]: pins it and places it there, from the next
-/// recorded step on. Placed, a pinned particle jumps and stands still, so
-/// it is let go from rest; a pin target reached at constant velocity
-/// across the frame's steps (`GpuSolver::set_pin_targets` of issue #18,
-/// which takes `frame_seconds`) moves it smoothly and lets it go with its
-/// velocity.
+/// Moves the grabbed `particle` to `target` \[m\] over the coming frame
+/// of `frame_seconds` \[s\]: pins it (a no-op once pinned) and gives it
+/// the target as a moving pin, which the solver reaches at constant
+/// velocity across the frame's steps, so the drag is smooth and a release
+/// lets it go with that velocity (a flick).
 fn drag_to(
     solver: &mut GpuSolver,
     particle: usize,
     target: Vec3,
-    _frame_seconds: f64,
+    frame_seconds: f64,
 ) -> wgcloth::Result<()> {
     solver.set_pinned(particle, true)?;
-    solver.set_position(particle, target)
+    solver.set_pin_targets(
+        &[PinTarget {
+            particle,
+            position: target,
+        }],
+        frame_seconds,
+    )
 }
