@@ -35,26 +35,45 @@
 //! size the GPU solves the filter by CG on the device ([`cg_prepare`] and
 //! the CG kernels) while the CPU applies the exact banded factor.
 
-use super::forces::{self, external_forces, total_force, wind_forces};
-use super::implicit::{warm_start, Filter};
+use super::forces::{self, external_forces, spring_frame, total_force, wind_forces};
+use super::implicit::{spring_kv, transverse, warm_start, Filter};
 use super::mat3::Sym3;
 use super::{fixup_and_finish, predict, torque, State, StepStats, System, Workspace};
 use crate::real::{Real, Vec3};
 
-/// `(H v)_p = −Σ ±k (v_i − v_j)` over particle `p`'s springs, in adjacency
-/// order.
-fn laplacian_v<R: Real>(sys: &System<R>, v: &[Vec3<R>], p: usize) -> Vec3<R> {
+/// The velocity term of the filter's right-hand side for particle `p`,
+/// `Σ ±K_s (v_i − v_j)` over its springs in adjacency order, `K_s` each
+/// spring's stiffness as the filter's linear part sees it. Compensated
+/// (`rotation_free`), a spring resists across itself only with the share
+/// `max(0, 1 − L/l)` that its tension gives it, as the real spring does:
+/// the implicit integrator's Jacobian ([`spring_kv`]). Uncompensated, `K_s`
+/// is the linear part's `k I`, which resists every rotation of the spring
+/// as if it had zero rest length.
+fn jacobian_v<R: Real>(
+    sys: &System<R>,
+    x: &[Vec3<R>],
+    v: &[Vec3<R>],
+    p: usize,
+    rotation_free: bool,
+) -> Vec3<R> {
     let mut acc = Vec3::ZERO;
     for &e in sys.spring_adj.of(p) {
         let sp = &sys.springs[(e >> 1) as usize];
-        let term = (v[sp.i as usize] - v[sp.j as usize]) * sp.k;
+        let (i, j) = (sp.i as usize, sp.j as usize);
+        let (dir, l) = spring_frame(x[i], x[j]);
+        let c = if rotation_free {
+            transverse(sp.rest, l)
+        } else {
+            R::ONE
+        };
+        let term = spring_kv(sp.k, c, dir, v[i] - v[j]);
         if e & 1 == 0 {
             acc += term;
         } else {
             acc -= term;
         }
     }
-    -acc
+    acc
 }
 
 /// Twin of `shaders/semi_rhs.wgsl`: each particle's total force from the
@@ -68,8 +87,8 @@ pub fn rhs<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>, zero_d
     wind_forces(sys, &st.x, &st.v, &mut w.per_triangle);
     for p in 0..st.x.len() {
         w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, p);
-        let hv = laplacian_v(sys, &st.v, p);
-        w.rhs[p] = (w.force[p] + hv * dt) * dt;
+        let kv = jacobian_v(sys, &st.x, &st.v, p, sys.torque_compensation);
+        w.rhs[p] = (w.force[p] + kv * dt) * dt;
         if zero_dv {
             w.dv[p] = Vec3::ZERO;
         }

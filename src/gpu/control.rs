@@ -4,7 +4,7 @@
 
 use super::grid::GridBlock;
 use super::kernels::Features;
-use super::layout::MAX_SPHERES;
+use super::layout::{torque_bits, MAX_SPHERES};
 use super::semi_filter::SemiFilter;
 use super::solver::{gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND};
 use crate::error::{Error, Result};
@@ -105,8 +105,9 @@ impl GpuSolver {
             self.queue
                 .write_buffer(&self.buffers.v, base, bytemuck::cast_slice(&[0f32; 3]));
         }
-        self.params.torque_compensation = u32::from(
-            self.host_params.semi_implicit.torque_compensation && self.model.pinned_count() == 0,
+        self.params.torque_compensation = torque_bits(
+            self.host_params.semi_implicit.torque_compensation,
+            self.model.pinned_count(),
         );
         if self.params.filter_count > 0 {
             let filter = SemiFilter::new(&self.model, &self.host_params)?;
