@@ -4,22 +4,30 @@
 //! the rest. The linear parts form the constant Laplacian `H`; the step
 //! treats it implicitly and everything else explicitly:
 //!
-//! `(M − dt² H) Δv = dt (f(x, v) + dt H v)`, i.e. `Δv = W dt (f + dt H v)`
+//! `(M − dt² H) Δv = dt (f(x, v) + dt K v)`, i.e. `Δv = W dt (f + dt K v)`
 //!
 //! with the constant filter `W` (see [`super::filter`]). Spring damping is
-//! part of `f`, i.e. explicit. Then:
+//! part of `f`, i.e. explicit. `K` is the stiffness of the velocity term:
 //!
-//! 1. **Torque compensation.** The linear model resists rigid rotation
-//!    (a rotating spring's `d` changes though its length does not), so the
-//!    filtered response of a free cloth carries a spurious angular impulse.
-//!    We remove it: with `r_p` measured from the centre of mass, the
-//!    angular impulse of `Δv` minus that of the external forces
-//!    (`dt Σ r × f_ext`) is cancelled by a rigid rotation
-//!    `Δv_p −= ω × r_p`, `ω = I⁻¹ ΔL` (`I` the inertia tensor). Linear
-//!    momentum is untouched (`Σ m ω × r = 0`). It is applied only to a cloth
-//!    without pins: pins hold the rotational modes themselves and exert real
-//!    torque, which the filter — with the pins constrained inside it —
-//!    already treats implicitly.
+//! 1. **Torque compensation, per spring.** The linear part treats every
+//!    spring as zero-rest-length, and such a spring resists being turned
+//!    with its whole stiffness: with `K = H` the filter damps every spring's
+//!    rotation by `dt k`, far more than the mass can carry at cloth steps,
+//!    and the cloth moves as a board. The neglected non-linear part
+//!    `k L n` cancels exactly that (its Jacobian `k (L/l)(I − n nᵀ)` is a
+//!    rotation term), so with the compensation on `K` is each spring's own
+//!    Jacobian, `k (c I + (1 − c) n nᵀ)` with `c = max(0, 1 − L/l)`
+//!    ([`spring_kv`], the implicit integrator's): a spring resists across
+//!    itself only with the stiffness its tension gives it. It is local, so
+//!    it applies to pinned cloths too. Off, `K = H`.
+//! 2. **Torque compensation, global.** For a cloth without pins the
+//!    angular impulse of `Δv` about the centre of mass minus that of the
+//!    external forces (`dt Σ r × f_ext`) is cancelled by a rigid rotation
+//!    `Δv_p −= ω × r_p`, `ω = I⁻¹ ΔL` (`I` the inertia tensor), so a free
+//!    cloth keeps its angular momentum. Linear momentum is untouched
+//!    (`Σ m ω × r = 0`). Pins exert real torque, so it does not apply to a
+//!    pinned cloth.
+//! 3. `v ← v + Δv`, `x* ← x + dt v`, fix-up, `v ← (x* − x)/dt` if the fix-up
 //! 2. `v ← v + Δv`, `x* ← x + dt v`, fix-up, `v ← (x* − x)/dt` if the fix-up
 //!    moved anything (as in the explicit scheme).
 //!
@@ -77,8 +85,9 @@ fn jacobian_v<R: Real>(
 }
 
 /// Twin of `shaders/semi_rhs.wgsl`: each particle's total force from the
-/// spring pass and the filter's right-hand side `dt (f + dt H v)`, `H` the
-/// stiffness Laplacian; `Δv` zeroed where `zero_dv` (the dense filter;
+/// spring pass and the filter's right-hand side `dt (f + dt K v)` (`K v`
+/// from [`jacobian_v`], per-spring compensated when the torque
+/// compensation is on); `Δv` zeroed where `zero_dv` (the dense filter;
 /// the GPU's CG filter keeps it as its warm start: the `keep` variant).
 /// Reads `x`, `v`, `per_spring`; writes `force`, `per_triangle` (wind),
 /// `rhs` (`W_RHS`, w 0) and `dv`.
