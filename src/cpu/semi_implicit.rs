@@ -86,7 +86,7 @@ fn jacobian_v<R: Real>(
 
 /// Twin of `shaders/semi_rhs.wgsl`: each particle's total force from the
 /// spring pass and the filter's right-hand side `dt (f + dt K v)` (`K v`
-/// from [`jacobian_v`], per-spring compensated when the torque
+/// from `jacobian_v`, per-spring compensated when the torque
 /// compensation is on); `Δv` zeroed where `zero_dv` (the dense filter;
 /// the GPU's CG filter keeps it as its warm start: the `keep` variant).
 /// Reads `x`, `v`, `per_spring`; writes `force`, `per_triangle` (wind),
