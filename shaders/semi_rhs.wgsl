@@ -9,6 +9,14 @@
 // gpu::layout::TORQUE_LOCAL).
 const TORQUE_LOCAL: u32 = 1u;
 
+// Twin: cpu::collide::CONTACT_SLOP.
+const CONTACT_SLOP: f32 = 1e-5;
+
+// Twin: cpu::semi_implicit::touching.
+fn touching(xp: vec3<f32>) -> bool {
+    return find_contact(xp, CONTACT_SLOP).found;
+}
+
 // Dense filter: Δv starts at zero (pinned particles keep it). CG filter:
 // Δv keeps the last step's value as the warm start.
 override ZERO_DV: bool = true;
@@ -25,7 +33,7 @@ fn semi_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
     let f = total_force(p, x[p], v[p], STATE_BUFFERS);
     // Σ ±K_s (v_i − v_j), gathered like gather_signed. With the torque
     // compensation a spring resists across itself only with the share its
-    // tension gives it; without, K_s = k I. Twin:
+    // tension gives it, unless it touches a collider; without, K_s = k I. Twin:
     // cpu::semi_implicit::jacobian_v.
     let rotation_free = (params.torque_compensation & TORQUE_LOCAL) != 0u;
     var acc = vec3<f32>(0.0);
@@ -35,8 +43,9 @@ fn semi_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
         let e = topo[params.spring_adj_entries + k];
         let sp = springs[e >> 1u];
         let frame = spring_transverse(sp.rest, x[sp.i].xyz, x[sp.j].xyz);
+        // A spring with an end on a collider keeps k I (twin: touching).
         var c = 1.0;
-        if (rotation_free) {
+        if (rotation_free && !touching(x[sp.i].xyz) && !touching(x[sp.j].xyz)) {
             c = frame.w;
         }
         let term = spring_kv(sp.k, c, frame.xyz, v[sp.i].xyz - v[sp.j].xyz);

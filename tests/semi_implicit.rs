@@ -166,3 +166,34 @@ fn a_small_flag_moves_like_the_implicit_one() {
         "uncompensated, the flag moves at {board} of the implicit one's speed"
     );
 }
+
+/// The drape's cloth at 17 × 17 particles, dropped on its sphere at the
+/// scene's 1/120 s: contact starts after about 0.23 s.
+const DRAPE_RESOLUTION: usize = 17;
+/// Simulated time: contact and the first half second on the sphere.
+const DRAPE_SECONDS: f64 = 0.75;
+/// The divergence rule's check interval (as `wgcloth run`).
+const CHECK_EVERY: u64 = 10;
+
+#[test]
+fn a_cloth_landing_on_a_sphere_stays_bounded() {
+    let mut scene = Scene::builtin("drape").expect("built-in scene");
+    scene.cloth.nx = DRAPE_RESOLUTION;
+    scene.cloth.ny = DRAPE_RESOLUTION;
+    scene.params.integrator = Integrator::SemiImplicit;
+    let model: Model = scene.model().expect("valid");
+    let mut s = CpuSolver::<f64>::new(&model, &scene.params).expect("valid");
+    let rule = wgcloth::diagnostics::Divergence::new(
+        &model,
+        &scene.params,
+        0.0,
+        &s.positions(),
+        &s.velocities(),
+    );
+    while s.time() < DRAPE_SECONDS {
+        s.step_n(CHECK_EVERY).expect("finite");
+        if let Err(e) = rule.check(s.steps(), s.time(), &s.positions(), &s.velocities()) {
+            panic!("the semi-implicit drape diverged: {e}");
+        }
+    }
+}

@@ -43,11 +43,18 @@
 //! size the GPU solves the filter by CG on the device ([`cg_prepare`] and
 //! the CG kernels) while the CPU applies the exact banded factor.
 
+use super::collide::{contact, CONTACT_SLOP};
 use super::forces::{self, external_forces, spring_frame, total_force, wind_forces};
 use super::implicit::{spring_kv, transverse, warm_start, Filter};
 use super::mat3::Sym3;
 use super::{fixup_and_finish, predict, torque, State, StepStats, System, Workspace};
 use crate::real::{Real, Vec3};
+
+/// Whether a particle at `x` touches a collider (within the implicit
+/// integrator's [`CONTACT_SLOP`]).
+fn touching<R: Real>(sys: &System<R>, x: Vec3<R>) -> bool {
+    contact(sys, x, R::from_f64(CONTACT_SLOP)).is_some()
+}
 
 /// The velocity term of the filter's right-hand side for particle `p`,
 /// `Σ ±K_s (v_i − v_j)` over its springs in adjacency order, `K_s` each
@@ -56,7 +63,10 @@ use crate::real::{Real, Vec3};
 /// `max(0, 1 − L/l)` that its tension gives it, as the real spring does:
 /// the implicit integrator's Jacobian ([`spring_kv`]). Uncompensated, `K_s`
 /// is the linear part's `k I`, which resists every rotation of the spring
-/// as if it had zero rest length.
+/// as if it had zero rest length. A spring with an end on a collider keeps
+/// `k I` either way: the constant filter cannot hold a contact as the
+/// implicit integrator's CG does, and without that resistance a cloth
+/// landing on a collider at a large step diverges at contact.
 fn jacobian_v<R: Real>(
     sys: &System<R>,
     x: &[Vec3<R>],
@@ -69,7 +79,7 @@ fn jacobian_v<R: Real>(
         let sp = &sys.springs[(e >> 1) as usize];
         let (i, j) = (sp.i as usize, sp.j as usize);
         let (dir, l) = spring_frame(x[i], x[j]);
-        let c = if rotation_free {
+        let c = if rotation_free && !touching(sys, x[i]) && !touching(sys, x[j]) {
             transverse(sp.rest, l)
         } else {
             R::ONE
