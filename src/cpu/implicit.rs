@@ -130,7 +130,7 @@ pub fn transverse<R: Real>(rest: R, l: R) -> R {
     }
 }
 
-/// `K_s u = −k (c u + (1 − c) n (n·u))` \[N/s\ per m/s\]: the spring's
+/// `K_s u = −k (c u + (1 − c) n (n·u))` \[N/s\]: the spring's
 /// Jacobian (stiffness `k` \[N/m\], transverse share `c` from
 /// [`transverse`], direction `n`) applied to `u = v_i − v_j` \[m/s\]
 /// (twin: `spring_kv` in `shaders/common/cg.wgsl`).

@@ -19,7 +19,8 @@
 //!    Jacobian, `k (c I + (1 − c) n nᵀ)` with `c = max(0, 1 − L/l)`
 //!    ([`spring_kv`], the implicit integrator's): a spring resists across
 //!    itself only with the stiffness its tension gives it. It is local, so
-//!    it applies to pinned cloths too. Off, `K = H`.
+//!    it applies to pinned cloths too. A spring touching a collider keeps
+//!    `K = H` (see `jacobian_v`). Off, `K = H`.
 //! 2. **Torque compensation, global.** For a cloth without pins the
 //!    angular impulse of `Δv` about the centre of mass minus that of the
 //!    external forces (`dt Σ r × f_ext`) is cancelled by a rigid rotation
@@ -28,7 +29,6 @@
 //!    (`Σ m ω × r = 0`). Pins exert real torque, so it does not apply to a
 //!    pinned cloth.
 //! 3. `v ← v + Δv`, `x* ← x + dt v`, fix-up, `v ← (x* − x)/dt` if the fix-up
-//! 2. `v ← v + Δv`, `x* ← x + dt v`, fix-up, `v ← (x* − x)/dt` if the fix-up
 //!    moved anything (as in the explicit scheme).
 //!
 //! For a single linear spring along its axis with one end pinned the step is
