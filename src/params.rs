@@ -182,7 +182,8 @@ impl FilterMethod {
 pub struct SemiImplicitParams {
     /// How the filter is stored and applied.
     pub filter: FilterMethod,
-    /// Remove the spurious net torque the linear split adds to a free cloth.
+    /// Remove the spurious torque the linear split adds: per spring for
+    /// every cloth, and the net torque of a cloth without pins.
     pub torque_compensation: bool,
 }
 

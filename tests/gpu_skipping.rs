@@ -104,7 +104,7 @@ fn switching_a_feature_off_records_fewer_dispatches() {
         a == b && b < c,
         "explicit: minimal {a}, wind {b}, fix-up {c}"
     );
-    // Semi-implicit: a pinned cloth needs no torque compensation.
+    // Semi-implicit: a pinned cloth needs no global torque passes.
     let semi = base(Integrator::SemiImplicit);
     let (free, pinned) = (dispatches(&semi, vec![]), dispatches(&semi, corners));
     assert!(pinned < free, "semi-implicit: pinned {pinned}, free {free}");

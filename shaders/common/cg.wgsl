@@ -110,6 +110,28 @@ struct Linearised {
     f: vec3<f32>,
 }
 
+// The spring's direction (end j to end i; zero when degenerate) in xyz and
+// the share max(0, 1 − L/l) of its stiffness acting across it in w. Twin:
+// cpu::forces::spring_frame and cpu::implicit::transverse.
+fn spring_transverse(rest: f32, xi: vec3<f32>, xj: vec3<f32>) -> vec4<f32> {
+    let d = xi - xj;
+    let l = len3(d);
+    var dir = vec3<f32>(0.0);
+    var transverse = 0.0;
+    if (l > TINY) {
+        dir = d / l;
+        transverse = max(1.0 - rest / l, 0.0);
+    }
+    return vec4<f32>(dir, transverse);
+}
+
+// K_s u = −k (c u + (1 − c) n (n·u)), u = v_i − v_j. Twin:
+// cpu::implicit::spring_kv.
+fn spring_kv(k: f32, c: f32, dir: vec3<f32>, u: vec3<f32>) -> vec3<f32> {
+    let k_long = k * (1.0 - c);
+    return -(u * (k * c) + dir * (k_long * dot3(dir, u)));
+}
+
 fn linearise(
     rest: f32,
     k: f32,
@@ -121,20 +143,13 @@ fn linearise(
 ) -> Linearised {
     let dt = params.dt;
     let dt2 = dt * dt;
-    let d = xi - xj;
-    let l = len3(d);
-    var dir = vec3<f32>(0.0);
-    var transverse = 0.0;
-    if (l > TINY) {
-        dir = d / l;
-        transverse = max(1.0 - rest / l, 0.0);
-    }
+    let frame = spring_transverse(rest, xi, xj);
+    let dir = frame.xyz;
+    let transverse = frame.w;
     let a = dt2 * k * transverse;
     let b = dt2 * k - a + dt * kd;
     let m = dir * sqrt(max(b, 0.0));
-    let u = vi - vj;
-    let k_long = k * (1.0 - transverse);
-    let kv = -(u * (k * transverse) + dir * (k_long * dot3(dir, u)));
+    let kv = spring_kv(k, transverse, dir, vi - vj);
     return Linearised(
         unseen4(vec4<f32>(m, a)),
         unseen4(vec4<f32>(kv, 0.0)).xyz,

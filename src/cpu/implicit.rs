@@ -127,6 +127,29 @@ fn contact_friction<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspa
     }
 }
 
+/// The share `c = max(0, 1 − L/l)` of a spring's stiffness that acts
+/// across it, at length `l` \[m\] and rest length `rest` \[m\]: zero for a
+/// compressed spring (its true transverse stiffness is negative) and for a
+/// degenerate one (twin: `spring_transverse` in `shaders/common/cg.wgsl`).
+#[inline]
+pub fn transverse<R: Real>(rest: R, l: R) -> R {
+    if l > R::TINY {
+        (R::ONE - rest / l).max(R::ZERO)
+    } else {
+        R::ZERO
+    }
+}
+
+/// `K_s u = −k (c u + (1 − c) n (n·u))` \[N/s\]: the spring's
+/// Jacobian (stiffness `k` \[N/m\], transverse share `c` from
+/// [`transverse`], direction `n`) applied to `u = v_i − v_j` \[m/s\]
+/// (twin: `spring_kv` in `shaders/common/cg.wgsl`).
+#[inline]
+pub fn spring_kv<R: Real>(k: R, c: R, n: Vec3<R>, u: Vec3<R>) -> Vec3<R> {
+    let k_long = k * (R::ONE - c);
+    -(u * (k * c) + n * (k_long * n.dot(u)))
+}
+
 /// Twin of `shaders/implicit_springs.wgsl`: every spring linearised at
 /// the start of the step. Reads `x`, `v`; writes `blocks` (the GPU's
 /// `S_BLOCK`: xyz `m`, w `a`), `kv`, `K_s (v_i − v_j)` on end `i` (`S_KV`),
@@ -137,11 +160,7 @@ pub fn springs<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
     for (s, sp) in sys.springs.iter().enumerate() {
         let (i, j) = (sp.i as usize, sp.j as usize);
         let (dir, l) = spring_frame(st.x[i], st.x[j]);
-        let transverse = if l > R::TINY {
-            (R::ONE - sp.rest / l).max(R::ZERO)
-        } else {
-            R::ZERO
-        };
+        let transverse = transverse(sp.rest, l);
         let a = dt2 * sp.k * transverse;
         let b = dt2 * sp.k - a + dt * sp.kd;
         w.blocks[s] = SpringBlock {
@@ -149,10 +168,7 @@ pub fn springs<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
             a,
             ends: [sp.i, sp.j],
         };
-        // K_s u = −k (c u + (1 − c) n (n·u)), u = v_i − v_j.
-        let u = st.v[i] - st.v[j];
-        let k_long = sp.k * (R::ONE - transverse);
-        w.kv[s] = -(u * (sp.k * transverse) + dir * (k_long * dir.dot(u)));
+        w.kv[s] = spring_kv(sp.k, transverse, dir, st.v[i] - st.v[j]);
         w.per_spring[s] = spring_force(sys, s, &st.x, &st.v);
     }
 }

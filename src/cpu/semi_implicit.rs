@@ -4,23 +4,31 @@
 //! the rest. The linear parts form the constant Laplacian `H`; the step
 //! treats it implicitly and everything else explicitly:
 //!
-//! `(M − dt² H) Δv = dt (f(x, v) + dt H v)`, i.e. `Δv = W dt (f + dt H v)`
+//! `(M − dt² H) Δv = dt (f(x, v) + dt K v)`, i.e. `Δv = W dt (f + dt K v)`
 //!
 //! with the constant filter `W` (see [`super::filter`]). Spring damping is
-//! part of `f`, i.e. explicit. Then:
+//! part of `f`, i.e. explicit. `K` is the stiffness of the velocity term:
 //!
-//! 1. **Torque compensation.** The linear model resists rigid rotation
-//!    (a rotating spring's `d` changes though its length does not), so the
-//!    filtered response of a free cloth carries a spurious angular impulse.
-//!    We remove it: with `r_p` measured from the centre of mass, the
-//!    angular impulse of `Δv` minus that of the external forces
-//!    (`dt Σ r × f_ext`) is cancelled by a rigid rotation
-//!    `Δv_p −= ω × r_p`, `ω = I⁻¹ ΔL` (`I` the inertia tensor). Linear
-//!    momentum is untouched (`Σ m ω × r = 0`). It is applied only to a cloth
-//!    without pins: pins hold the rotational modes themselves and exert real
-//!    torque, which the filter — with the pins constrained inside it —
-//!    already treats implicitly.
-//! 2. `v ← v + Δv`, `x* ← x + dt v`, fix-up, `v ← (x* − x)/dt` if the fix-up
+//! 1. **Torque compensation, per spring.** The linear part treats every
+//!    spring as zero-rest-length, and such a spring resists being turned
+//!    with its whole stiffness: with `K = H` the filter damps every spring's
+//!    rotation by `dt k`, far more than the mass can carry at cloth steps,
+//!    and the cloth moves as a board. The neglected non-linear part
+//!    `k L n` cancels exactly that (its Jacobian `k (L/l)(I − n nᵀ)` is a
+//!    rotation term), so with the compensation on `K` is each spring's own
+//!    Jacobian, `k (c I + (1 − c) n nᵀ)` with `c = max(0, 1 − L/l)`
+//!    ([`spring_kv`], the implicit integrator's): a spring resists across
+//!    itself only with the stiffness its tension gives it. It is local, so
+//!    it applies to pinned cloths too. A spring touching a collider keeps
+//!    `K = H` (see `jacobian_v`). Off, `K = H`.
+//! 2. **Torque compensation, global.** For a cloth without pins the
+//!    angular impulse of `Δv` about the centre of mass minus that of the
+//!    external forces (`dt Σ r × f_ext`) is cancelled by a rigid rotation
+//!    `Δv_p −= ω × r_p`, `ω = I⁻¹ ΔL` (`I` the inertia tensor), so a free
+//!    cloth keeps its angular momentum. Linear momentum is untouched
+//!    (`Σ m ω × r = 0`). Pins exert real torque, so it does not apply to a
+//!    pinned cloth.
+//! 3. `v ← v + Δv`, `x* ← x + dt v`, fix-up, `v ← (x* − x)/dt` if the fix-up
 //!    moved anything (as in the explicit scheme).
 //!
 //! For a single linear spring along its axis with one end pinned the step is
@@ -35,31 +43,63 @@
 //! size the GPU solves the filter by CG on the device ([`cg_prepare`] and
 //! the CG kernels) while the CPU applies the exact banded factor.
 
-use super::forces::{self, external_forces, total_force, wind_forces};
-use super::implicit::{warm_start, Filter};
+use super::collide::{contact, CONTACT_SLOP};
+use super::forces::{self, external_forces, spring_frame, total_force, wind_forces};
+use super::implicit::{spring_kv, transverse, warm_start, Filter};
 use super::mat3::Sym3;
 use super::{fixup_and_finish, predict, torque, State, StepStats, System, Workspace};
 use crate::real::{Real, Vec3};
 
-/// `(H v)_p = −Σ ±k (v_i − v_j)` over particle `p`'s springs, in adjacency
-/// order.
-fn laplacian_v<R: Real>(sys: &System<R>, v: &[Vec3<R>], p: usize) -> Vec3<R> {
+/// Whether a particle at `x` touches a collider (within the implicit
+/// integrator's [`CONTACT_SLOP`]), the colliders where they are at the
+/// particle clock `clock`.
+fn touching<R: Real>(sys: &System<R>, x: Vec3<R>, clock: u32) -> bool {
+    contact(sys, x, R::from_f64(CONTACT_SLOP), clock).is_some()
+}
+
+/// The velocity term of the filter's right-hand side for particle `p`,
+/// `Σ ±K_s (v_i − v_j)` over its springs in adjacency order, `K_s` each
+/// spring's stiffness as the filter's linear part sees it. Compensated
+/// (`rotation_free`), a spring resists across itself only with the share
+/// `max(0, 1 − L/l)` that its tension gives it, as the real spring does:
+/// the implicit integrator's Jacobian ([`spring_kv`]). Uncompensated, `K_s`
+/// is the linear part's `k I`, which resists every rotation of the spring
+/// as if it had zero rest length. A spring with an end on a collider keeps
+/// `k I` either way: the constant filter cannot hold a contact as the
+/// implicit integrator's CG does, and without that resistance a cloth
+/// landing on a collider at a large step diverges at contact.
+fn jacobian_v<R: Real>(
+    sys: &System<R>,
+    x: &[Vec3<R>],
+    v: &[Vec3<R>],
+    p: usize,
+    rotation_free: bool,
+    clock: u32,
+) -> Vec3<R> {
     let mut acc = Vec3::ZERO;
     for &e in sys.spring_adj.of(p) {
         let sp = &sys.springs[(e >> 1) as usize];
-        let term = (v[sp.i as usize] - v[sp.j as usize]) * sp.k;
+        let (i, j) = (sp.i as usize, sp.j as usize);
+        let (dir, l) = spring_frame(x[i], x[j]);
+        let c = if rotation_free && !touching(sys, x[i], clock) && !touching(sys, x[j], clock) {
+            transverse(sp.rest, l)
+        } else {
+            R::ONE
+        };
+        let term = spring_kv(sp.k, c, dir, v[i] - v[j]);
         if e & 1 == 0 {
             acc += term;
         } else {
             acc -= term;
         }
     }
-    -acc
+    acc
 }
 
 /// Twin of `shaders/semi_rhs.wgsl`: each particle's total force from the
-/// spring pass and the filter's right-hand side `dt (f + dt H v)`, `H` the
-/// stiffness Laplacian; `Δv` zeroed where `zero_dv` (the dense filter;
+/// spring pass and the filter's right-hand side `dt (f + dt K v)` (`K v`
+/// from `jacobian_v`, per-spring compensated when the torque
+/// compensation is on); `Δv` zeroed where `zero_dv` (the dense filter;
 /// the GPU's CG filter keeps it as its warm start: the `keep` variant).
 /// Reads `x`, `v`, `per_spring`; writes `force`, `per_triangle` (wind),
 /// `rhs` (`W_RHS`, w 0) and `dv`.
@@ -68,8 +108,8 @@ pub fn rhs<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>, zero_d
     wind_forces(sys, &st.x, &st.v, &mut w.per_triangle);
     for p in 0..st.x.len() {
         w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, p);
-        let hv = laplacian_v(sys, &st.v, p);
-        w.rhs[p] = (w.force[p] + hv * dt) * dt;
+        let kv = jacobian_v(sys, &st.x, &st.v, p, sys.torque_compensation, w.clock);
+        w.rhs[p] = (w.force[p] + kv * dt) * dt;
         if zero_dv {
             w.dv[p] = Vec3::ZERO;
         }

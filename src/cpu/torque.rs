@@ -1,6 +1,7 @@
-//! The semi-implicit torque compensation (see [`super::semi_implicit`]):
-//! removes from `Δv` the angular impulse about the centre of mass that the
-//! external forces do not account for, by a rigid rotation
+//! The semi-implicit global torque compensation, for a cloth without pins
+//! (see [`super::semi_implicit`]; the per-spring part is in its right-hand
+//! side): removes from `Δv` the angular impulse about the centre of mass
+//! that the external forces do not account for, by a rigid rotation
 //! `Δv_p −= ω × r_p`, `ω = I⁻¹ ΔL`.
 //!
 //! Three passes, each the twin of a GPU kernel: [`centre`], [`moments`],

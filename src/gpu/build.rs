@@ -6,7 +6,7 @@ use super::buffers::{ClothBuffers, Uploads, UPLOAD};
 use super::cg_budget::CgBudget;
 use super::grid::{fixup_limit, GridBlock, GridLayout};
 use super::kernels::GpuKernels;
-use super::layout::{GpuParams, GpuSpring};
+use super::layout::{torque_bits, GpuParams, GpuSpring};
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 use super::solver::{
     gpu_capsules, gpu_spheres, plan_inputs, scene_features, GpuSolver, Prepared, NO_GROUND, NO_WIND,
@@ -175,8 +175,9 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
         cg_tolerance_sq: (shape.cg_tolerance * shape.cg_tolerance) as f32,
         partial_count: n.div_ceil(WORKGROUP),
         filter_count: shape.filter.map_or(0, |f| f.count),
-        torque_compensation: u32::from(
-            params.semi_implicit.torque_compensation && model.pinned_count() == 0,
+        torque_compensation: torque_bits(
+            params.semi_implicit.torque_compensation,
+            model.pinned_count(),
         ),
         grid: grid_words,
         grid_rest_a: [rest[0], rest[1], rest[2], rest[3]],

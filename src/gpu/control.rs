@@ -5,7 +5,7 @@
 
 use super::grid::GridBlock;
 use super::kernels::Features;
-use super::layout::section;
+use super::layout::{section, torque_bits};
 use super::semi_filter::SemiFilter;
 use super::solver::{
     check_collider_counts, gpu_capsules, gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND,
@@ -178,8 +178,9 @@ impl GpuSolver {
         }
         // A new pin stands still until it is given a target.
         self.write_pin_goal(p, [0.0; 4]);
-        self.params.torque_compensation = u32::from(
-            self.host_params.semi_implicit.torque_compensation && self.model.pinned_count() == 0,
+        self.params.torque_compensation = torque_bits(
+            self.host_params.semi_implicit.torque_compensation,
+            self.model.pinned_count(),
         );
         if self.params.filter_count > 0 {
             let filter = SemiFilter::new(&self.model, &self.host_params)?;

@@ -83,7 +83,8 @@ pub struct GpuParams {
     pub partial_count: u32,
     /// Free particles in the dense filter.
     pub filter_count: u32,
-    /// 1 when the semi-implicit torque compensation applies.
+    /// Which parts of the semi-implicit torque compensation apply:
+    /// [`TORQUE_LOCAL`] and [`TORQUE_GLOBAL`] bits (see [`torque_bits`]).
     pub torque_compensation: u32,
     /// Grid layout (see `gpu/grid.rs`): columns, rows, a bit per spring
     /// kind present, unused; zero for the general kernels.
@@ -146,3 +147,23 @@ pub const SPRING_SECTIONS: u32 = crate::kernel_config::spring_work::COUNT;
 pub const PARTIAL_SLOTS: u32 = crate::kernel_config::partials::SLOTS;
 /// CG scalars after the partial slots.
 pub const CG_SCALARS: u32 = crate::kernel_config::partials::CG_SCALARS;
+
+/// [`GpuParams::torque_compensation`] bit: the per-spring compensation in
+/// `semi_rhs` (twin: `TORQUE_LOCAL` in `shaders/semi_rhs.wgsl`).
+pub const TORQUE_LOCAL: u32 = 1;
+
+/// [`GpuParams::torque_compensation`] bit: the global rigid-rotation passes
+/// (`torque_*`), for a cloth without pins only.
+pub const TORQUE_GLOBAL: u32 = 2;
+
+/// The torque compensation bits for a cloth with `pinned` pinned particles:
+/// the scene's switch turns on the per-spring part for every cloth, and the
+/// global part where no pin exerts a real torque (as
+/// `cpu::semi_implicit::step` decides).
+pub fn torque_bits(compensation: bool, pinned: usize) -> u32 {
+    match (compensation, pinned) {
+        (false, _) => 0,
+        (true, 0) => TORQUE_LOCAL | TORQUE_GLOBAL,
+        (true, _) => TORQUE_LOCAL,
+    }
+}

@@ -115,7 +115,7 @@ pub(super) fn plan_inputs(
         },
         aggregates: [params.coarse[2], params.coarse[3]],
         filter_count: params.filter_count,
-        torque: params.torque_compensation != 0,
+        torque: params.torque_compensation & layout::TORQUE_GLOBAL != 0,
         fixup_iterations,
     }
 }
