@@ -65,12 +65,20 @@ impl Timestamps {
     }
 }
 
+/// Most steps whose times a [`Profiler`] keeps: beyond, it keeps an evenly
+/// spaced sample, so a long run's memory stays bounded (64 KiB per kernel)
+/// and the median is still over steps from the whole run.
+const KEPT_STEPS: usize = 8192;
+
 /// The GPU times gathered over profiled steps.
 #[derive(Clone, Debug)]
 pub struct Profiler {
     timestamps: Timestamps,
-    /// Per kernel: its GPU time in each profiled step \[ns\].
+    /// Per kernel: its GPU time in each kept step \[ns\].
     samples: Vec<(Kernel, Vec<f64>)>,
+    /// Steps kept: every `stride`-th profiled step.
+    kept: usize,
+    stride: u64,
     /// Steps profiled.
     steps: u64,
 }
@@ -82,6 +90,8 @@ impl Profiler {
         Profiler {
             timestamps,
             samples: Vec::new(),
+            kept: 0,
+            stride: 1,
             steps: 0,
         }
     }
@@ -93,7 +103,12 @@ impl Profiler {
 
     /// Adds one step's times: `(kernel, ns)` per dispatch.
     fn add_step(&mut self, dispatches: impl Iterator<Item = (Kernel, f64)>) {
-        let column = usize::try_from(self.steps).unwrap_or(usize::MAX);
+        let keep = self.steps.is_multiple_of(self.stride);
+        self.steps += 1;
+        if !keep {
+            return;
+        }
+        let column = self.kept;
         for (kernel, ns) in dispatches {
             let at = match self.samples.iter().position(|s| s.0 == kernel) {
                 Some(at) => at,
@@ -109,13 +124,25 @@ impl Profiler {
             }
             times[column] += ns;
         }
-        self.steps += 1;
+        self.kept += 1;
+        if self.kept == KEPT_STEPS {
+            // Keep every other step from here on, and of those kept.
+            for (_, times) in &mut self.samples {
+                let mut k = 0;
+                times.retain(|_| {
+                    k += 1;
+                    k % 2 == 1
+                });
+            }
+            self.kept = KEPT_STEPS / 2;
+            self.stride *= 2;
+        }
     }
 
-    /// `kernel`'s median GPU time per profiled step \[µs\] (`None` without
+    /// `kernel`'s median GPU time per kept step \[µs\] (`None` without
     /// times or steps).
     fn median_us(&self, kernel: Kernel) -> Option<f64> {
-        if self.timestamps == Timestamps::None || self.steps == 0 {
+        if self.timestamps == Timestamps::None || self.kept == 0 {
             return None;
         }
         let mut times = self
@@ -123,7 +150,7 @@ impl Profiler {
             .iter()
             .find(|s| s.0 == kernel)
             .map_or_else(Vec::new, |s| s.1.clone());
-        times.resize(usize::try_from(self.steps).unwrap_or(usize::MAX), 0.0);
+        times.resize(self.kept, 0.0);
         times.sort_by(f64::total_cmp);
         let mid = times.len() / 2;
         let median = if times.len() % 2 == 1 {
@@ -142,7 +169,8 @@ pub struct ProfileRow {
     pub kernel: Kernel,
     /// Its dispatches per step.
     pub dispatches: u32,
-    /// Median GPU time per step over the profiled steps \[µs\]; `None`
+    /// Median GPU time per step over the profiled steps (an evenly spaced
+    /// sample of them beyond 8 192) \[µs\]; `None`
     /// without timestamps.
     pub micros: Option<f64>,
     /// Bytes read per step (see [`Kernel::traffic`]).
@@ -362,5 +390,34 @@ impl GpuSolver {
             filter_rows: self.params.filter_count.into(),
             triangles: self.params.triangle_count.into(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_long_run_keeps_a_bounded_even_sample_with_the_runs_median() {
+        let mut p = Profiler::new(Timestamps::InsidePasses);
+        // Step i takes i µs: the median of the whole run is its middle.
+        let steps = 3 * KEPT_STEPS as u64 + 5;
+        for i in 0..steps {
+            p.add_step([(Kernel::FinishStep, i as f64 * 1000.0)].into_iter());
+        }
+        assert_eq!(p.steps, steps);
+        assert!(p.kept <= KEPT_STEPS, "kept {} steps", p.kept);
+        assert!(p.samples.iter().all(|s| s.1.len() == p.kept));
+        // An evenly spaced sample's median is within one stride of the
+        // run's.
+        let median = p.median_us(Kernel::FinishStep).unwrap_or(f64::NAN);
+        let whole = (steps - 1) as f64 / 2.0;
+        assert!(
+            (median - whole).abs() <= p.stride as f64,
+            "median {median} µs, the run's {whole} µs, stride {}",
+            p.stride
+        );
+        // A kernel never dispatched took no time.
+        assert_eq!(p.median_us(Kernel::CgBeta), Some(0.0));
     }
 }
