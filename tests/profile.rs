@@ -111,7 +111,7 @@ fn the_profile_lists_the_step_plan_and_its_times_add_up() {
 }
 
 #[test]
-fn bytes_of_a_known_step_match_the_hand_count() {
+fn bytes_of_a_grid_step_match_the_hand_count() {
     // `hanging`, explicit: a 33 × 33 grid cloth (no springs buffer read) with
     // 10 fix-up passes.
     let (model, params) = scene("hanging", Integrator::Explicit);
@@ -127,17 +127,49 @@ fn bytes_of_a_known_step_match_the_hand_count() {
     // finish_step reads x, v, the fix-up's result and the new v (4 vec4 of
     // 16 bytes) and writes x and v.
     assert_eq!(row(Kernel::FinishStep), (1, n * 4 * 16, n * 2 * 16));
-    // Each fix-up pass reads the source positions and the adjacency offset
-    // (16 + 4 bytes) and writes the destination positions.
+    // Each fix-up pass reads the source positions and writes the
+    // destination (16 bytes each); a grid has no springs buffer or
+    // adjacency to read.
     let passes = u64::from(params.fixup.iterations);
     assert_eq!(passes, 10);
     assert_eq!(
         row(Kernel::FixupJacobi),
-        (10, passes * n * (16 + 4), passes * n * 16)
+        (10, passes * n * 16, passes * n * 16)
     );
     let (read, written) = profile.bytes();
     let rows: u64 = profile.rows.iter().map(|r| r.read + r.written).sum();
     assert_eq!(read + written, rows);
+}
+
+#[test]
+fn bytes_of_a_mesh_step_match_the_hand_count() {
+    // `banner`, semi-implicit: a glTF mesh, so the general layout (a
+    // springs buffer and an adjacency list), with 10 fix-up passes.
+    let (model, params) = scene("banner", Integrator::SemiImplicit);
+    let (n, s) = (model.particle_count() as u64, model.springs.len() as u64);
+    let g = solver(&model, &params);
+    let profile = g.profile(&Profiler::new(Timestamps::None));
+    let row = |k: Kernel| {
+        let r = profile.rows.iter().find(|r| r.kernel == k);
+        let r = r.unwrap_or_else(|| panic!("no {k} row"));
+        (r.dispatches, r.read, r.written)
+    };
+    // spring_forces reads each particle's x and v (16 bytes each) and each
+    // spring (32 bytes), and writes each spring's force (16).
+    assert_eq!(row(Kernel::SpringForces), (1, n * 2 * 16 + s * 32, s * 16));
+    // A fix-up pass reads the source positions (16), each particle's
+    // adjacency offset (4), each spring (32) and its two adjacency entries
+    // (2 × 4), and writes the destination positions (16).
+    let passes = u64::from(params.fixup.iterations);
+    assert!(passes > 0, "banner has no fix-up");
+    assert_eq!(
+        row(Kernel::FixupJacobi),
+        (
+            passes as u32,
+            passes * (n * (16 + 4) + s * (32 + 2 * 4)),
+            passes * n * 16
+        )
+    );
 }
 
 #[test]

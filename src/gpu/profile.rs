@@ -382,6 +382,11 @@ impl GpuSolver {
             } else {
                 self.spring_slots.into()
             },
+            adjacency_rows: if self.grid {
+                0
+            } else {
+                self.params.particle_count.into()
+            },
             aggregates: if self.features.coarse {
                 u64::from(coarse[2]) + u64::from(coarse[3])
             } else {

@@ -21,6 +21,9 @@ pub enum Unit {
     /// (general layout; on a grid the kernels compute springs from the
     /// uniform block and move none).
     Spring,
+    /// A particle's row of the spring adjacency, its offset (general
+    /// layout; a grid has none).
+    AdjacencyRow,
     /// A coarse aggregate, level 1 or 2 (implicit CG's coarse levels).
     Aggregate,
     /// A free particle of the dense semi-implicit filter.
@@ -67,7 +70,7 @@ impl Kernel {
     /// the match is exhaustive, and `tests/profile.rs` checks that every
     /// kernel of [`Kernel::ALL`] writes something.
     pub const fn traffic(self) -> &'static [Term] {
-        use Unit::{Aggregate, FilterEntry, FilterRow, Particle, Spring, Triangle};
+        use Unit::{AdjacencyRow, Aggregate, FilterEntry, FilterRow, Particle, Spring, Triangle};
         match self {
             // x, v of both ends; the force.
             Kernel::SpringForces => {
@@ -78,7 +81,8 @@ impl Kernel {
             Kernel::ExplicitIntegrate => {
                 const {
                     &[
-                        term(Particle, 2 * VEC4 + OFFSET, 2 * VEC4),
+                        term(Particle, 2 * VEC4, 2 * VEC4),
+                        term(AdjacencyRow, OFFSET, 0),
                         term(Spring, VEC4 + ADJACENCY, 0),
                     ]
                 }
@@ -89,7 +93,8 @@ impl Kernel {
             Kernel::FixupJacobi => {
                 const {
                     &[
-                        term(Particle, VEC4 + OFFSET, VEC4),
+                        term(Particle, VEC4, VEC4),
+                        term(AdjacencyRow, OFFSET, 0),
                         term(Spring, SPRING + ADJACENCY, 0),
                     ]
                 }
@@ -116,7 +121,8 @@ impl Kernel {
             Kernel::ImplicitPrepare => {
                 const {
                     &[
-                        term(Particle, 3 * VEC4 + OFFSET, 7 * VEC4),
+                        term(Particle, 3 * VEC4, 7 * VEC4),
+                        term(AdjacencyRow, OFFSET, 0),
                         term(Spring, 2 * VEC4 + ADJACENCY, 0),
                     ]
                 }
@@ -132,7 +138,8 @@ impl Kernel {
             Kernel::CgInit => {
                 const {
                     &[
-                        term(Particle, 2 * VEC4 + OFFSET, 4 * VEC4),
+                        term(Particle, 2 * VEC4, 4 * VEC4),
+                        term(AdjacencyRow, OFFSET, 0),
                         term(Spring, 2 * VEC4 + ADJACENCY, 0),
                     ]
                 }
@@ -143,7 +150,8 @@ impl Kernel {
             Kernel::CgApply => {
                 const {
                     &[
-                        term(Particle, 2 * VEC4 + OFFSET, 2 * VEC4),
+                        term(Particle, 2 * VEC4, 2 * VEC4),
+                        term(AdjacencyRow, OFFSET, 0),
                         term(Spring, 2 * VEC4 + ADJACENCY, 0),
                     ]
                 }
@@ -160,7 +168,8 @@ impl Kernel {
             Kernel::SemiRhs => {
                 const {
                     &[
-                        term(Particle, 2 * VEC4 + OFFSET, 2 * VEC4),
+                        term(Particle, 2 * VEC4, 2 * VEC4),
+                        term(AdjacencyRow, OFFSET, 0),
                         term(Spring, VEC4 + ADJACENCY, 0),
                     ]
                 }
@@ -184,7 +193,8 @@ impl Kernel {
             Kernel::SemiCgPrepare => {
                 const {
                     &[
-                        term(Particle, 4 * VEC4 + OFFSET, 5 * VEC4),
+                        term(Particle, 4 * VEC4, 5 * VEC4),
+                        term(AdjacencyRow, OFFSET, 0),
                         term(Spring, VEC4 + ADJACENCY, 0),
                     ]
                 }
@@ -200,6 +210,8 @@ pub struct UnitCounts {
     pub particles: u64,
     /// Springs in the springs buffer (0 on a grid; see [`Unit::Spring`]).
     pub springs: u64,
+    /// Rows of the spring adjacency: the particles, 0 on a grid.
+    pub adjacency_rows: u64,
     /// Coarse aggregates, both levels.
     pub aggregates: u64,
     /// Free particles of the dense filter (0: none).
@@ -214,6 +226,7 @@ impl UnitCounts {
         match unit {
             Unit::Particle => self.particles,
             Unit::Spring => self.springs,
+            Unit::AdjacencyRow => self.adjacency_rows,
             Unit::Aggregate => self.aggregates,
             Unit::FilterRow => self.filter_rows,
             Unit::FilterEntry => self.filter_rows * self.filter_rows,
