@@ -9,7 +9,7 @@ use std::collections::BTreeSet;
 use std::sync::OnceLock;
 
 use cli_common::{assert_status, stdout, wgcloth};
-use wgcloth::gpu::{GpuContext, GpuSolver, Kernel, Profiler, Timestamps};
+use wgcloth::gpu::{GpuContext, GpuSolver, Kernel, Profile, Profiler, Timestamps};
 use wgcloth::params::Integrator;
 use wgcloth::{Model, Params, Scene};
 
@@ -110,6 +110,13 @@ fn the_profile_lists_the_step_plan_and_its_times_add_up() {
     }
 }
 
+/// `kernel`'s row of `profile`: dispatches, bytes read and written.
+fn row_of(profile: &Profile, kernel: Kernel) -> (u32, u64, u64) {
+    let r = profile.rows.iter().find(|r| r.kernel == kernel);
+    let r = r.unwrap_or_else(|| panic!("no {kernel} row"));
+    (r.dispatches, r.read, r.written)
+}
+
 #[test]
 fn bytes_of_a_grid_step_match_the_hand_count() {
     // `hanging`, explicit: a 33 × 33 grid cloth (no springs buffer read) with
@@ -119,11 +126,7 @@ fn bytes_of_a_grid_step_match_the_hand_count() {
     assert_eq!(n, 33 * 33);
     let g = solver(&model, &params);
     let profile = g.profile(&Profiler::new(Timestamps::None));
-    let row = |k: Kernel| {
-        let r = profile.rows.iter().find(|r| r.kernel == k);
-        let r = r.unwrap_or_else(|| panic!("no {k} row"));
-        (r.dispatches, r.read, r.written)
-    };
+    let row = |k: Kernel| row_of(&profile, k);
     // finish_step reads x, v, the fix-up's result and the new v (4 vec4 of
     // 16 bytes) and writes x and v.
     assert_eq!(row(Kernel::FinishStep), (1, n * 4 * 16, n * 2 * 16));
@@ -149,11 +152,7 @@ fn bytes_of_a_mesh_step_match_the_hand_count() {
     let (n, s) = (model.particle_count() as u64, model.springs.len() as u64);
     let g = solver(&model, &params);
     let profile = g.profile(&Profiler::new(Timestamps::None));
-    let row = |k: Kernel| {
-        let r = profile.rows.iter().find(|r| r.kernel == k);
-        let r = r.unwrap_or_else(|| panic!("no {k} row"));
-        (r.dispatches, r.read, r.written)
-    };
+    let row = |k: Kernel| row_of(&profile, k);
     // spring_forces reads each particle's x and v (16 bytes each) and each
     // spring (32 bytes), and writes each spring's force (16).
     assert_eq!(row(Kernel::SpringForces), (1, n * 2 * 16 + s * 32, s * 16));
