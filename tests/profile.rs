@@ -281,3 +281,20 @@ fn profile_is_refused_on_the_cpu_backend() {
     assert_status(&out, cli_common::EXIT_INVALID);
     assert!(cli_common::stderr(&out).contains("--profile"));
 }
+
+#[test]
+fn a_timing_the_device_was_not_opened_for_is_refused() {
+    // Opened without the timestamp features.
+    let ctx = GpuContext::new(None).unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"));
+    assert_eq!(Timestamps::best(ctx.device.features()), Timestamps::None);
+    let (model, params) = scene("hanging", Integrator::Explicit);
+    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
+    let mut profiler = Profiler::new(Timestamps::PassBoundaries);
+    match g.step_profiled(1, &mut profiler) {
+        Err(wgcloth::Error::InvalidParameter { key, .. }) => {
+            assert_eq!(key, "profiler timestamps")
+        }
+        other => panic!("expected a refusal, got {other:?}"),
+    }
+    assert_eq!(g.steps_recorded(), 0, "a refused step ran");
+}

@@ -18,7 +18,7 @@ use super::kernel::{Dispatch, Kernel};
 use super::readback;
 use super::solver::{Entry, GpuSolver};
 use super::traffic::UnitCounts;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::stats::StepStats;
 
 /// Most dispatches timed in one submission: one more than this many
@@ -245,9 +245,21 @@ impl GpuSolver {
     /// Submits a chunk of dispatches at a time and reads its timestamps
     /// back, so it is slower than `step`. `explicit_seed`, which an odd
     /// number of single-pass steps records once, is not part of a step and
-    /// is not timed into one.
+    /// is not timed into one. A timing the device lacks the features for
+    /// is an [`Error::InvalidParameter`].
     #[doc(hidden)]
     pub fn step_profiled(&mut self, n: u32, profiler: &mut Profiler) -> Result<StepStats> {
+        let best = Timestamps::best(self.device.features());
+        if profiler.timestamps > best {
+            return Err(Error::InvalidParameter {
+                key: "profiler timestamps".into(),
+                allowed: format!(
+                    "{best:?} or less: the device lacks the features of more \
+                     (open it with Timestamps::FEATURES)"
+                ),
+                got: format!("{:?}", profiler.timestamps),
+            });
+        }
         if profiler.timestamps == Timestamps::None {
             profiler.steps += u64::from(n);
             return self.step(n);
