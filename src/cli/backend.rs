@@ -8,6 +8,7 @@
 use std::borrow::Cow;
 
 use wgcloth::diagnostics::Divergence;
+use wgcloth::gpu::{Profile, Profiler, Timestamps};
 use wgcloth::real::Vec3;
 use wgcloth::{CpuSolver, GpuContext, GpuSolver, Integrator, Model, Params, Real, StepStats};
 
@@ -57,6 +58,11 @@ pub trait Solver {
     /// empty for the CPU, which dispatches nothing.
     fn passes(&self) -> Vec<(&'static str, u32, u32)> {
         Vec::new()
+    }
+    /// The GPU profile of the steps so far (`--profile`); `None` when not
+    /// profiling.
+    fn profile(&self) -> Option<Profile> {
+        None
     }
 }
 
@@ -191,14 +197,30 @@ pub struct Gpu {
     /// The most CG iterations of any step so far (the device reports the
     /// most since its previous report).
     cg_max: u32,
+    /// Times every step's dispatches (`--profile`).
+    profiler: Option<Profiler>,
 }
 
 impl Gpu {
     /// Opens the adapter `adapter` names (see [`GpuContext::new`]) and
     /// builds the solver on it; refuses invalid parameters, what the GPU
     /// solver does not support, and a cloth beyond the device's limits.
-    pub fn new(adapter: Option<&str>, model: &Model, params: &Params) -> wgcloth::Result<Self> {
-        let mut context = GpuContext::new(adapter)?;
+    /// With `profile`, asks the device for timestamp queries and times
+    /// every step, at best by `profile`'s timing.
+    pub fn new(
+        adapter: Option<&str>,
+        model: &Model,
+        params: &Params,
+        profile: Option<Timestamps>,
+    ) -> wgcloth::Result<Self> {
+        let features = if profile.is_some() {
+            Timestamps::FEATURES
+        } else {
+            wgpu::Features::empty()
+        };
+        let mut context = GpuContext::with_features(adapter, features)?;
+        let profiler = profile
+            .map(|most| Profiler::new(Timestamps::best(context.device.features()).min(most)));
         if let Some(dir) = wgcloth::gpu::pipeline_cache::default_dir() {
             context.keep_pipelines(&dir);
         }
@@ -211,6 +233,7 @@ impl Gpu {
             solver,
             status: None,
             cg_max: 0,
+            profiler,
         })
     }
 }
@@ -227,11 +250,18 @@ impl Solver for Gpu {
         self.solver.tuning().describe_step()
     }
 
+    fn profile(&self) -> Option<Profile> {
+        self.profiler.as_ref().map(|p| self.solver.profile(p))
+    }
+
     fn advance(&mut self, mut n: u64) -> wgcloth::Result<()> {
         while n > 0 {
             let batch = n.min(MAX_BATCH);
             // MAX_BATCH fits a u32.
-            let status = self.solver.step(batch as u32)?;
+            let status = match &mut self.profiler {
+                Some(profiler) => self.solver.step_profiled(batch as u32, profiler)?,
+                None => self.solver.step(batch as u32)?,
+            };
             self.context.check()?;
             self.cg_max = self.cg_max.max(status.cg_max_iterations);
             self.status = Some(status);

@@ -8,6 +8,7 @@ mod bench;
 mod chart;
 mod interrupt;
 mod output;
+mod profile;
 mod render;
 mod run;
 mod scenes;
@@ -18,6 +19,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use wgcloth::gpu::Timestamps;
 use wgcloth::params::format_number;
 use wgcloth::Integrator;
 
@@ -304,6 +306,39 @@ struct RunArgs {
     /// what the scene does not need is seen to be skipped (GPU backend).
     #[arg(long, short)]
     verbose: bool,
+
+    /// With `--backend gpu`: time every dispatch of the run with timestamp
+    /// queries and print, per kernel, the median GPU time per step, its
+    /// share, the bytes it reads and writes per step and the bandwidth
+    /// achieved (slower: each batch's timestamps are read back).
+    #[arg(long)]
+    profile: bool,
+
+    /// Limits how `--profile` times kernels, to test what a lesser adapter
+    /// prints (default: the best the adapter has).
+    #[arg(long, value_enum, requires = "profile", hide = true)]
+    profile_timestamps: Option<TimestampsArg>,
+}
+
+/// `--profile-timestamps`: the profiler's timing, best first.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum TimestampsArg {
+    /// Timestamps between dispatches inside one compute pass.
+    InsidePasses,
+    /// A compute pass per dispatch, timestamps at its start and end.
+    PassBoundaries,
+    /// No timestamps, as on an adapter without timestamp queries.
+    None,
+}
+
+impl From<TimestampsArg> for Timestamps {
+    fn from(t: TimestampsArg) -> Self {
+        match t {
+            TimestampsArg::InsidePasses => Timestamps::InsidePasses,
+            TimestampsArg::PassBoundaries => Timestamps::PassBoundaries,
+            TimestampsArg::None => Timestamps::None,
+        }
+    }
 }
 
 /// The integrators, as the CLI spells them (the scene-file spelling).

@@ -12,8 +12,10 @@ use wgcloth::{Model, Params, Real, Scene};
 use super::backend::{Cpu, Gpu, Solver};
 use super::interrupt;
 use super::output::{commit_all, same_file, write_positions, AtomicFile, Trace};
+use super::profile;
 use super::summary::{Outcome, Summary};
 use super::{Backend, Precision, RunArgs, UsageError};
+use wgcloth::gpu::Timestamps;
 
 /// Most steps one run may take: far beyond any useful run, and small enough
 /// that the count is exact in an `f64` (the `--seconds` conversion).
@@ -67,7 +69,13 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     let outcome = match (args.backend, precision) {
         (Backend::Cpu, Precision::F64) => run.simulate(Cpu::<f64>::new(model, params)?)?,
         (Backend::Cpu, Precision::F32) => run.simulate(Cpu::<f32>::new(model, params)?)?,
-        (Backend::Gpu, _) => run.simulate(Gpu::new(args.adapter.as_deref(), model, params)?)?,
+        (Backend::Gpu, _) => {
+            let profile = args.profile.then(|| {
+                args.profile_timestamps
+                    .map_or(Timestamps::InsidePasses, Timestamps::from)
+            });
+            run.simulate(Gpu::new(args.adapter.as_deref(), model, params, profile)?)?
+        }
     };
     let summary = Summary {
         scene: &scene.name,
@@ -80,6 +88,9 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     print!("{summary}");
     if args.verbose {
         print_passes(&summary.outcome.passes, summary.outcome.backend);
+    }
+    if let Some(profile) = &summary.outcome.profile {
+        print!("{}", profile::Table(profile));
     }
     Ok(())
 }
@@ -99,12 +110,15 @@ fn print_passes(passes: &[(&str, u32, u32)], backend: &str) {
 
 /// The solver's precision: `--precision` on the CPU (default f64); f32 on
 /// the GPU, which refuses an explicit `--precision f64` rather than run
-/// something other than what was asked for. Also refuses `--adapter` with
-/// the CPU backend, where it would mean nothing.
+/// something other than what was asked for. Also refuses `--adapter` and
+/// `--profile` with the CPU backend, where they would mean nothing.
 fn precision_for_backend(args: &RunArgs) -> Result<Precision, UsageError> {
     match (args.backend, args.precision) {
         (Backend::Cpu, _) if args.adapter.is_some() => Err(UsageError(
             "--adapter only applies to --backend gpu".to_string(),
+        )),
+        (Backend::Cpu, _) if args.profile => Err(UsageError(
+            "--profile only applies to --backend gpu: it times GPU kernels".to_string(),
         )),
         (Backend::Cpu, p) => Ok(p.unwrap_or(Precision::F64)),
         (Backend::Gpu, None | Some(Precision::F32)) => Ok(Precision::F32),
@@ -195,6 +209,7 @@ impl Run<'_> {
 
         let (steps, time, device) = (solver.steps(), solver.time(), solver.device());
         let passes = solver.passes();
+        let profile = solver.profile();
         let stats = solver.stats(self.params);
         let s = solver.state()?;
         let mut outputs = Vec::new();
@@ -208,6 +223,7 @@ impl Run<'_> {
         commit_all(outputs)?;
         Ok(Outcome {
             passes,
+            profile,
             backend: S::BACKEND,
             precision: S::Real::NAME,
             device,

@@ -34,6 +34,8 @@ pub struct Summary<'a> {
 pub struct Outcome {
     /// The passes of one step (see `Solver::passes`), as last recorded.
     pub passes: Vec<(&'static str, u32, u32)>,
+    /// Each kernel's GPU time and bytes per step (`--profile`).
+    pub profile: Option<wgcloth::gpu::Profile>,
     /// Backend name (`"cpu"`, `"gpu"`).
     pub backend: &'static str,
     /// `"f64"` or `"f32"`.
@@ -289,6 +291,7 @@ mod tests {
             wall: Duration::from_secs(2),
             outcome: Outcome {
                 passes: Vec::new(),
+                profile: None,
                 backend: "gpu",
                 precision: "f32",
                 device: Some("llvmpipe (Vulkan, Cpu)".into()),

@@ -78,6 +78,13 @@ impl GpuContext {
     /// instance skips wgpu's validation of indirect dispatches (see the
     /// comment inside; a host that embeds the solver may do the same).
     pub fn new(name: Option<&str>) -> Result<GpuContext> {
+        GpuContext::with_features(name, wgpu::Features::empty())
+    }
+
+    /// [`GpuContext::new`], also asking for those of `features` the adapter
+    /// has (the profiler's [`Timestamps::FEATURES`](super::Timestamps::FEATURES));
+    /// the device's features tell which it got.
+    pub fn with_features(name: Option<&str>, features: wgpu::Features) -> Result<GpuContext> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = backends_from_env()?.unwrap_or(wgpu::Backends::PRIMARY);
         // wgpu validates each indirect dispatch with a compute pass of its
@@ -131,7 +138,7 @@ impl GpuContext {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("wgcloth.device"),
             // Compiled pipelines can then be kept between runs (Vulkan).
-            required_features: adapter.features() & wgpu::Features::PIPELINE_CACHE,
+            required_features: adapter.features() & (wgpu::Features::PIPELINE_CACHE | features),
             required_limits: adapter.limits(),
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,

@@ -27,12 +27,14 @@ pub mod pipeline_cache;
 #[doc(hidden)]
 pub mod layout;
 mod plan;
+mod profile;
 #[doc(hidden)]
 pub mod readback;
 mod semi_filter;
 #[doc(hidden)]
 pub mod shaders;
 mod solver;
+mod traffic;
 mod tuning;
 mod velocity;
 
@@ -51,6 +53,11 @@ pub use debug::{DebugBuffer, DebugLayout};
 #[doc(hidden)]
 pub use kernel::{ArgsGroup, Dispatch, FixupPhase, Kernel, Launch, Variant};
 pub use kernels::GpuKernels;
+// The profiler behind `wgcloth run --profile` and its traffic table.
 #[doc(hidden)]
 pub use kernels::{sum_group, Features};
+#[doc(hidden)]
+pub use profile::{Profile, ProfileRow, Profiler, Timestamps};
+#[doc(hidden)]
+pub use traffic::{Term, Unit, UnitCounts};
 pub use tuning::{GpuTuning, GpuTuningMut};

@@ -429,15 +429,10 @@ impl GpuSolver {
     /// `(kernel, dispatches per step, invocations per dispatch)` — what
     /// `wgcloth run --verbose` prints.
     pub(super) fn describe_step(&self) -> Vec<(&'static str, u32, u32)> {
-        let mut out: Vec<(&'static str, u32, u32)> = Vec::new();
-        for d in self.step_plan() {
-            let kernel = d.kernel.name();
-            match out.iter_mut().find(|(k, _, _)| *k == kernel) {
-                Some(entry) => entry.1 += 1,
-                None => out.push((kernel, 1, d.items)),
-            }
-        }
-        out
+        super::profile::per_kernel(&self.step_plan())
+            .into_iter()
+            .map(|(k, count, items)| (k.name(), count, items))
+            .collect()
     }
 
     /// Records the vertex-normal pass (for rendering; stepping never needs
