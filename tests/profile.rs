@@ -127,9 +127,9 @@ fn bytes_of_a_grid_step_match_the_hand_count() {
     let g = solver(&model, &params);
     let profile = g.profile(&Profiler::new(Timestamps::None));
     let row = |k: Kernel| row_of(&profile, k);
-    // finish_step reads x, v, the fix-up's result and the new v (4 vec4 of
-    // 16 bytes) and writes x and v.
-    assert_eq!(row(Kernel::FinishStep), (1, n * 4 * 16, n * 2 * 16));
+    // finish_step reads x, v, the fix-up's result, the new v and the
+    // particle clock (5 vec4 of 16 bytes) and writes x, v and the clock.
+    assert_eq!(row(Kernel::FinishStep), (1, n * 5 * 16, n * 3 * 16));
     // Each fix-up pass reads the source positions and writes the
     // destination (16 bytes each); a grid has no springs buffer or
     // adjacency to read.

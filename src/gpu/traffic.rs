@@ -8,7 +8,10 @@
 //! a [`GpuSpring`](super::layout::GpuSpring) 32, an adjacency entry 4). So
 //! they are a lower bound on the memory traffic: re-reads that a cache
 //! serves are not counted, and a kernel that misses its cache moves more.
-//! The uniform block and the handful of CG scalars are left out.
+//! The uniform block and the handful of CG scalars are left out, and so
+//! are the pin goals (`W_PIN_TARGET`), which only pinned particles read.
+//! The particle clock (`W_CLOCK`, one `vec4` per particle) is counted
+//! where a kernel reads or advances it.
 
 use super::kernel::Kernel;
 
@@ -77,7 +80,9 @@ impl Kernel {
                 const { &[term(Particle, 2 * VEC4, 0), term(Spring, SPRING, VEC4)] }
             }
             // x, v (or the snapshot); the predicted x and new v (or the
-            // next state); the incident springs' forces.
+            // next state); the incident springs' forces. (The variant fused
+            // with finish_step also reads and advances the clock, one vec4
+            // each way, not counted here.)
             Kernel::ExplicitIntegrate => {
                 const {
                     &[
@@ -99,8 +104,9 @@ impl Kernel {
                     ]
                 }
             }
-            // x, v, the fix-up's result, the new v; x, v.
-            Kernel::FinishStep => const { &[term(Particle, 4 * VEC4, 2 * VEC4)] },
+            // x, v, the fix-up's result, the new v, the clock; x, v, the
+            // clock.
+            Kernel::FinishStep => const { &[term(Particle, 5 * VEC4, 3 * VEC4)] },
             // x and the triangle adjacency; the normal; each triangle's
             // three indices and three adjacency entries.
             Kernel::Normals => {
@@ -115,13 +121,13 @@ impl Kernel {
             Kernel::ImplicitSprings => {
                 const { &[term(Particle, 2 * VEC4, 0), term(Spring, SPRING, 3 * VEC4)] }
             }
-            // x, v, the warm start; the right-hand side, z, the filter, the
-            // preconditioner's two blocks, the start positions, Δv; the
-            // incident springs' block and K·v.
+            // x, v, the warm start, the clock; the right-hand side, z, the
+            // filter, the preconditioner's two blocks, the start
+            // positions, Δv; the incident springs' block and K·v.
             Kernel::ImplicitPrepare => {
                 const {
                     &[
-                        term(Particle, 3 * VEC4, 7 * VEC4),
+                        term(Particle, 4 * VEC4, 7 * VEC4),
                         term(AdjacencyRow, OFFSET, 0),
                         term(Spring, 2 * VEC4 + ADJACENCY, 0),
                     ]
@@ -162,15 +168,18 @@ impl Kernel {
             Kernel::CgUpdate => const { &[term(Particle, 5 * VEC4, 3 * VEC4)] },
             // The terms of ρ.
             Kernel::CgBeta => const { &[term(Particle, W, 0)] },
-            // x, v, Δv, the filter, the right-hand side, z; x, v.
-            Kernel::ImplicitFinish => const { &[term(Particle, 6 * VEC4, 2 * VEC4)] },
-            // x, v; the right-hand side (and Δv); the incident forces.
+            // x, v, Δv, the filter, the right-hand side, z, the clock; x,
+            // v, the clock.
+            Kernel::ImplicitFinish => const { &[term(Particle, 7 * VEC4, 3 * VEC4)] },
+            // x, v, the clock; the right-hand side (and Δv); the incident
+            // springs' forces and data (the per-spring compensation's
+            // rest length and stiffness).
             Kernel::SemiRhs => {
                 const {
                     &[
-                        term(Particle, 2 * VEC4, 2 * VEC4),
+                        term(Particle, 3 * VEC4, 2 * VEC4),
                         term(AdjacencyRow, OFFSET, 0),
-                        term(Spring, VEC4 + ADJACENCY, 0),
+                        term(Spring, SPRING + VEC4 + ADJACENCY, 0),
                     ]
                 }
             }
