@@ -55,19 +55,6 @@ fn temp_dir(test: &str) -> PathBuf {
     dir
 }
 
-/// Decodes a frame: its size and RGBA bytes.
-fn decode(path: &Path) -> (u32, u32, Vec<u8>) {
-    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
-        .read_info()
-        .unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display()));
-    let mut rgba = vec![0; reader.output_buffer_size().expect("a PNG size")];
-    let info = reader.next_frame(&mut rgba).expect("a PNG frame");
-    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
-    rgba.truncate(info.buffer_size());
-    (info.width, info.height, rgba)
-}
-
 fn pixel(rgba: &[u8], x: u32, y: u32) -> [u8; 4] {
     let at = ((y * WIDTH + x) * 4) as usize;
     [rgba[at], rgba[at + 1], rgba[at + 2], rgba[at + 3]]
@@ -76,7 +63,7 @@ fn pixel(rgba: &[u8], x: u32, y: u32) -> [u8; 4] {
 /// Checks that `positions` (interior particles of the cloth) land on
 /// cloth-coloured pixels of `frame`, and the top-left corner is sky.
 fn assert_cloth_at(frame: &Path, camera: &Camera, positions: &[Vec3]) {
-    let (w, h, rgba) = decode(frame);
+    let (w, h, rgba) = gpu_common::decode_png(frame);
     assert_eq!((w, h), (WIDTH, HEIGHT), "{}", frame.display());
     assert_eq!(
         pixel(&rgba, 0, 0),
@@ -201,7 +188,7 @@ fn strain_view_at_rest_is_blue() {
     .unwrap_or_else(|e| panic!("rendering: {e}"));
     let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
     let frame = dir.join(render::frame_name(0));
-    let (_, _, rgba) = decode(&frame);
+    let (_, _, rgba) = gpu_common::decode_png(&frame);
     let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
     for x in interior(&rest) {
         let [px, py] = camera

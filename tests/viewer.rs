@@ -5,6 +5,8 @@
 //! must pull the cloth to the cursor. Xvfb missing is a failure naming the
 //! package, never a skip.
 
+mod gpu_common;
+
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -175,18 +177,11 @@ struct Picture {
 
 impl Picture {
     fn decode(path: &Path) -> Picture {
-        let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-        let mut reader = png::Decoder::new(BufReader::new(file))
-            .read_info()
-            .unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display()));
-        let mut rgba = vec![0; reader.output_buffer_size().expect("a PNG size")];
-        let info = reader.next_frame(&mut rgba).expect("a PNG frame");
-        assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
-        rgba.truncate(info.buffer_size());
+        let (width, height, rgba) = gpu_common::decode_png(path);
         Picture {
             path: path.to_path_buf(),
-            width: info.width,
-            height: info.height,
+            width,
+            height,
             rgba,
         }
     }

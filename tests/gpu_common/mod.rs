@@ -1,4 +1,5 @@
-//! Shared by the GPU tests: the device, and GPU-vs-CPU comparison.
+//! Shared by the GPU tests: the device, GPU-vs-CPU comparison, and
+//! decoding the pictures the renderer writes.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
 use std::sync::OnceLock;
@@ -126,4 +127,17 @@ pub fn small_device() -> (wgpu::Device, wgpu::Queue) {
         ..Default::default()
     }))
     .expect("a device with lower limits")
+}
+
+/// Decodes an RGBA PNG the renderer wrote: its size and RGBA bytes.
+pub fn decode_png(path: &std::path::Path) -> (u32, u32, Vec<u8>) {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .unwrap_or_else(|e| panic!("{} does not decode: {e}", path.display()));
+    let mut rgba = vec![0; reader.output_buffer_size().expect("a PNG size")];
+    let info = reader.next_frame(&mut rgba).expect("a PNG frame");
+    assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
+    rgba.truncate(info.buffer_size());
+    (info.width, info.height, rgba)
 }
