@@ -377,6 +377,10 @@ pub struct Workspace<R> {
     pub coarse: Option<Coarse<R>>,
     /// Each pinned particle's goal (the GPU's `W_PIN_TARGET`).
     pub pin_goal: Vec<motion::PinGoal<R>>,
+    /// Per particle: whether it touches a collider at the step's start
+    /// (the semi-implicit right-hand side asks for both ends of every
+    /// spring; the GPU works it out where it needs it).
+    pub touching: Vec<bool>,
     /// The steps finished (the GPU's per-particle `W_CLOCK`).
     pub clock: u32,
 }
@@ -417,6 +421,7 @@ impl<R: Real> Workspace<R> {
             scratch: Vec::new(),
             coarse: None,
             pin_goal: try_vec(particles, motion::PinGoal::default(), WHAT)?,
+            touching: try_vec(particles, false, WHAT)?,
             clock: 0,
         })
     }

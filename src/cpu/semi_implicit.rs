@@ -67,21 +67,22 @@ fn touching<R: Real>(sys: &System<R>, x: Vec3<R>, clock: u32) -> bool {
 /// as if it had zero rest length. A spring with an end on a collider keeps
 /// `k I` either way: the constant filter cannot hold a contact as the
 /// implicit integrator's CG does, and without that resistance a cloth
-/// landing on a collider at a large step diverges at contact.
+/// landing on a collider at a large step diverges at contact (`touching`:
+/// per particle, as [`touching`] says at the step's start).
 fn jacobian_v<R: Real>(
     sys: &System<R>,
     x: &[Vec3<R>],
     v: &[Vec3<R>],
     p: usize,
     rotation_free: bool,
-    clock: u32,
+    touching: &[bool],
 ) -> Vec3<R> {
     let mut acc = Vec3::ZERO;
     for &e in sys.spring_adj.of(p) {
         let sp = &sys.springs[(e >> 1) as usize];
         let (i, j) = (sp.i as usize, sp.j as usize);
         let (dir, l) = spring_frame(x[i], x[j]);
-        let c = if rotation_free && !touching(sys, x[i], clock) && !touching(sys, x[j], clock) {
+        let c = if rotation_free && !touching[i] && !touching[j] {
             transverse(sp.rest, l)
         } else {
             R::ONE
@@ -101,14 +102,21 @@ fn jacobian_v<R: Real>(
 /// from `jacobian_v`, per-spring compensated when the torque
 /// compensation is on); `Δv` zeroed where `zero_dv` (the dense filter;
 /// the GPU's CG filter keeps it as its warm start: the `keep` variant).
-/// Reads `x`, `v`, `per_spring`; writes `force`, `per_triangle` (wind),
+/// Reads `x`, `v`, `per_spring`; writes `touching` (compensated), `force`, `per_triangle` (wind),
 /// `rhs` (`W_RHS`, w 0) and `dv`.
 pub fn rhs<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>, zero_dv: bool) {
     let dt = sys.dt;
     wind_forces(sys, &st.x, &st.v, &mut w.per_triangle);
+    if sys.torque_compensation {
+        // Once per particle, not once per spring end as the kernel does
+        // (the same answers: a pure function of the particle's position).
+        for (t, &x) in w.touching.iter_mut().zip(&st.x) {
+            *t = touching(sys, x, w.clock);
+        }
+    }
     for p in 0..st.x.len() {
         w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, p);
-        let kv = jacobian_v(sys, &st.x, &st.v, p, sys.torque_compensation, w.clock);
+        let kv = jacobian_v(sys, &st.x, &st.v, p, sys.torque_compensation, &w.touching);
         w.rhs[p] = (w.force[p] + kv * dt) * dt;
         if zero_dv {
             w.dv[p] = Vec3::ZERO;
