@@ -27,7 +27,7 @@ use crate::kernel_config::WORKGROUP;
 use crate::params::Integrator;
 
 /// What the plan depends on besides the features.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct PlanInputs {
     /// The integrator.
     pub integrator: Integrator,

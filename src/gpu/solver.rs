@@ -125,6 +125,8 @@ pub(super) fn plan_inputs(
 /// cannot meet a pipeline that was not built.
 #[derive(Debug)]
 pub(super) struct Prepared {
+    /// What the plan was built from.
+    inputs: PlanInputs,
     /// The step plan.
     pub(super) steps: Plan<Entry>,
     /// The vertex-normal pass.
@@ -148,6 +150,7 @@ impl Prepared {
                 .ok_or_else(|| Error::Gpu(format!("no pipeline was built for {d:?}")))
         };
         Ok(Prepared {
+            inputs: *inputs,
             steps: plan.try_map(take)?,
             normals: take(&normals)?.1,
         })
@@ -412,9 +415,14 @@ impl GpuSolver {
         )
     }
 
-    /// Rebuilds the step plan of the current scene (see [`Prepared`]).
+    /// Rebuilds the step plan of the current scene (see [`Prepared`]),
+    /// unless nothing it depends on changed: a game moving its colliders
+    /// every frame keeps the plan it has.
     pub(super) fn prepare(&mut self) -> Result<()> {
-        self.prepared = Prepared::new(&self.kernels, &self.plan_inputs())?;
+        let inputs = self.plan_inputs();
+        if inputs != self.prepared.inputs {
+            self.prepared = Prepared::new(&self.kernels, &inputs)?;
+        }
         Ok(())
     }
 
