@@ -154,6 +154,18 @@ pub enum Error {
         /// what is allowed.
         message: String,
     },
+
+    /// What went wrong with one cloth of a
+    /// [`GpuBatch`](crate::gpu::GpuBatch) (its state stopped being finite,
+    /// its read-back failed), the error itself as its source (shown after
+    /// it by `{:#}` and error reporters, as [`Error::Io`]'s is).
+    #[error("cloth {cloth} of the batch")]
+    InBatch {
+        /// The cloth's index ([`ClothId::index`](crate::gpu::ClothId::index)).
+        cloth: u32,
+        /// What went wrong.
+        source: Box<Error>,
+    },
 }
 
 /// `Result` with the library's [`Error`].

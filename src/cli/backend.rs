@@ -12,7 +12,7 @@ use wgcloth::gpu::{Profile, Profiler, Timestamps};
 use wgcloth::real::Vec3;
 use wgcloth::{CpuSolver, GpuContext, GpuSolver, Integrator, Model, Params, Real, StepStats};
 
-use super::summary::{CgDetail, CgSummary, FixupSummary, SolverStats};
+use super::summary::{BatchSummary, CgDetail, CgSummary, FixupSummary, SolverStats};
 
 /// Most steps one GPU submission records. Bounds the command buffer (the
 /// steps are recorded, not looped on the device); `wgcloth run` asks for
@@ -62,6 +62,11 @@ pub trait Solver {
     /// The GPU profile of the steps so far (`--profile`); `None` when not
     /// profiling.
     fn profile(&self) -> Option<Profile> {
+        None
+    }
+    /// With `--batch`: the cloths stepped and the batch's dispatches per
+    /// step; `None` for a lone cloth.
+    fn batch(&self) -> Option<BatchSummary> {
         None
     }
 }
@@ -218,16 +223,11 @@ impl Gpu {
         } else {
             wgpu::Features::empty()
         };
-        let mut context = GpuContext::with_features(adapter, features)?;
+        let context = open_device(adapter, features)?;
         let profiler = profile
             .map(|most| Profiler::new(Timestamps::best(context.device.features()).min(most)));
-        if let Some(dir) = wgcloth::gpu::pipeline_cache::default_dir() {
-            context.keep_pipelines(&dir);
-        }
         let solver = GpuSolver::with_kernels(context.kernels(), &context.queue, model, params)?;
-        if let Err(e) = context.save_pipelines() {
-            eprintln!("note: compiled pipelines not kept for the next run: {e}");
-        }
+        keep_pipelines(&context);
         Ok(Gpu {
             context,
             solver,
@@ -235,6 +235,25 @@ impl Gpu {
             cg_max: 0,
             profiler,
         })
+    }
+}
+
+/// Opens the adapter `adapter` names (see [`GpuContext::new`]) with
+/// `features`, its kernel library seeded from the pipelines kept by
+/// earlier runs.
+pub fn open_device(adapter: Option<&str>, features: wgpu::Features) -> wgcloth::Result<GpuContext> {
+    let mut context = GpuContext::with_features(adapter, features)?;
+    if let Some(dir) = wgcloth::gpu::pipeline_cache::default_dir() {
+        context.keep_pipelines(&dir);
+    }
+    Ok(context)
+}
+
+/// Keeps the pipelines compiled so far for the next run (a failure is
+/// only a note: the next run compiles them again).
+pub fn keep_pipelines(context: &GpuContext) {
+    if let Err(e) = context.save_pipelines() {
+        eprintln!("note: compiled pipelines not kept for the next run: {e}");
     }
 }
 
@@ -288,18 +307,24 @@ impl Solver for Gpu {
     }
 
     fn stats(&self, params: &Params) -> SolverStats {
-        SolverStats {
-            cg: (params.integrator == Integrator::Implicit).then(|| CgSummary {
-                max: self.cg_max,
-                cap: params.implicit.max_iterations,
-                tolerance: params.implicit.tolerance,
-                detail: CgDetail::Last(self.status.map(|s| s.cg_iterations)),
-            }),
-            fixup: (params.integrator != Integrator::Implicit).then_some(FixupSummary::GpuJacobi {
-                iterations: params.fixup.iterations,
-                last: self.status.map(|s| s.fixup_passes),
-            }),
-            filter: None,
-        }
+        gpu_stats(params, self.cg_max, self.status)
+    }
+}
+
+/// What a GPU cloth reports: `cg_max`, the most CG iterations of any step,
+/// and `status`, what the device reported after the last batch of steps.
+pub fn gpu_stats(params: &Params, cg_max: u32, status: Option<StepStats>) -> SolverStats {
+    SolverStats {
+        cg: (params.integrator == Integrator::Implicit).then(|| CgSummary {
+            max: cg_max,
+            cap: params.implicit.max_iterations,
+            tolerance: params.implicit.tolerance,
+            detail: CgDetail::Last(status.map(|s| s.cg_iterations)),
+        }),
+        fixup: (params.integrator != Integrator::Implicit).then_some(FixupSummary::GpuJacobi {
+            iterations: params.fixup.iterations,
+            last: status.map(|s| s.fixup_passes),
+        }),
+        filter: None,
     }
 }

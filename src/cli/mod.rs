@@ -4,6 +4,7 @@
 //! `docs/cli.md`): scripts run parameter sweeps through them.
 
 mod backend;
+mod batch;
 mod bench;
 mod chart;
 mod interrupt;
@@ -318,6 +319,13 @@ struct RunArgs {
     /// prints (default: the best the adapter has).
     #[arg(long, value_enum, requires = "profile", hide = true)]
     profile_timestamps: Option<TimestampsArg>,
+
+    /// With `--backend gpu`: step N copies of the scene's cloth together in
+    /// one batch (1 ≤ N ≤ 65535). The outputs and the summary's state are
+    /// copy 0's, the same as `--batch 1`'s; the summary adds cloth-steps
+    /// per second and the batch's dispatches per step.
+    #[arg(long, value_name = "N", value_parser = parse_copies, allow_negative_numbers = true)]
+    batch: Option<u32>,
 }
 
 /// `--profile-timestamps`: the profiler's timing, best first.
@@ -429,6 +437,16 @@ fn parse_trace_every(s: &str) -> Result<u64, String> {
     parse_whole(s, 1..=u64::MAX, "a whole number of steps ≥ 1")
 }
 
+/// `--batch`: at least one copy, at most [`batch::MAX_COPIES`].
+fn parse_copies(s: &str) -> Result<u32, String> {
+    let allowed = format!(
+        "a whole number of copies, 1 ≤ N ≤ {} (a workgroup per cloth in one dispatch)",
+        batch::MAX_COPIES
+    );
+    let n = parse_whole(s, 1..=batch::MAX_COPIES, &allowed)?;
+    u32::try_from(n).map_err(|_| format!("must be {allowed}"))
+}
+
 /// `--frames`: at least one frame (none would write nothing and still
 /// succeed).
 fn parse_frames(s: &str) -> Result<u32, String> {
@@ -475,6 +493,8 @@ fn exit_status(err: &anyhow::Error) -> u8 {
         }
         if let Some(e) = cause.downcast_ref::<wgcloth::Error>() {
             return match e {
+                // The cloth's own error follows in the chain.
+                wgcloth::Error::InBatch { .. } => continue,
                 wgcloth::Error::NonFinite { .. } | wgcloth::Error::Diverged { .. } => EXIT_BLEW_UP,
                 wgcloth::Error::NoAdapter { .. } => EXIT_NO_ADAPTER,
                 wgcloth::Error::Interrupted => EXIT_INTERRUPTED,

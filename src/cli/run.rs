@@ -10,6 +10,7 @@ use wgcloth::params::format_number;
 use wgcloth::{Model, Params, Real, Scene};
 
 use super::backend::{Cpu, Gpu, Solver};
+use super::batch::GpuCopies;
 use super::interrupt;
 use super::output::{commit_all, same_file, write_positions, AtomicFile, Trace};
 use super::profile;
@@ -66,10 +67,16 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         trace: args.trace_out.as_deref(),
         trace_every: args.trace_every,
     };
-    let outcome = match (args.backend, precision) {
-        (Backend::Cpu, Precision::F64) => run.simulate(Cpu::<f64>::new(model, params)?)?,
-        (Backend::Cpu, Precision::F32) => run.simulate(Cpu::<f32>::new(model, params)?)?,
-        (Backend::Gpu, _) => {
+    let outcome = match (args.backend, precision, args.batch) {
+        (Backend::Cpu, Precision::F64, _) => run.simulate(Cpu::<f64>::new(model, params)?)?,
+        (Backend::Cpu, Precision::F32, _) => run.simulate(Cpu::<f32>::new(model, params)?)?,
+        (Backend::Gpu, _, Some(copies)) => run.simulate(GpuCopies::new(
+            args.adapter.as_deref(),
+            model,
+            params,
+            copies,
+        )?)?,
+        (Backend::Gpu, _, None) => {
             let profile = args.profile.then(|| {
                 args.profile_timestamps
                     .map_or(Timestamps::InsidePasses, Timestamps::from)
@@ -111,7 +118,8 @@ fn print_passes(passes: &[(&str, u32, u32)], backend: &str) {
 /// The solver's precision: `--precision` on the CPU (default f64); f32 on
 /// the GPU, which refuses an explicit `--precision f64` rather than run
 /// something other than what was asked for. Also refuses `--adapter` and
-/// `--profile` with the CPU backend, where they would mean nothing.
+/// `--profile` with the CPU backend, where they would mean nothing, and
+/// `--batch` there too (and with `--profile`).
 fn precision_for_backend(args: &RunArgs) -> Result<Precision, UsageError> {
     match (args.backend, args.precision) {
         (Backend::Cpu, _) if args.adapter.is_some() => Err(UsageError(
@@ -119,6 +127,13 @@ fn precision_for_backend(args: &RunArgs) -> Result<Precision, UsageError> {
         )),
         (Backend::Cpu, _) if args.profile => Err(UsageError(
             "--profile only applies to --backend gpu: it times GPU kernels".to_string(),
+        )),
+        (Backend::Cpu, _) if args.batch.is_some() => Err(UsageError(
+            "--batch only applies to --backend gpu: it steps copies of the cloth in one GPU batch"
+                .to_string(),
+        )),
+        (Backend::Gpu, _) if args.batch.is_some() && args.profile => Err(UsageError(
+            "--profile times one cloth's kernels: leave out --batch to profile".to_string(),
         )),
         (Backend::Cpu, p) => Ok(p.unwrap_or(Precision::F64)),
         (Backend::Gpu, None | Some(Precision::F32)) => Ok(Precision::F32),
@@ -211,6 +226,7 @@ impl Run<'_> {
         let passes = solver.passes();
         let profile = solver.profile();
         let stats = solver.stats(self.params);
+        let batch = solver.batch();
         let s = solver.state()?;
         let mut outputs = Vec::new();
         if let Some(mut file) = positions {
@@ -233,6 +249,7 @@ impl Run<'_> {
             max_strain: diagnostics::max_stretch_strain(self.model, &s.x),
             energy: diagnostics::energy(self.model, self.params, &s.x, &s.v),
             stats,
+            batch,
         })
     }
 }

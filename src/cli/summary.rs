@@ -56,6 +56,17 @@ pub struct Outcome {
     pub energy: Energy,
     /// What the solver counted.
     pub stats: SolverStats,
+    /// `--batch`: the batch the cloth was stepped in.
+    pub batch: Option<BatchSummary>,
+}
+
+/// A run of `--batch N` copies of the cloth in one batch.
+#[derive(Clone, Copy, Debug)]
+pub struct BatchSummary {
+    /// Cloths stepped together (the run's own counted).
+    pub cloths: u64,
+    /// Compute dispatches per step of the whole batch.
+    pub dispatches_per_step: f64,
 }
 
 /// What a solver counted over a run, per integrator.
@@ -159,6 +170,24 @@ impl Display for Summary<'_> {
             "n/a".to_string()
         };
         row(f, "steps per second", &rate)?;
+        if let Some(b) = &o.batch {
+            let rate = (b.cloths * o.steps) as f64 / o.stepping.as_secs_f64();
+            let rate = if rate.is_finite() {
+                format!("{rate:.0} cloth-steps per second ({what})")
+            } else {
+                "n/a".to_string()
+            };
+            row(
+                f,
+                "batch",
+                &format!(
+                    "{} cloths, dispatches per step: {}",
+                    b.cloths,
+                    sig_dispatches(b.dispatches_per_step)
+                ),
+            )?;
+            row(f, "batch rate", &rate)?;
+        }
         let strain = if o.max_strain.is_finite() {
             format!("{:.3} % (stretch springs)", 100.0 * o.max_strain)
         } else {
@@ -251,6 +280,16 @@ fn write_cg(f: &mut Formatter<'_>, cg: &CgSummary) -> fmt::Result {
     }
 }
 
+/// Dispatches per step: whole when they are (every step recorded the
+/// same), else with two decimals.
+fn sig_dispatches(d: f64) -> String {
+    if d.fract() == 0.0 {
+        format!("{d:.0}")
+    } else {
+        format!("{d:.2}")
+    }
+}
+
 /// A per-step mean, or `n/a` for a run of zero steps.
 fn mean(m: Option<f64>) -> String {
     m.map_or_else(|| "n/a".to_string(), |m| format!("{m:.2}"))
@@ -313,6 +352,7 @@ mod tests {
                     }),
                     filter: None,
                 },
+                batch: None,
             },
         };
         let text = summary.to_string();

@@ -4,11 +4,14 @@
 //! - [`GpuSolver`] borrows the host's device and queue, records steps into
 //!   the host's encoder and exposes its position, normal and index buffers
 //!   for drawing;
+//! - [`GpuBatch`] steps many cloths together, each drawable from the
+//!   batch's buffers;
 //! - [`GpuContext`] opens an adapter and device for tools and tests (the
 //!   solver itself never does);
 //! - [`GpuSolver::tuning`] and [`GpuSolver::tuning_mut`] inspect and set
 //!   the knobs benchmarks and tests use ([`GpuTuning`], [`GpuTuningMut`]).
 
+mod batch;
 mod buffers;
 mod build;
 mod cg_budget;
@@ -38,6 +41,7 @@ mod traffic;
 mod tuning;
 mod velocity;
 
+pub use batch::{ClothId, DrawRange, GpuBatch};
 pub use context::{GpuContext, BACKEND_NAMES};
 pub(crate) use errors::guarded;
 pub use grid::GridBlock;

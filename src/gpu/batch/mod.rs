@@ -1,0 +1,323 @@
+//! A batch of cloths stepped together: [`GpuBatch`].
+//!
+//! Every cloth the workgroup kernels can step (see [`StepPath`]) lives in
+//! the batch's shared buffers at offsets of its own (`table.rs`; where in
+//! each buffer: `ranges.rs`), with an entry in the cloth table the kernels
+//! read: one dispatch per integrator present steps all of them, a
+//! workgroup per cloth. Any other cloth (beyond the per-workgroup limit, or
+//! an integrator without a workgroup kernel) is held as a [`GpuSolver`] of
+//! its own on the same kernel library and recorded into the same encoder,
+//! so a batch takes any cloth.
+
+mod control;
+#[expect(dead_code, reason = "the cloth table that uses it is built next")]
+pub(crate) mod ranges;
+
+use std::ops::Range;
+
+use super::kernels::GpuKernels;
+use super::solver::{GpuSolver, GpuState};
+use crate::error::{Error, Result};
+use crate::model::Model;
+use crate::params::Params;
+use crate::stats::StepStats;
+
+/// A cloth of a [`GpuBatch`], from [`GpuBatch::add`]. Its index is its slot
+/// in the batch; a removed cloth's id stays invalid when its slot is
+/// reused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ClothId {
+    slot: u32,
+    generation: u32,
+}
+
+impl ClothId {
+    /// The cloth's slot: its workgroup in the batch's dispatches, and the
+    /// number an error names.
+    pub fn index(self) -> u32 {
+        self.slot
+    }
+}
+
+/// Which buffers and which part of them draw one cloth of a batch
+/// ([`GpuBatch::draw_range`]): `draw_indexed(indices, base_vertex, 0..1)`
+/// with `positions` (and `normals`) as vertex buffers and `index_buffer`
+/// as the index buffer.
+#[derive(Clone, Debug)]
+pub struct DrawRange<'a> {
+    /// Positions (`vec4<f32>`, xyz in m), stride 16.
+    pub positions: &'a wgpu::Buffer,
+    /// Vertex normals (`vec4<f32>`), valid after
+    /// [`GpuBatch::encode_normals`].
+    pub normals: &'a wgpu::Buffer,
+    /// Triangle indices (`u32`), relative to `base_vertex`.
+    pub index_buffer: &'a wgpu::Buffer,
+    /// The cloth's indices in `index_buffer`.
+    pub indices: Range<u32>,
+    /// The cloth's first vertex in `positions`.
+    pub base_vertex: i32,
+}
+
+/// A cloth of the batch.
+#[derive(Debug)]
+enum Member {
+    /// Held as a solver of its own.
+    Solo(Box<GpuSolver>),
+}
+
+/// A slot of the batch: its cloth, `None` once removed (free for a later
+/// add), and how many cloths it has held (so an old id is refused).
+#[derive(Debug)]
+struct Slot {
+    generation: u32,
+    member: Option<Member>,
+}
+
+/// Many cloths on a wgpu device the host owns, stepped together.
+///
+/// Each cloth is made from its own [`Model`] and [`Params`] (sizes,
+/// meshes, integrators and parameters may all differ) and gets a
+/// [`ClothId`]. Stepping records every cloth's steps into one encoder
+/// ([`GpuBatch::encode_steps`]) or records and submits them
+/// ([`GpuBatch::step`]); [`GpuBatch::check`] reads every cloth's status
+/// and names the first cloth whose state stopped being finite. Adding and
+/// removing cloths between steps keeps the others' state and compiles no
+/// pipeline the batch already has.
+#[derive(Debug)]
+pub struct GpuBatch {
+    kernels: GpuKernels,
+    queue: wgpu::Queue,
+    slots: Vec<Slot>,
+    /// Dispatches recorded by the last `encode_steps`, and its steps.
+    recorded: (u32, u32),
+}
+
+impl GpuBatch {
+    /// An empty batch on the host's `device` and `queue`, compiling its
+    /// pipelines into a kernel library of its own.
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> GpuBatch {
+        GpuBatch::with_kernels(&GpuKernels::new(device), queue)
+    }
+
+    /// An empty batch on the device of `kernels`, taking its pipelines from
+    /// that library (shared with the solvers and batches built with it).
+    pub fn with_kernels(kernels: &GpuKernels, queue: &wgpu::Queue) -> GpuBatch {
+        GpuBatch {
+            kernels: kernels.clone(),
+            queue: queue.clone(),
+            slots: Vec::new(),
+            recorded: (0, 0),
+        }
+    }
+
+    /// Adds a cloth, refusing (before allocating anything) what
+    /// [`GpuSolver::new`] refuses: invalid parameters, a cloth beyond the
+    /// device's limits or the host's memory. The other cloths are not
+    /// touched. Its slot is the first free one.
+    pub fn add(&mut self, model: &Model, params: &Params) -> Result<ClothId> {
+        let solver = GpuSolver::with_kernels(&self.kernels, &self.queue, model, params)?;
+        let member = Member::Solo(Box::new(solver));
+        let free = self.slots.iter().position(|s| s.member.is_none());
+        let slot = match free {
+            Some(k) => k,
+            None => {
+                let k = self.slots.len();
+                u32::try_from(k).map_err(|_| Error::InvalidParameter {
+                    key: "batch".into(),
+                    allowed: format!("at most {} cloths", u32::MAX),
+                    got: k.to_string(),
+                })?;
+                self.slots.push(Slot {
+                    generation: 0,
+                    member: None,
+                });
+                k
+            }
+        };
+        let s = &mut self.slots[slot];
+        s.generation = s.generation.wrapping_add(1);
+        s.member = Some(member);
+        Ok(ClothId {
+            slot: slot as u32,
+            generation: s.generation,
+        })
+    }
+
+    /// Removes a cloth; its slot and buffers are reused by a later add.
+    /// An id that is not in the batch is an error.
+    pub fn remove(&mut self, id: ClothId) -> Result<()> {
+        self.member(id)?;
+        self.slots[id.slot as usize].member = None;
+        Ok(())
+    }
+
+    /// The cloth of `id`, or an error naming it.
+    fn member(&self, id: ClothId) -> Result<&Member> {
+        match self.slots.get(id.slot as usize) {
+            Some(Slot {
+                generation,
+                member: Some(m),
+            }) if *generation == id.generation => Ok(m),
+            _ => Err(self.unknown(id)),
+        }
+    }
+
+    /// The cloth of `id`, mutably.
+    fn member_mut(&mut self, id: ClothId) -> Result<&mut Member> {
+        let unknown = self.unknown(id);
+        match self.slots.get_mut(id.slot as usize) {
+            Some(Slot {
+                generation,
+                member: Some(m),
+            }) if *generation == id.generation => Ok(m),
+            _ => Err(unknown),
+        }
+    }
+
+    /// The error for an id that is not in the batch.
+    fn unknown(&self, id: ClothId) -> Error {
+        Error::InvalidParameter {
+            key: "cloth".into(),
+            allowed: format!("a cloth of this batch ({} now)", self.cloth_count()),
+            got: format!("cloth {} (removed, or of another batch)", id.slot),
+        }
+    }
+
+    /// The cloths in the batch, in slot order.
+    pub fn cloths(&self) -> Vec<ClothId> {
+        self.slots
+            .iter()
+            .zip(0u32..)
+            .filter(|(s, _)| s.member.is_some())
+            .map(|(s, slot)| ClothId {
+                slot,
+                generation: s.generation,
+            })
+            .collect()
+    }
+
+    /// Cloths in the batch.
+    pub fn cloth_count(&self) -> usize {
+        self.cloths().len()
+    }
+
+    /// Records `n` steps of every cloth into `encoder` without submitting.
+    pub fn encode_steps(&mut self, encoder: &mut wgpu::CommandEncoder, n: u32) {
+        let mut dispatches = 0.0;
+        for s in &mut self.slots {
+            if let Some(Member::Solo(solver)) = &mut s.member {
+                solver.encode_steps(encoder, n);
+                dispatches += solver.dispatches_per_step() * f64::from(n);
+            }
+        }
+        // Each solver records whole dispatches per step.
+        self.recorded = (dispatches.round() as u32, n);
+    }
+
+    /// Records and submits `n` steps of every cloth in one encoder, then
+    /// [`GpuBatch::check`]s them.
+    pub fn step(&mut self, n: u32) -> Result<Vec<(ClothId, StepStats)>> {
+        let device = self.kernels.device().clone();
+        super::guarded(&device, "stepping the batch", None, || {
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("wgcloth.batch.step"),
+            });
+            self.encode_steps(&mut encoder, n);
+            self.queue.submit([encoder.finish()]);
+            Ok(())
+        })?;
+        self.check()
+    }
+
+    /// Reads every cloth's status (see [`GpuSolver::check`]): its
+    /// statistics, or an error naming the first cloth, in slot order,
+    /// whose state stopped being finite, and the step.
+    pub fn check(&mut self) -> Result<Vec<(ClothId, StepStats)>> {
+        let ids = self.cloths();
+        let mut out = Vec::with_capacity(ids.len());
+        for id in ids {
+            let stats = match self.member_mut(id)? {
+                Member::Solo(solver) => solver.check(),
+            };
+            out.push((id, stats.map_err(|e| in_cloth(id, e))?));
+        }
+        Ok(out)
+    }
+
+    /// Reads one cloth's positions and velocities back (blocking); fails
+    /// if its state stopped being finite.
+    pub fn read_state(&self, id: ClothId) -> Result<GpuState> {
+        match self.member(id)? {
+            Member::Solo(solver) => solver.read_state().map_err(|e| in_cloth(id, e)),
+        }
+    }
+
+    /// Records the vertex-normal pass of every cloth (for rendering).
+    pub fn encode_normals(&self, encoder: &mut wgpu::CommandEncoder) {
+        for s in &self.slots {
+            if let Some(Member::Solo(solver)) = &s.member {
+                solver.encode_normals(encoder);
+            }
+        }
+    }
+
+    /// The buffers and ranges that draw cloth `id` (see [`DrawRange`]).
+    pub fn draw_range(&self, id: ClothId) -> Result<DrawRange<'_>> {
+        match self.member(id)? {
+            Member::Solo(solver) => Ok(DrawRange {
+                positions: solver.positions_buffer(),
+                normals: solver.normals_buffer(),
+                index_buffer: solver.index_buffer(),
+                indices: 0..solver.index_count(),
+                base_vertex: 0,
+            }),
+        }
+    }
+
+    /// Compute dispatches per step of the whole batch in the last
+    /// [`GpuBatch::encode_steps`] call.
+    pub fn dispatches_per_step(&self) -> f64 {
+        let (d, s) = self.recorded;
+        if s == 0 {
+            0.0
+        } else {
+            f64::from(d) / f64::from(s)
+        }
+    }
+
+    /// The passes of one step of the whole batch, by kernel in order of
+    /// first appearance: `(kernel, dispatches per step, invocations per
+    /// dispatch)`, the dispatches of cloths that share a kernel and size
+    /// added up (what `wgcloth run --batch N --verbose` prints).
+    pub fn describe_step(&self) -> Vec<(&'static str, u32, u32)> {
+        let mut out: Vec<(&'static str, u32, u32)> = Vec::new();
+        for s in &self.slots {
+            let passes = match &s.member {
+                Some(Member::Solo(solver)) => solver.describe_step(),
+                None => continue,
+            };
+            for (kernel, count, items) in passes {
+                match out.iter_mut().find(|p| p.0 == kernel && p.2 == items) {
+                    Some(p) => p.1 += count,
+                    None => out.push((kernel, count, items)),
+                }
+            }
+        }
+        out
+    }
+
+    /// Steps recorded so far by cloth `id` (cloths added later have fewer).
+    pub fn steps_recorded(&self, id: ClothId) -> Result<u64> {
+        match self.member(id)? {
+            Member::Solo(solver) => Ok(solver.steps_recorded()),
+        }
+    }
+}
+
+/// `e`, said of cloth `id`.
+fn in_cloth(id: ClothId, e: Error) -> Error {
+    Error::InBatch {
+        cloth: id.slot,
+        source: Box::new(e),
+    }
+}
