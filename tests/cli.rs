@@ -611,3 +611,73 @@ fn bench_stability_writes_its_csv_chart_and_table() {
     let svg = fs::read_to_string(dir.join("stability.svg")).expect("stability.svg");
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
 }
+
+#[test]
+fn batch_copy_zero_writes_what_batch_one_writes() {
+    let dir = TempDir::new("batch");
+    let scene = dir.write("small.toml", &small_jacobi_scene());
+    // 12 steps: a divergence check and a trace row between submits.
+    let run = |copies: &str| {
+        let trace = dir.join(&format!("trace-{copies}.csv"));
+        let positions = dir.join(&format!("positions-{copies}.txt"));
+        let extra = [
+            "--backend",
+            "gpu",
+            "--batch",
+            copies,
+            "--trace-out",
+            path_str(&trace),
+            "--trace-every",
+            "5",
+        ];
+        let (summary, _) = run_positions(&scene, 12, &positions, &extra);
+        let read = |p: &Path| fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        (summary, read(&positions), read(&trace))
+    };
+    let (one, positions_one, trace_one) = run("1");
+    let (three, positions_three, trace_three) = run("3");
+    assert!(positions_one == positions_three, "positions differ");
+    assert!(trace_one == trace_three, "traces differ");
+    assert!(three.contains("3 cloths, dispatches per step: "), "{three}");
+    assert!(one.contains("1 cloths, dispatches per step: "), "{one}");
+    assert!(three.contains(" cloth-steps per second"), "{three}");
+}
+
+#[test]
+fn bad_batch_values_are_refused_before_anything_is_written() {
+    let dir = TempDir::new("bad-batch");
+    let out_file = dir.join("out.txt");
+    let out_path = path_str(&out_file);
+    for (args, needle) in [
+        (vec!["--backend", "gpu", "--batch", "0"], "1 ≤ N ≤ 65535"),
+        (vec!["--backend", "gpu", "--batch", "-2"], "1 ≤ N ≤ 65535"),
+        (vec!["--backend", "gpu", "--batch", "two"], "1 ≤ N ≤ 65535"),
+        (
+            vec!["--backend", "gpu", "--batch", "65536"],
+            "1 ≤ N ≤ 65535",
+        ),
+        (
+            vec!["--batch", "2"],
+            "--batch only applies to --backend gpu",
+        ),
+        (
+            vec!["--backend", "gpu", "--batch", "2", "--profile"],
+            "leave out --batch",
+        ),
+    ] {
+        let mut full = vec![
+            "run",
+            "hanging",
+            "--steps",
+            "1",
+            "--positions-out",
+            out_path,
+        ];
+        full.extend(&args);
+        let out = wgcloth(&full);
+        assert_status(&out, EXIT_INVALID);
+        let err = stderr(&out);
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(dir.files().is_empty(), "{args:?} wrote {:?}", dir.files());
+    }
+}

@@ -1,0 +1,235 @@
+//! `GpuBatch`: cloths stepped together give each cloth the bits it gets
+//! alone; adding and removing cloths between steps keeps the others'
+//! state; a cloth the workgroup kernels cannot step is stepped all the
+//! same. GPU tests on lavapipe in CI.
+
+mod gpu_common;
+
+use gpu_common::{busy_params, corners, gpu, grid};
+use wgcloth::gpu::{ClothId, GpuBatch, GpuSolver, GpuState};
+const WORKGROUP_STEP_MAX_PARTICLES: u32 = 4096;
+use wgcloth::params::{FixupMethod, Integrator};
+use wgcloth::{Model, Params, Scene, StepStats};
+
+/// Steps of the comparisons: enough for the falling cloths to reach the
+/// busy parameters' ground and sphere and to stretch past the fix-up's
+/// limit, so every phase of the step has moved something.
+const STEPS: u32 = 50;
+
+/// A cloth of a test: its model and parameters.
+struct Cloth {
+    name: &'static str,
+    model: Model,
+    params: Params,
+}
+
+/// Different sizes, a mesh, different stiffness, mass and dt, every
+/// integrator (the workgroup kernels take those they can; the batch holds
+/// the others as solvers of their own).
+fn mixed_cloths() -> Vec<Cloth> {
+    let mut cloths = Vec::new();
+    let explicit = busy_params(Integrator::Explicit);
+    cloths.push(Cloth {
+        name: "explicit 9²",
+        model: grid(9, 9, corners(), &explicit),
+        params: explicit.clone(),
+    });
+    let mut stiff = explicit.clone();
+    stiff.springs[0].stiffness *= 4.0;
+    stiff.dt = 5e-4;
+    stiff.wind = None;
+    let mut heavy = grid(13, 11, corners(), &stiff);
+    for m in &mut heavy.mass {
+        *m *= 3.0;
+    }
+    cloths.push(Cloth {
+        name: "explicit 13×11, stiffer, heavier, dt/2, no wind",
+        model: heavy,
+        params: stiff,
+    });
+    let mesh = Scene::resolve("scenes/tablecloth.toml").expect("the tablecloth scene");
+    let mut mesh_params = mesh.params.clone();
+    mesh_params.fixup.method = FixupMethod::Jacobi;
+    cloths.push(Cloth {
+        name: "tablecloth mesh",
+        model: mesh.model().expect("the tablecloth mesh"),
+        params: mesh_params,
+    });
+    for integrator in [Integrator::SemiImplicit, Integrator::Implicit] {
+        let p = busy_params(integrator);
+        cloths.push(Cloth {
+            name: if integrator == Integrator::Implicit {
+                "implicit 9²"
+            } else {
+                "semi-implicit 9²"
+            },
+            model: grid(9, 9, corners(), &p),
+            params: p,
+        });
+    }
+    cloths
+}
+
+/// A lone solver of `cloth`, stepped `steps` steps.
+fn alone(cloth: &Cloth, steps: u32) -> (GpuState, StepStats) {
+    let ctx = gpu();
+    let mut solver =
+        GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &cloth.model, &cloth.params)
+            .unwrap_or_else(|e| panic!("{}: lone solver: {e}", cloth.name));
+    let stats = solver
+        .step(steps)
+        .unwrap_or_else(|e| panic!("{}: lone run: {e}", cloth.name));
+    let state = solver
+        .read_state()
+        .unwrap_or_else(|e| panic!("{}: lone read-back: {e}", cloth.name));
+    (state, stats)
+}
+
+/// Panics unless `got` equals `want` bit for bit, naming the first
+/// particle that differs.
+fn assert_bits(what: &str, got: &GpuState, want: &GpuState) {
+    assert_eq!(got.x.len(), want.x.len(), "{what}: particle count");
+    let bits = |v: &[wgcloth::glam::Vec3]| -> Vec<[u32; 3]> {
+        v.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+    };
+    for (name, g, w) in [("x", &got.x, &want.x), ("v", &got.v, &want.v)] {
+        let (gb, wb) = (bits(g), bits(w));
+        if let Some(p) = (0..gb.len()).find(|&p| gb[p] != wb[p]) {
+            panic!(
+                "{what}: {name} of particle {p} is {:?} batched, {:?} alone",
+                g[p], w[p]
+            );
+        }
+    }
+}
+
+/// The stats a comparison holds equal (the CG budget's hits count checks,
+/// which the batch and the lone solver make as often here).
+fn stats_eq(what: &str, got: &StepStats, want: &StepStats) {
+    assert_eq!(got, want, "{what}: StepStats batched vs alone");
+}
+
+#[test]
+fn a_mixed_batch_steps_each_cloth_as_it_steps_alone() {
+    let cloths = mixed_cloths();
+    let ctx = gpu();
+    let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+    let ids: Vec<ClothId> = cloths
+        .iter()
+        .map(|c| {
+            batch
+                .add(&c.model, &c.params)
+                .unwrap_or_else(|e| panic!("{}: add: {e}", c.name))
+        })
+        .collect();
+    assert_eq!(batch.cloth_count(), cloths.len());
+    let stats = batch.step(STEPS).expect("batch run");
+    for ((cloth, id), (sid, got_stats)) in cloths.iter().zip(&ids).zip(&stats) {
+        assert_eq!(id, sid, "stats in slot order");
+        let got = batch.read_state(*id).expect("batch read-back");
+        let (want, want_stats) = alone(cloth, STEPS);
+        assert_bits(cloth.name, &got, &want);
+        stats_eq(cloth.name, got_stats, &want_stats);
+    }
+}
+
+#[test]
+fn adding_and_removing_cloths_keeps_the_others_state() {
+    let ctx = gpu();
+    let p = busy_params(Integrator::Explicit);
+    let small = grid(9, 9, corners(), &p);
+    let large = grid(17, 17, corners(), &p);
+    let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+    let a = batch.add(&small, &p).expect("a");
+    let b = batch.add(&small, &p).expect("b");
+    batch.step(20).expect("20 steps");
+    batch.remove(a).expect("remove a");
+    assert!(batch.read_state(a).is_err(), "a removed cloth is refused");
+    // Reuses a's slot (and, on the workgroup path, its ranges).
+    let c = batch.add(&small, &p).expect("c");
+    assert_eq!(c.index(), a.index(), "the freed slot is reused");
+    assert_ne!(c, a, "a reused slot has a new id");
+    // Larger than anything freed: the shared buffers grow.
+    let d = batch.add(&large, &p).expect("d");
+    batch.step(STEPS - 20).expect("the rest");
+    let (want_b, _) = alone(
+        &Cloth {
+            name: "b",
+            model: small.try_clone().expect("model"),
+            params: p.clone(),
+        },
+        STEPS,
+    );
+    assert_bits(
+        "b, stepped through removes and adds",
+        &batch.read_state(b).expect("b"),
+        &want_b,
+    );
+    for (id, model, name) in [
+        (c, &small, "c (a reused slot)"),
+        (d, &large, "d (grown buffers)"),
+    ] {
+        let (want, _) = alone(
+            &Cloth {
+                name,
+                model: model.try_clone().expect("model"),
+                params: p.clone(),
+            },
+            STEPS - 20,
+        );
+        assert_bits(name, &batch.read_state(id).expect(name), &want);
+        assert_eq!(batch.steps_recorded(id).ok(), Some(u64::from(STEPS - 20)));
+    }
+}
+
+#[test]
+fn a_cloth_beyond_the_workgroup_limit_is_stepped_in_the_batch() {
+    let ctx = gpu();
+    let p = busy_params(Integrator::Explicit);
+    // One row past the limit's square.
+    let side = (f64::from(WORKGROUP_STEP_MAX_PARTICLES).sqrt()) as usize;
+    let beyond = grid(side, side + 1, corners(), &p);
+    assert!(beyond.particle_count() > WORKGROUP_STEP_MAX_PARTICLES as usize);
+    let small = grid(9, 9, corners(), &p);
+    let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+    let s = batch.add(&small, &p).expect("small");
+    let big = batch.add(&beyond, &p).expect("beyond the limit");
+    let steps = 10;
+    batch.step(steps).expect("steps");
+    for (id, model, name) in [(s, &small, "small"), (big, &beyond, "beyond the limit")] {
+        let (want, _) = alone(
+            &Cloth {
+                name,
+                model: model.try_clone().expect("model"),
+                params: p.clone(),
+            },
+            steps,
+        );
+        assert_bits(name, &batch.read_state(id).expect(name), &want);
+    }
+}
+
+#[test]
+fn a_blow_up_names_the_cloth_and_the_step() {
+    let ctx = gpu();
+    let p = busy_params(Integrator::Explicit);
+    let mut wild = p.clone();
+    // Far past explicit's stability limit at this dt: blows up in steps.
+    wild.springs[0].stiffness = 1e9;
+    let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+    batch.add(&grid(9, 9, corners(), &p), &p).expect("calm");
+    let bad = batch
+        .add(&grid(9, 9, corners(), &wild), &wild)
+        .expect("wild");
+    let err = batch.step(200).expect_err("the wild cloth blows up");
+    match &err {
+        wgcloth::Error::InBatch { cloth, source } => {
+            assert_eq!(*cloth, bad.index(), "{err}");
+            assert!(
+                matches!(**source, wgcloth::Error::NonFinite { .. }),
+                "{source}"
+            );
+        }
+        other => panic!("expected the cloth named, got {other}"),
+    }
+}
