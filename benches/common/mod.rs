@@ -12,6 +12,7 @@ use wgcloth::Scene;
 /// stable at the same dt — without its ground (nothing to land on while
 /// timing), for `integrator`: the scene's dt for explicit, the article's
 /// 0.02 s for the other two.
+#[allow(dead_code, reason = "batch_step times the scene as it is")]
 pub fn grown_hanging(integrator: Integrator, n: usize) -> Scene {
     let Ok(mut scene) = Scene::builtin("hanging") else {
         panic!("the hanging scene is built in");
