@@ -1,7 +1,8 @@
 //! Guards the measured accuracy and stability of the integrators
 //! (`docs/integrators.md`) against regressions: a small
-//! version of `wgcloth bench accuracy` and `wgcloth bench stability`, CPU
-//! only.
+//! version of `wgcloth bench accuracy` and `wgcloth bench stability`, on
+//! the CPU; and on the GPU, that a sweep's runs batched give what they
+//! give alone.
 //!
 //! Each bound is a value measured on the commit that introduced this test,
 //! times a safety factor; the measured value is in the comment. A change
@@ -143,6 +144,91 @@ fn each_integrator_is_stable_where_it_was() {
                 cell.verdict.is_stable(),
                 "{integrator} at k = {k} N/m, dt = {dt} s: {}",
                 cell.verdict.reason()
+            );
+        }
+    }
+}
+
+/// A small sweep on the GPU: its runs stepped together as batches give
+/// the verdicts and errors they give alone.
+mod gpu_batches {
+    use wgcloth::evidence::{
+        self, AccuracyOptions, Backend, GpuGrouping, GpuHandles, StabilityOptions,
+    };
+    use wgcloth::gpu::GpuContext;
+    use wgcloth::{Integrator, Scene};
+
+    fn gpu() -> GpuContext {
+        GpuContext::new(None).unwrap_or_else(|e| panic!("GPU tests need an adapter: {e}"))
+    }
+
+    #[test]
+    fn a_batched_stability_map_is_the_map_run_alone() {
+        let ctx = gpu();
+        let handles = GpuHandles {
+            device: &ctx.device,
+            queue: &ctx.queue,
+        };
+        // Stiff and large steps blow up, soft and small ones do not: both
+        // outcomes inside one batch.
+        let options = StabilityOptions {
+            resolution: 5,
+            stiffnesses: vec![1e2, 1e6],
+            dts: vec![1e-3, 1e-2],
+            duration: 0.1,
+            max_steps: 60,
+            ..StabilityOptions::quick()
+        };
+        let batched = evidence::stability_gpu(&options, handles, GpuGrouping::Batches)
+            .expect("batched sweep");
+        let alone =
+            evidence::stability_gpu(&options, handles, GpuGrouping::Alone).expect("lone sweep");
+        assert_eq!(batched.cells, alone.cells);
+        let stable = batched
+            .cells
+            .iter()
+            .filter(|c| c.verdict.is_stable())
+            .count();
+        assert!(
+            stable > 0 && stable < batched.cells.len(),
+            "the sweep should hold stable and unstable runs: {:?}",
+            batched.cells
+        );
+    }
+
+    #[test]
+    fn batched_accuracy_rows_are_the_rows_run_alone() {
+        let ctx = gpu();
+        let handles = GpuHandles {
+            device: &ctx.device,
+            queue: &ctx.queue,
+        };
+        let scene = Scene::builtin("hanging").expect("built-in scene");
+        let options = AccuracyOptions {
+            resolution: Some(5),
+            sample_every: 8,
+            samples: 2,
+            dt_multiples: vec![1, 8],
+            reference_divisor: 4,
+            fixup_iterations: vec![10],
+            cg_tolerances: vec![1e-4],
+            integrators: Integrator::ALL.to_vec(),
+            backends: vec![Backend::Gpu],
+        };
+        let run =
+            |g| evidence::accuracy_with(&scene, &options, Some(handles), g).expect("accuracy");
+        let (batched, alone) = (run(GpuGrouping::Batches), run(GpuGrouping::Alone));
+        assert_eq!(batched.rows.len(), alone.rows.len());
+        assert!(!batched.rows.is_empty());
+        for (b, a) in batched.rows.iter().zip(&alone.rows) {
+            let key = |r: &evidence::AccuracyRow| {
+                (r.integrator, r.dt.to_bits(), r.fixup_iterations, r.stable)
+            };
+            assert_eq!(key(b), key(a));
+            assert_eq!(
+                (b.rms_error.to_bits(), b.max_error.to_bits()),
+                (a.rms_error.to_bits(), a.max_error.to_bits()),
+                "{b:?} batched, {a:?} alone"
             );
         }
     }

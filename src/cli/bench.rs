@@ -10,8 +10,8 @@ use std::path::Path;
 use anyhow::Context as _;
 use wgcloth::atomic_file::{commit_all, AtomicFile};
 use wgcloth::evidence::{
-    self, AccuracyOptions, AccuracyReport, CantileverOptions, CantileverReport, GpuHandles,
-    StabilityOptions, StabilityReport,
+    self, AccuracyOptions, AccuracyReport, CantileverOptions, CantileverReport, GpuGrouping,
+    GpuHandles, StabilityOptions, StabilityReport,
 };
 use wgcloth::gpu::GpuContext;
 use wgcloth::Scene;
@@ -159,7 +159,26 @@ pub fn stability(args: &BenchStabilityArgs) -> anyhow::Result<()> {
     } else {
         StabilityOptions::default()
     };
-    let report = evidence::stability(&options)?;
+    let report = match args.backend {
+        super::Backend::Cpu => {
+            if args.adapter.is_some() {
+                return Err(super::UsageError(
+                    "--adapter only applies to --backend gpu".to_string(),
+                )
+                .into());
+            }
+            evidence::stability(&options)?
+        }
+        super::Backend::Gpu => {
+            let context = GpuContext::new(args.adapter.as_deref())?;
+            println!("GPU adapter: {}", context.describe());
+            let gpu = GpuHandles {
+                device: &context.device,
+                queue: &context.queue,
+            };
+            evidence::stability_gpu(&options, gpu, GpuGrouping::Batches)?
+        }
+    };
     write(&args.out, "stability.csv", &stability_csv(&report))?;
     write(&args.out, "stability.svg", &chart::stability_svg(&report))?;
     print!("{}", stability_table(&report));

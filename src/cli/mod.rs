@@ -123,6 +123,17 @@ struct BenchStabilityArgs {
     /// A sweep of seconds: 9 × 9 particles, 0.5 s, at most 500 steps.
     #[arg(long)]
     quick: bool,
+
+    /// Which solver sweeps the map: the CPU reference in f64, or the GPU
+    /// in f32, the runs of one time step stepped together as one batch of
+    /// cloths.
+    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    backend: Backend,
+
+    /// With `--backend gpu`: use the first GPU adapter whose name contains
+    /// NAME (case-insensitive).
+    #[arg(long, value_name = "NAME")]
+    adapter: Option<String>,
 }
 
 /// The options of `wgcloth bench cantilever`.

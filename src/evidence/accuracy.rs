@@ -16,6 +16,7 @@
 
 use std::time::Instant;
 
+use super::gpu_runs::{gpu_runs, GpuGrouping, Job};
 use super::{GpuHandles, Points, Runner};
 use crate::diagnostics::max_stretch_strain;
 use crate::error::{Error, Result};
@@ -234,50 +235,88 @@ struct Trajectory {
     wall: f64,
 }
 
+/// The trajectory of a CPU run.
 fn trajectory(
     backend: Backend,
-    gpu: Option<GpuHandles<'_>>,
     model: &Model,
     params: &Params,
     steps_per_sample: u64,
     samples: u32,
-) -> Result<Option<Trajectory>> {
-    let Some(mut runner) = Runner::new(backend, gpu, model, params)? else {
-        return Ok(None);
+) -> Result<Trajectory> {
+    let mut runner = Runner::new(backend, model, params)?;
+    let mut t = Trajectory {
+        samples: Vec::with_capacity(samples as usize),
+        stable: true,
+        wall: 0.0,
     };
-    let mut out = Vec::with_capacity(samples as usize);
-    let mut wall = 0.0;
     for _ in 0..samples {
         let start = Instant::now();
         let stepped = runner.advance(steps_per_sample);
-        // The GPU's read-back waits for the steps: part of their cost.
         let state = runner.state();
-        wall += start.elapsed().as_secs_f64();
-        let x = match (stepped, state) {
-            (Ok(()), Ok((x, _))) => x,
-            (Err(Error::NonFinite { .. }), _) | (_, Err(Error::NonFinite { .. })) => {
-                return Ok(Some(Trajectory {
-                    samples: out,
-                    stable: false,
-                    wall,
-                }));
+        t.wall += start.elapsed().as_secs_f64();
+        let state = stepped.and(state).map(|(x, _)| x);
+        if !t.sample(model, state)? {
+            break;
+        }
+    }
+    Ok(t)
+}
+
+impl Trajectory {
+    /// Adds a sample's positions, or marks the run unstable (its state
+    /// stopped being finite, or a spring passed [`UNSTABLE_STRAIN`]);
+    /// whether the run goes on. Any other error is the sweep's.
+    fn sample(&mut self, model: &Model, state: Result<Points>) -> Result<bool> {
+        let x = match state {
+            Ok(x) => x,
+            Err(Error::NonFinite { .. }) => {
+                self.stable = false;
+                return Ok(false);
             }
-            (Err(e), _) | (_, Err(e)) => return Err(e),
+            Err(e) => return Err(e),
         };
         if max_stretch_strain(model, &x) > UNSTABLE_STRAIN {
-            return Ok(Some(Trajectory {
-                samples: out,
-                stable: false,
-                wall,
-            }));
+            self.stable = false;
+            return Ok(false);
         }
-        out.push(x);
+        self.samples.push(x);
+        Ok(true)
     }
-    Ok(Some(Trajectory {
-        samples: out,
-        stable: true,
-        wall,
-    }))
+}
+
+/// The trajectories of GPU runs of `model` under each of `params`, all
+/// `steps_per_sample` apart, grouped by `grouping`.
+fn gpu_trajectories(
+    gpu: GpuHandles<'_>,
+    grouping: GpuGrouping,
+    model: &Model,
+    params: &[Params],
+    steps_per_sample: u64,
+    samples: u32,
+) -> Result<Vec<Trajectory>> {
+    let jobs: Vec<Job<'_>> = params.iter().map(|params| Job { model, params }).collect();
+    let mut out: Vec<Trajectory> = params
+        .iter()
+        .map(|_| Trajectory {
+            samples: Vec::with_capacity(samples as usize),
+            stable: true,
+            wall: 0.0,
+        })
+        .collect();
+    let intervals = vec![steps_per_sample; samples as usize];
+    gpu_runs(
+        gpu,
+        &jobs,
+        grouping,
+        &intervals,
+        |_, e| Err(e),
+        |s| {
+            let t = &mut out[s.job];
+            t.wall += s.wall;
+            t.sample(model, s.state.map(|(x, _)| x))
+        },
+    )?;
+    Ok(out)
 }
 
 /// (RMS, max) distance \[m\] between two sampled trajectories.
@@ -296,10 +335,23 @@ fn errors(a: &[Points], b: &[Points]) -> (f64, f64) {
 
 /// Measures error against cost for `scene` (see the module docs). `gpu`:
 /// a device for the [`Backend::Gpu`] rows; without one they are skipped.
+/// The GPU rows that share a time step run as one batch of cloths (their
+/// positions are the lone runs' bit for bit; each row's wall time is its
+/// share of the batch's).
 pub fn accuracy(
     scene: &Scene,
     options: &AccuracyOptions,
     gpu: Option<GpuHandles<'_>>,
+) -> Result<AccuracyReport> {
+    accuracy_with(scene, options, gpu, GpuGrouping::Batches)
+}
+
+/// [`accuracy`] with the GPU rows grouped by `grouping`.
+pub fn accuracy_with(
+    scene: &Scene,
+    options: &AccuracyOptions,
+    gpu: Option<GpuHandles<'_>>,
+    grouping: GpuGrouping,
 ) -> Result<AccuracyReport> {
     if options.sample_every == 0 || options.samples == 0 || options.reference_divisor == 0 {
         return Err(invalid(
@@ -339,14 +391,13 @@ pub fn accuracy(
             p.dt = dt / divisor as f64;
             let t = trajectory(
                 Backend::CpuF64,
-                None,
                 &model,
                 &p,
                 every * divisor,
                 options.samples,
             )?;
             match t {
-                Some(t) if t.stable => Ok(t.samples),
+                t if t.stable => Ok(t.samples),
                 _ => Err(invalid(
                     "bench.accuracy.reference_divisor",
                     "a reference step at which the explicit reference stays stable",
@@ -362,7 +413,9 @@ pub fn accuracy(
     }
     let reference_for = |fix: u32| references.iter().find(|r| r.0 == fix).map(|r| &r.1);
 
-    let mut rows = Vec::new();
+    // Every row's run, in table order; the GPU's are run afterwards, those
+    // of one time step together.
+    let mut runs: Vec<(AccuracyRow, Params, u64, Option<Trajectory>)> = Vec::new();
     for &integrator in &options.integrators {
         // (fix-up, CG tolerance) variants of this integrator.
         let variants: Vec<(u32, Option<f64>)> = match integrator {
@@ -378,10 +431,13 @@ pub fn accuracy(
                 .collect(),
         };
         for &(fix, tol) in &variants {
-            let Some(reference) = reference_for(fix) else {
+            if reference_for(fix).is_none() {
                 continue;
-            };
+            }
             for &backend in &options.backends {
+                if backend == Backend::Gpu && gpu.is_none() {
+                    continue;
+                }
                 for &m in &options.dt_multiples {
                     let mut p = scene.params.clone();
                     p.integrator = integrator;
@@ -391,31 +447,55 @@ pub fn accuracy(
                         p.implicit.tolerance = t;
                     }
                     let steps = every / u64::from(m);
-                    let Some(t) = trajectory(backend, gpu, &model, &p, steps, options.samples)?
-                    else {
-                        continue;
+                    let t = match backend {
+                        Backend::Gpu => None,
+                        _ => Some(trajectory(backend, &model, &p, steps, options.samples)?),
                     };
-                    let duration = p.dt * (steps * u64::from(options.samples)) as f64;
-                    let (wall, rms, max) = if t.stable {
-                        let (rms, max) = errors(&t.samples, reference);
-                        (t.wall / duration, rms, max)
-                    } else {
-                        (f64::NAN, f64::NAN, f64::NAN)
-                    };
-                    rows.push(AccuracyRow {
+                    let row = AccuracyRow {
                         integrator,
                         backend,
                         dt: p.dt,
                         fixup_iterations: fix,
                         cg_tolerance: tol,
-                        stable: t.stable,
-                        wall_per_sim_second: wall,
-                        rms_error: rms,
-                        max_error: max,
-                    });
+                        stable: false,
+                        wall_per_sim_second: f64::NAN,
+                        rms_error: f64::NAN,
+                        max_error: f64::NAN,
+                    };
+                    runs.push((row, p, steps, t));
                 }
             }
         }
+    }
+    if let Some(gpu) = gpu {
+        let mut step_counts: Vec<u64> = runs.iter().map(|r| r.2).collect();
+        step_counts.sort_unstable();
+        step_counts.dedup();
+        for steps in step_counts {
+            let mine: Vec<usize> = (0..runs.len())
+                .filter(|&k| runs[k].0.backend == Backend::Gpu && runs[k].2 == steps)
+                .collect();
+            let params: Vec<Params> = mine.iter().map(|&k| runs[k].1.clone()).collect();
+            let ts = gpu_trajectories(gpu, grouping, &model, &params, steps, options.samples)?;
+            for (k, t) in mine.into_iter().zip(ts) {
+                runs[k].3 = Some(t);
+            }
+        }
+    }
+    let mut rows = Vec::with_capacity(runs.len());
+    for (mut row, p, steps, t) in runs {
+        let (Some(t), Some(reference)) = (t, reference_for(row.fixup_iterations)) else {
+            continue;
+        };
+        if t.stable {
+            let duration = p.dt * (steps * u64::from(options.samples)) as f64;
+            let (rms, max) = errors(&t.samples, reference);
+            row.stable = true;
+            row.wall_per_sim_second = t.wall / duration;
+            row.rms_error = rms;
+            row.max_error = max;
+        }
+        rows.push(row);
     }
     Ok(AccuracyReport {
         scene: scene.name.clone(),

@@ -42,7 +42,7 @@
 //! than [`REST_SPEED`]; a run that does not get there within
 //! [`MAX_STEPS`] is reported as not settled.
 
-use super::{elastica, GpuHandles, Runner};
+use super::{elastica, Runner};
 use crate::error::{Error, Result};
 use crate::evidence::Backend;
 use crate::model::{ClothSpec, Model, Orientation, Pin};
@@ -257,10 +257,7 @@ fn strip(segments: usize, k: f64, integrator: Integrator) -> Result<(Model, Para
 /// A settled strip: tip drop over length, steps, at rest.
 fn settle(segments: usize, k: f64, integrator: Integrator) -> Result<(f64, u64, bool)> {
     let (model, params) = strip(segments, k, integrator)?;
-    let Some(mut runner) = Runner::new(Backend::CpuF64, None::<GpuHandles<'_>>, &model, &params)?
-    else {
-        return Err(invalid("bench.cantilever", "a CPU backend", "none"));
-    };
+    let mut runner = Runner::new(Backend::CpuF64, &model, &params)?;
     let nx = segments + 2;
     let tips: Vec<usize> = (0..ROWS).map(|r| r * nx + nx - 1).collect();
     let mut steps = 0;

@@ -10,14 +10,20 @@
 pub mod accuracy;
 pub mod cantilever;
 pub mod elastica;
+mod gpu_runs;
 pub mod stability;
 
-pub use accuracy::{accuracy, AccuracyOptions, AccuracyReport, AccuracyRow, Backend};
+pub use accuracy::{
+    accuracy, accuracy_with, AccuracyOptions, AccuracyReport, AccuracyRow, Backend,
+};
 pub use cantilever::{cantilever, CantileverOptions, CantileverReport, CantileverRow};
-pub use stability::{stability, StabilityCell, StabilityOptions, StabilityReport, Verdict};
+pub use gpu_runs::GpuGrouping;
+pub use stability::{
+    stability, stability_gpu, StabilityCell, StabilityOptions, StabilityReport, Verdict,
+};
 
 use crate::cpu::CpuSolver;
-use crate::gpu::GpuSolver;
+use crate::error::Error;
 use crate::model::Model;
 use crate::params::Params;
 use crate::real::{Real, Vec3};
@@ -36,28 +42,25 @@ pub struct GpuHandles<'a> {
     pub queue: &'a wgpu::Queue,
 }
 
-/// One solver of any backend, seen through what the benches need.
+/// A CPU solver in either precision, seen through what the benches need
+/// (the GPU's runs go through [`gpu_runs`], stepped together).
 enum Runner {
     F64(Box<CpuSolver<f64>>),
     F32(Box<CpuSolver<f32>>),
-    Gpu(Box<GpuSolver>),
 }
 
 impl Runner {
-    fn new(
-        backend: Backend,
-        gpu: Option<GpuHandles<'_>>,
-        model: &Model,
-        params: &Params,
-    ) -> Result<Option<Runner>> {
-        Ok(Some(match backend {
+    /// The CPU solver of `backend` (the GPU is none).
+    fn new(backend: Backend, model: &Model, params: &Params) -> Result<Runner> {
+        Ok(match backend {
             Backend::CpuF64 => Runner::F64(Box::new(CpuSolver::new(model, params)?)),
             Backend::CpuF32 => Runner::F32(Box::new(CpuSolver::new(model, params)?)),
-            Backend::Gpu => match gpu {
-                Some(g) => Runner::Gpu(Box::new(GpuSolver::new(g.device, g.queue, model, params)?)),
-                None => return Ok(None),
-            },
-        }))
+            Backend::Gpu => {
+                return Err(Error::Gpu(
+                    "the GPU's runs are batched (evidence::gpu_runs), not run one by one".into(),
+                ))
+            }
+        })
     }
 
     /// Advances `n` steps; an error when the state stops being finite.
@@ -65,16 +68,6 @@ impl Runner {
         match self {
             Runner::F64(s) => s.step_n(n).map(drop),
             Runner::F32(s) => s.step_n(n).map(drop),
-            Runner::Gpu(s) => {
-                let mut left = n;
-                while left > 0 {
-                    let batch = left.min(u64::from(GPU_BATCH));
-                    // `batch ≤ GPU_BATCH`, a u32.
-                    s.step(batch as u32)?;
-                    left -= batch;
-                }
-                Ok(())
-            }
         }
     }
 
@@ -97,17 +90,6 @@ impl Runner {
         Ok(match self {
             Runner::F64(s) => conv(s),
             Runner::F32(s) => conv(s),
-            Runner::Gpu(s) => {
-                let st = s.read_state()?;
-                (
-                    st.x.iter().map(|p| Vec3::from_f64(p.as_dvec3())).collect(),
-                    st.v.iter().map(|p| Vec3::from_f64(p.as_dvec3())).collect(),
-                )
-            }
         })
     }
 }
-
-/// Most steps one GPU submission records (as in `wgcloth run`): bounds the
-/// command buffer.
-const GPU_BATCH: u32 = 256;

@@ -20,7 +20,8 @@
 //!   other terms are zero);
 //! - its largest stretch strain stays below [`MAX_STRAIN`].
 
-use super::{GpuHandles, Runner};
+use super::gpu_runs::{gpu_runs, GpuGrouping, Job};
+use super::{GpuHandles, Points, Runner};
 use crate::diagnostics::{Crossed, Divergence};
 use crate::error::{Error, Result};
 use crate::evidence::Backend;
@@ -203,7 +204,7 @@ fn run_cell(
     let scene = cell_scene(options, integrator, k, dt)?;
     let model: Model = scene.model()?;
     let params = &scene.params;
-    let steps = ((options.duration / dt).ceil() as u64).min(options.max_steps);
+    let steps = steps_of(options, dt);
     let mut cell = StabilityCell {
         integrator,
         stiffness: k,
@@ -211,9 +212,9 @@ fn run_cell(
         simulated: steps as f64 * dt,
         verdict: Verdict::Stable,
     };
-    let mut runner = match Runner::new(Backend::CpuF64, None::<GpuHandles<'_>>, &model, params) {
-        Ok(Some(r)) => r,
-        Ok(None) | Err(Error::InvalidParameter { .. }) => {
+    let mut runner = match Runner::new(Backend::CpuF64, &model, params) {
+        Ok(r) => r,
+        Err(Error::InvalidParameter { .. }) => {
             cell.verdict = Verdict::Refused;
             return Ok(cell);
         }
@@ -227,29 +228,39 @@ fn run_cell(
         let stepped = runner.advance(n);
         done += n;
         let t = done as f64 * dt;
-        let checked = match stepped {
-            Ok(()) => {
-                let (x, v) = runner.state()?;
-                rule.check(done, t, &x, &v)
-            }
-            Err(e) => Err(e),
-        };
-        cell.verdict = match checked {
-            Ok(()) => continue,
-            Err(Error::NonFinite { time, .. }) => Verdict::NonFinite(time),
-            Err(Error::Diverged {
-                crossed: Crossed::Energy { .. },
-                ..
-            }) => Verdict::EnergyGrew(t),
-            Err(Error::Diverged {
-                crossed: Crossed::Strain { .. },
-                ..
-            }) => Verdict::Overstretched(t),
-            Err(e) => return Err(e),
-        };
-        return Ok(cell);
+        let checked = stepped.and_then(|()| {
+            let (x, v) = runner.state()?;
+            rule.check(done, t, &x, &v)
+        });
+        if let Some(verdict) = verdict(checked, t)? {
+            cell.verdict = verdict;
+            return Ok(cell);
+        }
     }
     Ok(cell)
+}
+
+/// The verdict of a check at time `t` \[s\] that found `checked`: `None`
+/// while the run is stable; an error that is no verdict is the sweep's.
+fn verdict(checked: Result<()>, t: f64) -> Result<Option<Verdict>> {
+    Ok(Some(match checked {
+        Ok(()) => return Ok(None),
+        Err(Error::NonFinite { time, .. }) => Verdict::NonFinite(time),
+        Err(Error::Diverged {
+            crossed: Crossed::Energy { .. },
+            ..
+        }) => Verdict::EnergyGrew(t),
+        Err(Error::Diverged {
+            crossed: Crossed::Strain { .. },
+            ..
+        }) => Verdict::Overstretched(t),
+        Err(e) => return Err(e),
+    }))
+}
+
+/// The steps of a run at `dt`: `duration`, at most `max_steps`.
+fn steps_of(options: &StabilityOptions, dt: f64) -> u64 {
+    ((options.duration / dt).ceil() as u64).min(options.max_steps)
 }
 
 /// Sweeps every integrator × stiffness × dt of `options` (CPU, `f64`; see
@@ -267,4 +278,107 @@ pub fn stability(options: &StabilityOptions) -> Result<StabilityReport> {
         options: options.clone(),
         cells,
     })
+}
+
+/// [`stability`] on the GPU (`f32`), the runs of one time step (which take
+/// the same steps) stepped together as one batch of cloths with
+/// [`GpuGrouping::Batches`], each alone with [`GpuGrouping::Alone`]: the
+/// same verdicts either way. Each run is checked as on the CPU, from the
+/// rest state rounded to `f32` (where the GPU starts).
+pub fn stability_gpu(
+    options: &StabilityOptions,
+    gpu: GpuHandles<'_>,
+    grouping: GpuGrouping,
+) -> Result<StabilityReport> {
+    let mut cells = Vec::new();
+    for &integrator in &options.integrators {
+        for &k in &options.stiffnesses {
+            for &dt in &options.dts {
+                cells.push(StabilityCell {
+                    integrator,
+                    stiffness: k,
+                    dt,
+                    simulated: steps_of(options, dt) as f64 * dt,
+                    verdict: Verdict::Stable,
+                });
+            }
+        }
+    }
+    let mut dts = options.dts.clone();
+    dts.sort_by(f64::total_cmp);
+    dts.dedup();
+    for dt in dts {
+        let mine: Vec<usize> = (0..cells.len()).filter(|&c| cells[c].dt == dt).collect();
+        let mut scenes = Vec::with_capacity(mine.len());
+        for &c in &mine {
+            let scene = cell_scene(options, cells[c].integrator, cells[c].stiffness, dt)?;
+            let model = scene.model()?;
+            scenes.push((scene.params, model));
+        }
+        let jobs: Vec<Job<'_>> = scenes
+            .iter()
+            .map(|(params, model)| Job { model, params })
+            .collect();
+        let rules: Vec<Divergence> = scenes
+            .iter()
+            .map(|(params, model)| {
+                let (x0, v0) = gpu_rest_state(model);
+                Divergence::new(model, params, 0.0, &x0, &v0).with_max_strain(MAX_STRAIN)
+            })
+            .collect();
+        let steps = steps_of(options, dt);
+        let intervals: Vec<u64> = (0..steps.div_ceil(CHECK_EVERY))
+            .map(|k| CHECK_EVERY.min(steps - k * CHECK_EVERY))
+            .collect();
+        let mut verdicts: Vec<Verdict> = vec![Verdict::Stable; mine.len()];
+        let mut refused = Vec::new();
+        gpu_runs(
+            gpu,
+            &jobs,
+            grouping,
+            &intervals,
+            |j, e| match e {
+                Error::InvalidParameter { .. } => {
+                    refused.push(j);
+                    Ok(())
+                }
+                e => Err(e),
+            },
+            |s| {
+                let t = s.steps as f64 * dt;
+                let checked = s
+                    .state
+                    .and_then(|(x, v)| rules[s.job].check(s.steps, t, &x, &v));
+                Ok(match verdict(checked, t)? {
+                    None => true,
+                    Some(v) => {
+                        verdicts[s.job] = v;
+                        false
+                    }
+                })
+            },
+        )?;
+        for j in refused {
+            verdicts[j] = Verdict::Refused;
+        }
+        for (c, v) in mine.into_iter().zip(verdicts) {
+            cells[c].verdict = v;
+        }
+    }
+    Ok(StabilityReport {
+        options: options.clone(),
+        cells,
+    })
+}
+
+/// A cloth's rest state as the GPU starts from it: positions rounded to
+/// `f32`, at rest.
+fn gpu_rest_state(model: &Model) -> (Points, Points) {
+    let x = model
+        .rest_positions
+        .iter()
+        .map(|p| crate::real::Vec3::from_f64(p.as_vec3().as_dvec3()))
+        .collect();
+    let v = vec![crate::real::Vec3::from_f64([0.0; 3]); model.particle_count()];
+    (x, v)
 }
