@@ -5,10 +5,11 @@
 
 @compute @workgroup_size(WORKGROUP)
 fn normals(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let p = gid.x;
-    if (p >= params.particle_count) {
+    // A batch runs this pass per cloth, with the cloth's bases.
+    if (gid.x >= params.particle_count) {
         return;
     }
+    let p = params.particle_base + gid.x;
     var n = vec3<f32>(0.0);
     let tb = tri_adj(p);
     let te = tri_adj(p + 1u);

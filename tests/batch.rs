@@ -6,8 +6,8 @@
 mod gpu_common;
 
 use gpu_common::{busy_params, corners, gpu, grid};
-use wgcloth::gpu::{ClothId, GpuBatch, GpuSolver, GpuState};
-const WORKGROUP_STEP_MAX_PARTICLES: u32 = 4096;
+use wgcloth::gpu::{ClothId, GpuBatch, GpuSolver, GpuState, StepPath};
+use wgcloth::kernel_config::WORKGROUP_STEP_MAX_PARTICLES;
 use wgcloth::params::{FixupMethod, Integrator};
 use wgcloth::{Model, Params, Scene, StepStats};
 
@@ -123,6 +123,14 @@ fn a_mixed_batch_steps_each_cloth_as_it_steps_alone() {
         })
         .collect();
     assert_eq!(batch.cloth_count(), cloths.len());
+    // Both ways of stepping are in the batch: the shared buffers and a
+    // cloth held as its own solver.
+    let paths: Vec<StepPath> = ids
+        .iter()
+        .map(|&id| batch.step_path(id).expect("path"))
+        .collect();
+    assert!(paths.contains(&StepPath::Workgroup), "{paths:?}");
+    assert!(paths.contains(&StepPath::MultiDispatch), "{paths:?}");
     let stats = batch.step(STEPS).expect("batch run");
     for ((cloth, id), (sid, got_stats)) in cloths.iter().zip(&ids).zip(&stats) {
         assert_eq!(id, sid, "stats in slot order");
@@ -194,6 +202,8 @@ fn a_cloth_beyond_the_workgroup_limit_is_stepped_in_the_batch() {
     let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
     let s = batch.add(&small, &p).expect("small");
     let big = batch.add(&beyond, &p).expect("beyond the limit");
+    assert_eq!(batch.step_path(s).ok(), Some(StepPath::Workgroup));
+    assert_eq!(batch.step_path(big).ok(), Some(StepPath::MultiDispatch));
     let steps = 10;
     batch.step(steps).expect("steps");
     for (id, model, name) in [(s, &small, "small"), (big, &beyond, "beyond the limit")] {

@@ -231,6 +231,68 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
     }
 }
 
+/// What the host uploads for a cloth, built from its model and
+/// parameters: a lone solver's buffers hold it as it is; a batch moves it
+/// to the cloth's offsets (`src/gpu/batch/table.rs`).
+#[derive(Debug)]
+pub(crate) struct ClothArrays {
+    /// The uniform block (all bases zero).
+    pub params: GpuParams,
+    /// A spring per slot.
+    pub springs: Vec<GpuSpring>,
+    /// Adjacency and triangles.
+    pub topo: Vec<u32>,
+    /// Positions and inverse masses.
+    pub x: Vec<[f32; 4]>,
+    /// Velocities and masses.
+    pub v: Vec<[f32; 4]>,
+    /// The dense semi-implicit filter (empty without one).
+    pub dense: Vec<f32>,
+}
+
+/// The arrays of `model` under `params` with its semi-implicit `filter`,
+/// in `grid` layout (`None`: general) gathered by `block`.
+pub(super) fn cloth_arrays(
+    model: &Model,
+    params: &Params,
+    filter: Option<SemiFilter>,
+    grid: Option<&GridLayout>,
+    block: GridBlock,
+) -> Result<ClothArrays> {
+    let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
+    let cg_tolerance = if semi_cg {
+        FILTER_CG_TOLERANCE
+    } else {
+        params.implicit.tolerance
+    };
+    // Where each spring lives on the device: its slot in grid layout,
+    // else its index.
+    let slot_of = |s: usize| grid.map_or(s as u32, |g| g.slot[s]);
+    let slots = grid.map_or(model.springs.len(), GridLayout::slots);
+    let (topo, offsets) = topology(model, slot_of)?;
+    let springs = device_springs(model, params, slots, slot_of)?;
+    let (x, v) = initial_state(model)?;
+    let shape = Shape {
+        grid,
+        block,
+        slots: slots as u32,
+        topo: offsets,
+        filter: filter.as_ref(),
+        semi_cg,
+        cg_tolerance,
+        fixup_iterations: fixup_iterations(params),
+    };
+    let params = uniform_block(model, params, shape);
+    Ok(ClothArrays {
+        params,
+        springs,
+        topo,
+        x,
+        v,
+        dense: filter.map_or_else(Vec::new, |f| f.words),
+    })
+}
+
 impl GpuSolver {
     /// Allocates the buffers and takes the step plan's pipelines from
     /// `kernels` (the parameters and the limits were checked by
@@ -247,30 +309,22 @@ impl GpuSolver {
         let device = &kernels.device().clone();
         let block = GridBlock::for_adapter(&device.adapter_info());
         let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
-        let (cg_tolerance, cg_max_iterations) = if semi_cg {
-            (FILTER_CG_TOLERANCE, FILTER_CG_MAX_ITERATIONS)
+        let cg_max_iterations = if semi_cg {
+            FILTER_CG_MAX_ITERATIONS
         } else {
-            (params.implicit.tolerance, params.implicit.max_iterations)
+            params.implicit.max_iterations
         };
-        // Where each spring lives on the device: its slot in grid layout,
-        // else its index.
-        let slot_of = |s: usize| grid.as_ref().map_or(s as u32, |g| g.slot[s]);
-        let slots = grid.as_ref().map_or(model.springs.len(), GridLayout::slots);
-        let (topo, offsets) = topology(model, slot_of)?;
-        let springs = device_springs(model, params, slots, slot_of)?;
-        let (x, v) = initial_state(model)?;
+        let arrays = cloth_arrays(model, params, filter, grid.as_ref(), block)?;
+        let slots = arrays.springs.len();
         let fixup_iterations = fixup_iterations(params);
-        let shape = Shape {
-            grid: grid.as_ref(),
-            block,
-            slots: slots as u32,
-            topo: offsets,
-            filter: filter.as_ref(),
-            semi_cg,
-            cg_tolerance,
-            fixup_iterations,
-        };
-        let gpu_params = uniform_block(model, params, shape);
+        let ClothArrays {
+            params: gpu_params,
+            springs,
+            topo,
+            x,
+            v,
+            dense,
+        } = arrays;
         let buffers = ClothBuffers::new(
             device,
             queue,
@@ -282,7 +336,7 @@ impl GpuSolver {
                 x: &x,
                 v: &v,
                 triangles: &model.triangles,
-                dense: filter.as_ref().map_or(&[], |f| &f.words),
+                dense: &dense,
                 constant_blocks: semi_cg.then_some((params.dt * params.dt) as f32),
                 cg_max_iterations,
                 workgroup: path.path == StepPath::Workgroup,

@@ -32,6 +32,34 @@ pub(super) fn widen_step(low: u32, recorded: u64) -> u64 {
     recorded - u64::from((recorded as u32).wrapping_sub(low))
 }
 
+/// What a cloth's status words (`status::COUNT` of them) say, after
+/// `steps_recorded` steps of `dt` \[s\]: its statistics, or the error
+/// naming the first step whose state was not finite.
+pub(super) fn decode_status(
+    words: &[u32],
+    steps_recorded: u64,
+    dt: f64,
+    cg_budget_hits: Option<u64>,
+) -> Result<StepStats> {
+    let bad = words[layout::status::BAD_STEP];
+    if bad != u32::MAX {
+        let step = widen_step(bad, steps_recorded);
+        return Err(Error::NonFinite {
+            step,
+            time: step as f64 * dt,
+            particle: words[layout::status::BAD_PARTICLE] as usize,
+        });
+    }
+    Ok(StepStats {
+        steps: widen_step(words[layout::status::STEP], steps_recorded),
+        cg_iterations: words[layout::status::CG_ITERATIONS],
+        cg_max_iterations: words[layout::status::CG_MAX_ITERATIONS],
+        cg_residual: None,
+        cg_budget_hits,
+        fixup_passes: words[layout::status::FIXUP_PASSES],
+    })
+}
+
 /// Storage buffers a kernel binds at most: group 0's ten (see
 /// `shaders/common/bindings.wgsl`) and cg_start's three dispatch-argument
 /// buffers in group 1.
@@ -574,23 +602,7 @@ impl GpuSolver {
 
     fn decode_status(&self, bytes: &[u8]) -> Result<StepStats> {
         let words: &[u32] = bytemuck::cast_slice(bytes);
-        let bad = words[layout::status::BAD_STEP];
-        if bad != u32::MAX {
-            let step = widen_step(bad, self.steps_recorded);
-            return Err(Error::NonFinite {
-                step,
-                time: step as f64 * self.dt,
-                particle: words[layout::status::BAD_PARTICLE] as usize,
-            });
-        }
-        Ok(StepStats {
-            steps: widen_step(words[layout::status::STEP], self.steps_recorded),
-            cg_iterations: words[layout::status::CG_ITERATIONS],
-            cg_max_iterations: words[layout::status::CG_MAX_ITERATIONS],
-            cg_residual: None,
-            cg_budget_hits: Some(self.cg.hits()),
-            fixup_passes: words[layout::status::FIXUP_PASSES],
-        })
+        decode_status(words, self.steps_recorded, self.dt, Some(self.cg.hits()))
     }
 
     /// Reads positions and velocities back (blocking); fails if the state

@@ -4,54 +4,112 @@
 
 use glam::{DVec3, Vec3};
 
+use super::table::Table;
+use super::table_cloth::{entry, TableCloth};
 use super::{in_cloth, ClothId, GpuBatch, Member};
 use crate::error::Result;
 use crate::gpu::GpuSolver;
 use crate::params::{Capsule, PinTarget, Sphere, Wind};
 
 impl GpuBatch {
-    /// Applies `change` to cloth `id`'s solver, naming the cloth in an
-    /// error.
+    /// Changes cloth `id`: by `solo` on its own solver, by `table` in the
+    /// shared buffers (then the batch takes the pipelines of its features'
+    /// union); an error names the cloth.
     fn change(
         &mut self,
         id: ClothId,
-        change: impl FnOnce(&mut GpuSolver) -> Result<()>,
+        solo: impl FnOnce(&mut GpuSolver) -> Result<()>,
+        table: impl FnOnce(&mut TableCloth, &Table) -> Result<()>,
     ) -> Result<()> {
-        match self.member_mut(id)? {
-            Member::Solo(solver) => change(solver).map_err(|e| in_cloth(id, e)),
-        }
+        self.member(id)?;
+        let changed = match &mut self.slots[id.slot as usize].member {
+            Some(Member::Solo(solver)) => return solo(solver).map_err(|e| in_cloth(id, e)),
+            Some(Member::Table(cloth)) => table(cloth, &self.table),
+            None => Ok(()),
+        };
+        changed
+            .and_then(|()| self.prepare())
+            .map_err(|e| in_cloth(id, e))
+    }
+
+    /// Changes the parameters of cloth `id` by `edit` and its table entry
+    /// by `entry` (or calls `solo` on its own solver).
+    fn change_params(
+        &mut self,
+        id: ClothId,
+        solo: impl FnOnce(&mut GpuSolver) -> Result<()>,
+        edit: impl FnOnce(&mut crate::params::Params),
+        entry: impl FnOnce(&mut crate::gpu::layout::GpuParams, u64),
+    ) -> Result<()> {
+        let slot = id.slot;
+        self.change(id, solo, |c, t| {
+            let mut p = c.host_params();
+            edit(&mut p);
+            c.change(t, slot, p, entry)
+        })
     }
 
     /// [`GpuSolver::set_gravity`] for cloth `id`.
     pub fn set_gravity(&mut self, id: ClothId, gravity: DVec3) -> Result<()> {
-        self.change(id, |s| s.set_gravity(gravity))
+        self.change_params(
+            id,
+            |s| s.set_gravity(gravity),
+            |p| p.gravity = gravity,
+            entry::gravity(gravity),
+        )
     }
 
     /// [`GpuSolver::set_wind`] for cloth `id` (turning wind on compiles the
     /// batch's wind variants once).
     pub fn set_wind(&mut self, id: ClothId, wind: Option<Wind>) -> Result<()> {
-        self.change(id, |s| s.set_wind(wind))
+        self.change_params(
+            id,
+            |s| s.set_wind(wind),
+            |p| p.wind = wind,
+            entry::wind(wind),
+        )
     }
 
     /// [`GpuSolver::set_spheres`] for cloth `id`.
     pub fn set_spheres(&mut self, id: ClothId, spheres: &[Sphere]) -> Result<()> {
-        self.change(id, |s| s.set_spheres(spheres))
+        crate::gpu::solver::check_collider_counts(spheres.len(), 0)?;
+        self.change_params(
+            id,
+            |s| s.set_spheres(spheres),
+            |p| p.spheres = spheres.to_vec(),
+            entry::spheres(spheres),
+        )
     }
 
     /// [`GpuSolver::set_capsules`] for cloth `id`.
     pub fn set_capsules(&mut self, id: ClothId, capsules: &[Capsule]) -> Result<()> {
-        self.change(id, |s| s.set_capsules(capsules))
+        crate::gpu::solver::check_collider_counts(0, capsules.len())?;
+        self.change_params(
+            id,
+            |s| s.set_capsules(capsules),
+            |p| p.capsules = capsules.to_vec(),
+            entry::capsules(capsules),
+        )
     }
 
     /// [`GpuSolver::set_position`] for particle `p` of cloth `id` (`p`
     /// counted within the cloth).
     pub fn set_position(&mut self, id: ClothId, p: usize, position: Vec3) -> Result<()> {
-        self.change(id, |s| s.set_position(p, position))
+        self.change(
+            id,
+            |s| s.set_position(p, position),
+            |c, t| c.set_position(t, p, position),
+        )
     }
 
     /// [`GpuSolver::set_pinned`] for particle `p` of cloth `id`.
     pub fn set_pinned(&mut self, id: ClothId, p: usize, pinned: bool) -> Result<()> {
-        self.change(id, |s| s.set_pinned(p, pinned))
+        let slot = id.slot;
+        self.change(
+            id,
+            |s| s.set_pinned(p, pinned),
+            |c, t| c.set_pinned(t, slot, p, pinned),
+        )
     }
 
     /// [`GpuSolver::set_pin_targets`] for cloth `id` (particles counted
@@ -62,6 +120,10 @@ impl GpuBatch {
         targets: &[PinTarget],
         frame_seconds: f64,
     ) -> Result<()> {
-        self.change(id, |s| s.set_pin_targets(targets, frame_seconds))
+        self.change(
+            id,
+            |s| s.set_pin_targets(targets, frame_seconds),
+            |c, t| c.set_pin_targets(t, targets, frame_seconds),
+        )
     }
 }

@@ -10,8 +10,9 @@
 //! so a batch takes any cloth.
 
 mod control;
-#[expect(dead_code, reason = "the cloth table that uses it is built next")]
 pub(crate) mod ranges;
+mod table;
+mod table_cloth;
 
 use std::ops::Range;
 
@@ -21,6 +22,8 @@ use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::params::Params;
 use crate::stats::StepStats;
+use table::Table;
+use table_cloth::TableCloth;
 
 /// A cloth of a [`GpuBatch`], from [`GpuBatch::add`]. Its index is its slot
 /// in the batch; a removed cloth's id stays invalid when its slot is
@@ -61,7 +64,9 @@ pub struct DrawRange<'a> {
 /// A cloth of the batch.
 #[derive(Debug)]
 enum Member {
-    /// Held as a solver of its own.
+    /// In the shared buffers, stepped by the workgroup kernels.
+    Table(Box<TableCloth>),
+    /// Held as a solver of its own (the workgroup kernels cannot step it).
     Solo(Box<GpuSolver>),
 }
 
@@ -88,6 +93,8 @@ pub struct GpuBatch {
     kernels: GpuKernels,
     queue: wgpu::Queue,
     slots: Vec<Slot>,
+    /// The shared buffers of the table cloths.
+    table: Table,
     /// Dispatches recorded by the last `encode_steps`, and its steps.
     recorded: (u32, u32),
 }
@@ -106,6 +113,7 @@ impl GpuBatch {
             kernels: kernels.clone(),
             queue: queue.clone(),
             slots: Vec::new(),
+            table: Table::new(kernels, queue),
             recorded: (0, 0),
         }
     }
@@ -114,41 +122,75 @@ impl GpuBatch {
     /// [`GpuSolver::new`] refuses: invalid parameters, a cloth beyond the
     /// device's limits or the host's memory. The other cloths are not
     /// touched. Its slot is the first free one.
+    ///
+    /// A cloth the workgroup kernels can step (see
+    /// [`StepPath`](super::StepPath)) goes into the shared buffers (which
+    /// grow, copied on the device, when it does not fit where a removed
+    /// cloth was); any other is held as a [`GpuSolver`] of its own,
+    /// recorded into the same encoder.
     pub fn add(&mut self, model: &Model, params: &Params) -> Result<ClothId> {
-        let solver = GpuSolver::with_kernels(&self.kernels, &self.queue, model, params)?;
-        let member = Member::Solo(Box::new(solver));
         let free = self.slots.iter().position(|s| s.member.is_none());
-        let slot = match free {
-            Some(k) => k,
-            None => {
-                let k = self.slots.len();
-                u32::try_from(k).map_err(|_| Error::InvalidParameter {
-                    key: "batch".into(),
-                    allowed: format!("at most {} cloths", u32::MAX),
-                    got: k.to_string(),
-                })?;
-                self.slots.push(Slot {
-                    generation: 0,
-                    member: None,
-                });
-                k
-            }
+        let slot = free.unwrap_or(self.slots.len());
+        let slot32 = u32::try_from(slot).map_err(|_| Error::InvalidParameter {
+            key: "batch".into(),
+            allowed: format!("at most {} cloths", u32::MAX),
+            got: slot.to_string(),
+        })?;
+        let member = match table_cloth::path(&self.kernels, model, params)? {
+            super::StepPath::Workgroup => Member::Table(Box::new(TableCloth::add(
+                &mut self.table,
+                slot32,
+                (self.slots.len().max(slot + 1)) as u64,
+                model,
+                params,
+            )?)),
+            super::StepPath::MultiDispatch => Member::Solo(Box::new(GpuSolver::with_kernels(
+                &self.kernels,
+                &self.queue,
+                model,
+                params,
+            )?)),
         };
+        if slot == self.slots.len() {
+            self.slots.push(Slot {
+                generation: 0,
+                member: None,
+            });
+        }
         let s = &mut self.slots[slot];
         s.generation = s.generation.wrapping_add(1);
         s.member = Some(member);
+        if let Err(e) = self.prepare() {
+            // Not added: its pipelines could not be built.
+            self.slots[slot].member = None;
+            return Err(e);
+        }
         Ok(ClothId {
-            slot: slot as u32,
-            generation: s.generation,
+            slot: slot32,
+            generation: self.slots[slot].generation,
         })
     }
 
-    /// Removes a cloth; its slot and buffers are reused by a later add.
-    /// An id that is not in the batch is an error.
+    /// Removes a cloth; its slot and ranges of the shared buffers are
+    /// reused by a later add. An id that is not in the batch is an error.
     pub fn remove(&mut self, id: ClothId) -> Result<()> {
         self.member(id)?;
-        self.slots[id.slot as usize].member = None;
-        Ok(())
+        if let Some(Member::Table(c)) = self.slots[id.slot as usize].member.take() {
+            c.remove(&mut self.table, id.slot);
+        }
+        self.prepare()
+    }
+
+    /// Takes the workgroup kernels' pipelines for the integrators and the
+    /// union of the features of the table cloths (compiling only those the
+    /// library lacks).
+    fn prepare(&mut self) -> Result<()> {
+        let cloths = self.slots.iter().filter_map(|s| match &s.member {
+            Some(Member::Table(c)) => Some(c.as_ref()),
+            _ => None,
+        });
+        let (present, features) = table_cloth::union(cloths);
+        self.table.prepare(&present, features)
     }
 
     /// The cloth of `id`, or an error naming it.
@@ -203,11 +245,16 @@ impl GpuBatch {
 
     /// Records `n` steps of every cloth into `encoder` without submitting.
     pub fn encode_steps(&mut self, encoder: &mut wgpu::CommandEncoder, n: u32) {
-        let mut dispatches = 0.0;
+        let mut dispatches =
+            f64::from(self.table.encode_steps(encoder, n, self.slots.len() as u32));
         for s in &mut self.slots {
-            if let Some(Member::Solo(solver)) = &mut s.member {
-                solver.encode_steps(encoder, n);
-                dispatches += solver.dispatches_per_step() * f64::from(n);
+            match &mut s.member {
+                Some(Member::Table(c)) => c.steps_recorded += u64::from(n),
+                Some(Member::Solo(solver)) => {
+                    solver.encode_steps(encoder, n);
+                    dispatches += solver.dispatches_per_step() * f64::from(n);
+                }
+                None => {}
             }
         }
         // Each solver records whole dispatches per step.
@@ -229,14 +276,17 @@ impl GpuBatch {
         self.check()
     }
 
-    /// Reads every cloth's status (see [`GpuSolver::check`]): its
-    /// statistics, or an error naming the first cloth, in slot order,
-    /// whose state stopped being finite, and the step.
+    /// Reads every cloth's status (see [`GpuSolver::check`]; one
+    /// read-back for all the table cloths): their statistics, in slot
+    /// order, or an error naming the first cloth whose state stopped being
+    /// finite, and the step.
     pub fn check(&mut self) -> Result<Vec<(ClothId, StepStats)>> {
+        let words = self.table.read_status()?;
         let ids = self.cloths();
         let mut out = Vec::with_capacity(ids.len());
         for id in ids {
             let stats = match self.member_mut(id)? {
+                Member::Table(c) => c.decode(&words),
                 Member::Solo(solver) => solver.check(),
             };
             out.push((id, stats.map_err(|e| in_cloth(id, e))?));
@@ -248,15 +298,19 @@ impl GpuBatch {
     /// if its state stopped being finite.
     pub fn read_state(&self, id: ClothId) -> Result<GpuState> {
         match self.member(id)? {
-            Member::Solo(solver) => solver.read_state().map_err(|e| in_cloth(id, e)),
+            Member::Table(c) => c.read_state(&self.table),
+            Member::Solo(solver) => solver.read_state(),
         }
+        .map_err(|e| in_cloth(id, e))
     }
 
     /// Records the vertex-normal pass of every cloth (for rendering).
     pub fn encode_normals(&self, encoder: &mut wgpu::CommandEncoder) {
         for s in &self.slots {
-            if let Some(Member::Solo(solver)) = &s.member {
-                solver.encode_normals(encoder);
+            match &s.member {
+                Some(Member::Table(c)) => c.encode_normals(&self.table, encoder),
+                Some(Member::Solo(solver)) => solver.encode_normals(encoder),
+                None => {}
             }
         }
     }
@@ -264,6 +318,7 @@ impl GpuBatch {
     /// The buffers and ranges that draw cloth `id` (see [`DrawRange`]).
     pub fn draw_range(&self, id: ClothId) -> Result<DrawRange<'_>> {
         match self.member(id)? {
+            Member::Table(c) => Ok(c.draw_range(&self.table)),
             Member::Solo(solver) => Ok(DrawRange {
                 positions: solver.positions_buffer(),
                 normals: solver.normals_buffer(),
@@ -272,6 +327,37 @@ impl GpuBatch {
                 base_vertex: 0,
             }),
         }
+    }
+
+    /// The path that steps cloth `id`: [`StepPath::Workgroup`](super::StepPath::Workgroup)
+    /// for a cloth in the shared buffers, else the multi-dispatch path of
+    /// its own solver.
+    pub fn step_path(&self, id: ClothId) -> Result<super::StepPath> {
+        Ok(match self.member(id)? {
+            Member::Table(_) => super::StepPath::Workgroup,
+            Member::Solo(_) => super::StepPath::MultiDispatch,
+        })
+    }
+
+    /// The shared position buffer of the cloths on the workgroup path
+    /// (`vec4<f32>`: xyz in m, w = inverse mass; a vertex buffer of
+    /// stride 16); [`GpuBatch::draw_range`] says where each cloth is, and
+    /// which buffers hold a cloth on the multi-dispatch path.
+    pub fn positions_buffer(&self) -> &wgpu::Buffer {
+        self.table.buffer(ranges::Region::Particles)
+    }
+
+    /// The shared vertex normals, parallel to
+    /// [`GpuBatch::positions_buffer`], valid after
+    /// [`GpuBatch::encode_normals`].
+    pub fn normals_buffer(&self) -> &wgpu::Buffer {
+        self.table.normals()
+    }
+
+    /// The shared triangle indices (`u32`), each cloth's relative to its
+    /// first vertex ([`DrawRange::base_vertex`]).
+    pub fn index_buffer(&self) -> &wgpu::Buffer {
+        self.table.buffer(ranges::Region::Indices)
     }
 
     /// Compute dispatches per step of the whole batch in the last
@@ -290,11 +376,11 @@ impl GpuBatch {
     /// dispatch)`, the dispatches of cloths that share a kernel and size
     /// added up (what `wgcloth run --batch N --verbose` prints).
     pub fn describe_step(&self) -> Vec<(&'static str, u32, u32)> {
-        let mut out: Vec<(&'static str, u32, u32)> = Vec::new();
+        let mut out = self.table.describe_step(self.slots.len() as u32);
         for s in &self.slots {
             let passes = match &s.member {
                 Some(Member::Solo(solver)) => solver.describe_step(),
-                None => continue,
+                Some(Member::Table(_)) | None => continue,
             };
             for (kernel, count, items) in passes {
                 match out.iter_mut().find(|p| p.0 == kernel && p.2 == items) {
@@ -309,6 +395,7 @@ impl GpuBatch {
     /// Steps recorded so far by cloth `id` (cloths added later have fewer).
     pub fn steps_recorded(&self, id: ClothId) -> Result<u64> {
         match self.member(id)? {
+            Member::Table(c) => Ok(c.steps_recorded),
             Member::Solo(solver) => Ok(solver.steps_recorded()),
         }
     }

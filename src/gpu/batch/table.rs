@@ -1,0 +1,558 @@
+//! The cloths a batch steps with the workgroup kernels: their data in
+//! shared buffers, each cloth at offsets of its own (where: `ranges.rs`),
+//! and the cloth table the kernels read (an entry per slot of the batch,
+//! `Params` with the cloth's bases; a zero particle count where the slot
+//! holds no table cloth, which the kernels skip). One dispatch per
+//! integrator present steps every table cloth, a workgroup each.
+//!
+//! Adding a cloth reserves its ranges (a removed cloth's, where they fit),
+//! grows a buffer that is too small by allocating a larger one and copying
+//! the old contents on the device (so the other cloths' state is kept
+//! bit for bit), and rebuilds the bind groups; pipelines are taken from
+//! the shared kernel library for the union of the cloths' features.
+
+use super::ranges::{grown, Extents, Layout, Region, REGIONS};
+use crate::budget;
+use crate::error::{Error, Result};
+use crate::gpu::build::ClothArrays;
+use crate::gpu::guarded;
+use crate::gpu::kernel::Dispatch;
+use crate::gpu::kernels::{Features, GpuKernels};
+use crate::gpu::layout::{GpuParams, GpuSpring};
+use crate::gpu::path::StepPath;
+use crate::gpu::solver::{limit, plan_inputs, Prepared};
+use crate::kernel_config::{partials, spring_work, status, work, WORKGROUP};
+use crate::params::Integrator;
+
+/// Bytes of one element of each [`Region`].
+const ELEMENT_BYTES: Extents = [16, 32, 4, 16, 16, 4, 4, 4, 4];
+const _: () = assert!(ELEMENT_BYTES[1] == std::mem::size_of::<GpuSpring>() as u64);
+
+/// The smallest buffer made \[bytes\]: a binding must hold one element of
+/// its array, and a batch may have no spring, no dense filter, no cloth
+/// yet; the largest element bound is a `Spring`.
+const MIN_BUFFER: u64 = std::mem::size_of::<GpuSpring>() as u64;
+
+/// Bytes of a cloth table entry.
+const ENTRY_BYTES: u64 = std::mem::size_of::<GpuParams>() as u64;
+
+/// Usage of the shared storage buffers: bound, written by the host, read
+/// back and copied when they grow.
+const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
+    .union(wgpu::BufferUsages::COPY_DST)
+    .union(wgpu::BufferUsages::COPY_SRC);
+
+/// The usage of each region's buffer.
+fn usage(region: Region) -> wgpu::BufferUsages {
+    match region {
+        Region::Particles => STORAGE | wgpu::BufferUsages::VERTEX,
+        Region::Indices => {
+            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC
+        }
+        _ => STORAGE,
+    }
+}
+
+/// The label of each region's buffer.
+fn label(region: Region) -> &'static str {
+    match region {
+        Region::Particles => "wgcloth.batch.particles",
+        Region::Springs => "wgcloth.batch.springs",
+        Region::Topo => "wgcloth.batch.topo",
+        Region::Work => "wgcloth.batch.work",
+        Region::SpringWork => "wgcloth.batch.spring_work",
+        Region::Partials => "wgcloth.batch.partials",
+        Region::Status => "wgcloth.batch.status",
+        Region::Dense => "wgcloth.batch.dense",
+        Region::Indices => "wgcloth.batch.indices",
+    }
+}
+
+/// What a cloth of the table holds in each region \[elements\].
+pub(super) fn extents(a: &ClothArrays, triangles: usize) -> Extents {
+    let n = u64::from(a.params.particle_count);
+    let s = a.springs.len() as u64;
+    let mut e = [0; REGIONS];
+    e[Region::Particles.index()] = n;
+    e[Region::Springs.index()] = s;
+    e[Region::Topo.index()] = a.topo.len() as u64;
+    e[Region::Work.index()] = u64::from(work::COUNT) * n;
+    e[Region::SpringWork.index()] = u64::from(spring_work::COUNT) * s;
+    e[Region::Partials.index()] = u64::from(partials::SLOTS) * n.div_ceil(u64::from(WORKGROUP))
+        + u64::from(partials::CG_SCALARS);
+    e[Region::Status.index()] = status::COUNT as u64;
+    // Sized for every particle free, as a lone solver's (pins may change).
+    e[Region::Dense.index()] = if a.dense.is_empty() { 0 } else { n * n + n };
+    e[Region::Indices.index()] = 3 * triangles as u64;
+    e
+}
+
+/// Moves a cloth's arrays, built as a lone cloth's (every index from 0),
+/// to where it lives in the shared buffers: particle and spring indices
+/// become global, `topo` offsets absolute, and its parameters get its
+/// bases (the contract of `shaders/common/layout.wgsl`).
+pub(super) fn place(a: &mut ClothArrays, starts: &Extents) {
+    let base = |r: Region| starts[r.index()] as u32;
+    let (pb, sb, tb) = (
+        base(Region::Particles),
+        base(Region::Springs),
+        base(Region::Topo),
+    );
+    for s in &mut a.springs {
+        s.i += pb;
+        s.j += pb;
+    }
+    let p = &mut a.params;
+    let entries = p.spring_adj_entries as usize;
+    let count = a.topo[p.particle_count as usize] as usize;
+    // Each entry is `spring << 1 | end`; then each entry's other particle.
+    for e in &mut a.topo[entries..entries + count] {
+        *e = ((*e >> 1) + sb) << 1 | (*e & 1);
+    }
+    for other in &mut a.topo[entries + count..entries + 2 * count] {
+        *other += pb;
+    }
+    let triangles = p.triangles as usize;
+    for q in &mut a.topo[triangles..triangles + 3 * p.triangle_count as usize] {
+        *q += pb;
+    }
+    // The dense filter's order: a particle per filter position.
+    let f = p.filter_count as usize;
+    for q in a.dense.iter_mut().skip(f * f).take(f) {
+        *q = f32::from_bits(q.to_bits() + pb);
+    }
+    p.spring_adj_entries += tb;
+    p.tri_adj_offsets += tb;
+    p.tri_adj_entries += tb;
+    p.triangles += tb;
+    p.particle_base = pb;
+    p.spring_base = sb;
+    p.topo_base = tb;
+    p.work_base = base(Region::Work);
+    p.spring_work_base = base(Region::SpringWork);
+    p.partial_base = base(Region::Partials);
+    p.status_base = base(Region::Status);
+    p.dense_base = base(Region::Dense);
+}
+
+/// The shared buffers, the cloth table and the bind group over them.
+#[derive(Debug)]
+pub(super) struct Table {
+    kernels: GpuKernels,
+    queue: wgpu::Queue,
+    layout: Layout,
+    /// A buffer per [`Region`], holding `capacity` elements.
+    buffers: Vec<wgpu::Buffer>,
+    /// Velocities and vertex normals: as [`Region::Particles`] (which
+    /// holds the positions), element for element.
+    v: wgpu::Buffer,
+    normals: wgpu::Buffer,
+    capacity: Extents,
+    /// The cloth table: an entry per slot of the batch.
+    cloths: wgpu::Buffer,
+    /// Entries `cloths` holds.
+    entries: u64,
+    /// Group 0 of the workgroup kernels over these buffers.
+    group: wgpu::BindGroup,
+    /// A workgroup kernel's step per integrator present, with its
+    /// pipeline, for the union of the cloths' features.
+    steps: Vec<(Integrator, (Dispatch, wgpu::ComputePipeline))>,
+    /// The vertex-normal pass for those features.
+    normals_pass: Option<wgpu::ComputePipeline>,
+}
+
+impl Table {
+    /// An empty table (minimal buffers; nothing to step).
+    pub(super) fn new(kernels: &GpuKernels, queue: &wgpu::Queue) -> Table {
+        let device = kernels.device();
+        let buffers: Vec<wgpu::Buffer> = Region::ALL
+            .iter()
+            .map(|&r| buffer(device, r, MIN_BUFFER))
+            .collect();
+        let v = buffer(device, Region::Particles, MIN_BUFFER);
+        let normals = buffer(device, Region::Particles, MIN_BUFFER);
+        let cloths = cloth_table(device, ENTRY_BYTES);
+        let group = bind_group(kernels, &cloths, &buffers, &v, &normals);
+        Table {
+            kernels: kernels.clone(),
+            queue: queue.clone(),
+            layout: Layout::default(),
+            buffers,
+            v,
+            normals,
+            capacity: [0; REGIONS],
+            cloths,
+            entries: 1,
+            group,
+            steps: Vec::new(),
+            normals_pass: None,
+        }
+    }
+
+    /// The device the buffers live on.
+    pub(super) fn device(&self) -> &wgpu::Device {
+        self.kernels.device()
+    }
+
+    /// The queue uploads go to.
+    pub(super) fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
+    /// Every status word of the table cloths (one read-back; none when
+    /// there is no table cloth).
+    pub(super) fn read_status(&self) -> Result<Vec<u32>> {
+        let words = self.layout.ends()[Region::Status.index()];
+        if words == 0 {
+            return Ok(Vec::new());
+        }
+        let status = self.buffer(Region::Status);
+        let bytes = self.read(&[(status, Region::Status, 0, words)])?;
+        Ok(bytemuck::pod_collect_to_vec(&bytes[0]))
+    }
+
+    /// One step's dispatches as `wgcloth run --verbose` lists them:
+    /// `(kernel, dispatches, invocations each)` over `slots` table entries.
+    pub(super) fn describe_step(&self, slots: u32) -> Vec<(&'static str, u32, u32)> {
+        self.steps
+            .iter()
+            .map(|(_, (d, _))| (d.kernel.name(), 1, slots * d.items))
+            .collect()
+    }
+
+    /// The buffer of `region`.
+    pub(super) fn buffer(&self, region: Region) -> &wgpu::Buffer {
+        &self.buffers[region.index()]
+    }
+
+    /// The velocities (as [`Region::Particles`]).
+    pub(super) fn velocities(&self) -> &wgpu::Buffer {
+        &self.v
+    }
+
+    /// The vertex normals (as [`Region::Particles`]).
+    pub(super) fn normals(&self) -> &wgpu::Buffer {
+        &self.normals
+    }
+
+    /// Reserves a cloth's ranges, growing the buffers that are too small
+    /// (after checking the device's limits and the host's memory); the
+    /// starts. Nothing is reserved when it fails.
+    pub(super) fn reserve(&mut self, lens: &Extents, slots: u64) -> Result<Extents> {
+        let starts = self.layout.reserve(lens);
+        if let Err(e) = self.fit(slots) {
+            self.layout.free(&starts, lens);
+            return Err(e);
+        }
+        Ok(starts)
+    }
+
+    /// Frees a removed cloth's ranges and zeroes its table entry (the
+    /// kernels skip it).
+    pub(super) fn free(&mut self, slot: u32, starts: &Extents, lens: &Extents) {
+        self.layout.free(starts, lens);
+        self.write_entry(slot, &bytemuck::Zeroable::zeroed());
+    }
+
+    /// Grows what is too small for the ranges in use and `slots` table
+    /// entries.
+    fn fit(&mut self, slots: u64) -> Result<()> {
+        let device = self.kernels.device().clone();
+        let ends = self.layout.ends();
+        let wanted: Extents = std::array::from_fn(|k| grown(self.capacity[k], ends[k].max(1)));
+        let entries = grown(self.entries, slots.max(1));
+        let limits = device.limits();
+        let mut new_bytes = 0u64;
+        for r in Region::ALL {
+            let k = r.index();
+            if wanted[k] == self.capacity[k] {
+                continue;
+            }
+            let bytes = wanted[k].saturating_mul(ELEMENT_BYTES[k]);
+            let what = format!("the batch's {} buffer (bytes)", label(r));
+            limit("max_buffer_size", &what, limits.max_buffer_size, bytes)?;
+            if r != Region::Indices {
+                limit(
+                    "max_storage_buffer_binding_size",
+                    &what,
+                    limits.max_storage_buffer_binding_size,
+                    bytes,
+                )?;
+            }
+            new_bytes = new_bytes.saturating_add(bytes);
+        }
+        let table_bytes = entries.saturating_mul(ENTRY_BYTES);
+        if entries != self.entries {
+            limit(
+                "max_storage_buffer_binding_size",
+                "the batch's cloth table (bytes)",
+                limits.max_storage_buffer_binding_size,
+                table_bytes,
+            )?;
+            new_bytes = new_bytes.saturating_add(table_bytes);
+        }
+        if new_bytes == 0 {
+            return Ok(());
+        }
+        budget::check_host(budget::host_need(&device, 0, new_bytes), || {
+            "the batch's larger buffers".to_string()
+        })?;
+        guarded(
+            &device,
+            "growing the batch's buffers",
+            Some(new_bytes),
+            || {
+                let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("wgcloth.batch.grow"),
+                });
+                for r in Region::ALL {
+                    let k = r.index();
+                    if wanted[k] == self.capacity[k] {
+                        continue;
+                    }
+                    let bytes = wanted[k] * ELEMENT_BYTES[k];
+                    let mut copy = |old: &mut wgpu::Buffer| {
+                        let new = buffer(&device, r, bytes);
+                        encoder.copy_buffer_to_buffer(old, 0, &new, 0, old.size());
+                        *old = new;
+                    };
+                    copy(&mut self.buffers[k]);
+                    if r == Region::Particles {
+                        copy(&mut self.v);
+                        copy(&mut self.normals);
+                    }
+                    self.capacity[k] = wanted[k];
+                }
+                if entries != self.entries {
+                    let new = cloth_table(&device, table_bytes);
+                    encoder.copy_buffer_to_buffer(&self.cloths, 0, &new, 0, self.cloths.size());
+                    self.cloths = new;
+                    self.entries = entries;
+                }
+                // Submitted now: the new cloth's uploads, queued next, land
+                // after the old contents are copied.
+                self.queue.submit([encoder.finish()]);
+                self.group = bind_group(
+                    &self.kernels,
+                    &self.cloths,
+                    &self.buffers,
+                    &self.v,
+                    &self.normals,
+                );
+                Ok(())
+            },
+        )
+    }
+
+    /// Uploads a placed cloth's arrays and `triangles` to its ranges and
+    /// its entry into slot `slot` of the table; zeroes its scratch ranges
+    /// (a reused range holds its last cloth's) and sets its status words.
+    pub(super) fn upload(
+        &self,
+        slot: u32,
+        a: &ClothArrays,
+        triangles: &[[u32; 3]],
+        starts: &Extents,
+    ) {
+        let q = &self.queue;
+        let at = |r: Region| starts[r.index()] * ELEMENT_BYTES[r.index()];
+        let write = |r: Region, bytes: &[u8]| {
+            if !bytes.is_empty() {
+                q.write_buffer(self.buffer(r), at(r), bytes);
+            }
+        };
+        write(Region::Springs, bytemuck::cast_slice(&a.springs));
+        write(Region::Topo, bytemuck::cast_slice(&a.topo));
+        write(Region::Particles, bytemuck::cast_slice(&a.x));
+        q.write_buffer(&self.v, at(Region::Particles), bytemuck::cast_slice(&a.v));
+        write(Region::Dense, bytemuck::cast_slice(&a.dense));
+        write(Region::Indices, bytemuck::cast_slice(triangles));
+        let mut words = [0u32; status::COUNT];
+        words[status::BAD_STEP] = u32::MAX;
+        words[status::BAD_PARTICLE] = u32::MAX;
+        write(Region::Status, bytemuck::cast_slice(&words));
+        self.write_entry(slot, &a.params);
+        let lens = extents(a, triangles.len());
+        let device = self.kernels.device();
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("wgcloth.batch.clear"),
+        });
+        for r in [Region::Work, Region::SpringWork, Region::Partials] {
+            let bytes = lens[r.index()] * ELEMENT_BYTES[r.index()];
+            if bytes > 0 {
+                encoder.clear_buffer(self.buffer(r), at(r), Some(bytes));
+            }
+        }
+        self.queue.submit([encoder.finish()]);
+    }
+
+    /// Writes table entry `slot`.
+    pub(super) fn write_entry(&self, slot: u32, params: &GpuParams) {
+        self.queue.write_buffer(
+            &self.cloths,
+            u64::from(slot) * ENTRY_BYTES,
+            bytemuck::bytes_of(params),
+        );
+    }
+
+    /// Takes the pipelines of every integrator in `present` for the union
+    /// `features` (compiling those the library lacks); none without.
+    pub(super) fn prepare(
+        &mut self,
+        present: &[Integrator],
+        features: Option<Features>,
+    ) -> Result<()> {
+        let mut steps = Vec::new();
+        let mut normals = None;
+        for (&integrator, features) in present.iter().zip(std::iter::repeat(features).flatten()) {
+            let inputs = plan_inputs(
+                integrator,
+                features,
+                &bytemuck::Zeroable::zeroed(),
+                0,
+                0,
+                StepPath::Workgroup,
+            );
+            let prepared = Prepared::new(&self.kernels, &inputs)?;
+            let step = prepared.steps.entries().next().cloned().ok_or_else(|| {
+                Error::Gpu(format!(
+                    "no workgroup kernel steps the {integrator} integrator"
+                ))
+            })?;
+            steps.push((integrator, step));
+            normals = Some(prepared.normals);
+        }
+        self.steps = steps;
+        self.normals_pass = normals;
+        Ok(())
+    }
+
+    /// Records `n` steps of every table cloth: per step, a dispatch of a
+    /// workgroup per table entry for each integrator present. Returns the
+    /// dispatches recorded.
+    pub(super) fn encode_steps(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        n: u32,
+        slots: u32,
+    ) -> u32 {
+        if self.steps.is_empty() || slots == 0 {
+            return 0;
+        }
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("wgcloth.batch.steps"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.group, &[]);
+        for _ in 0..n {
+            for (_, (_, pipeline)) in &self.steps {
+                pass.set_pipeline(pipeline);
+                pass.dispatch_workgroups(slots, 1, 1);
+            }
+        }
+        n * self.steps.len() as u32
+    }
+
+    /// The vertex-normal pass for the features prepared (`None` before a
+    /// table cloth).
+    pub(super) fn normals_pipeline(&self) -> Option<&wgpu::ComputePipeline> {
+        self.normals_pass.as_ref()
+    }
+
+    /// Group 0 of the multi-dispatch kernels over the shared buffers with
+    /// `params` as the uniform block: a cloth's vertex-normal pass.
+    pub(super) fn uniform_group(&self, params: &wgpu::Buffer) -> wgpu::BindGroup {
+        let mut entries = vec![params];
+        entries.extend(group_buffers(&self.buffers, &self.v, &self.normals));
+        entries_group(self.kernels.device(), self.kernels.group0(), &entries)
+    }
+
+    /// Reads back `(buffer, region, start, elements)` parts of the shared buffers,
+    /// counted in the elements of `region`.
+    pub(super) fn read(&self, parts: &[(&wgpu::Buffer, Region, u64, u64)]) -> Result<Vec<Vec<u8>>> {
+        let parts: Vec<(&wgpu::Buffer, u64, u64)> = parts
+            .iter()
+            .map(|&(b, r, start, len)| {
+                let e = ELEMENT_BYTES[r.index()];
+                (b, start * e, len * e)
+            })
+            .collect();
+        crate::gpu::readback::read_buffers(self.kernels.device(), &self.queue, &parts)
+    }
+}
+
+/// A zeroed buffer of `region` holding `bytes` (at least [`MIN_BUFFER`]).
+fn buffer(device: &wgpu::Device, region: Region, bytes: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label(region)),
+        size: bytes.max(MIN_BUFFER),
+        usage: usage(region),
+        mapped_at_creation: false,
+    })
+}
+
+/// A zeroed cloth table of `bytes`.
+fn cloth_table(device: &wgpu::Device, bytes: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("wgcloth.batch.cloths"),
+        size: bytes.max(ENTRY_BYTES),
+        usage: STORAGE,
+        mapped_at_creation: false,
+    })
+}
+
+/// Bindings 1–10 (see `shaders/common/layout.wgsl`): springs, topo, x, v,
+/// work, spring_work, partials, status, normals, dense.
+fn group_buffers<'a>(
+    buffers: &'a [wgpu::Buffer],
+    v: &'a wgpu::Buffer,
+    normals: &'a wgpu::Buffer,
+) -> Vec<&'a wgpu::Buffer> {
+    let b = |r: Region| &buffers[r.index()];
+    vec![
+        b(Region::Springs),
+        b(Region::Topo),
+        b(Region::Particles),
+        v,
+        b(Region::Work),
+        b(Region::SpringWork),
+        b(Region::Partials),
+        b(Region::Status),
+        normals,
+        b(Region::Dense),
+    ]
+}
+
+/// Group 0 of the workgroup kernels: the cloth table, then bindings 1–10.
+fn bind_group(
+    kernels: &GpuKernels,
+    cloths: &wgpu::Buffer,
+    buffers: &[wgpu::Buffer],
+    v: &wgpu::Buffer,
+    normals: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    let mut entries = vec![cloths];
+    entries.extend(group_buffers(buffers, v, normals));
+    entries_group(kernels.device(), kernels.cloth_group0(), &entries)
+}
+
+/// A bind group of `buffers` at bindings 0, 1, … of `layout`.
+fn entries_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .zip(0u32..)
+        .map(|(b, binding)| wgpu::BindGroupEntry {
+            binding,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("wgcloth.batch.bindings"),
+        layout,
+        entries: &entries,
+    })
+}
