@@ -5,15 +5,125 @@
 
 use super::grid::GridBlock;
 use super::kernels::Features;
-use super::layout::{section, torque_bits};
+use super::layout::{section, torque_bits, GpuParams};
 use super::semi_filter::SemiFilter;
 use super::solver::{
     check_collider_counts, gpu_capsules, gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND,
 };
 use crate::cpu::motion;
 use crate::error::{Error, Result};
-use crate::params::{Capsule, Ground, PinTarget, Sphere, Wind};
+use crate::model::Model;
+use crate::params::{Capsule, Ground, Params, PinTarget, Sphere, Wind};
 use glam::{DVec3, Vec3};
+
+/// What pinning or releasing a particle changes besides its own model
+/// and parameters (see [`pin`]).
+pub(super) struct Pinning {
+    /// The particle's new inverse mass \[1/kg\] (0: pinned).
+    pub inverse_mass: f32,
+    /// The dense semi-implicit filter rebuilt for the new pins, where the
+    /// cloth has one.
+    pub filter: Option<SemiFilter>,
+}
+
+/// Pins (`true`) or releases particle `p` in `model` and the uniform block
+/// `params` (torque compensation, dense filter size) under the parameters
+/// `host`: what else to write, `None` when it already was. Shared by a
+/// solver and a batch, which write it to their buffers.
+pub(super) fn pin(
+    model: &mut Model,
+    host: &Params,
+    params: &mut GpuParams,
+    p: usize,
+    pinned: bool,
+) -> Result<Option<Pinning>> {
+    if model.pinned[p] == pinned {
+        return Ok(None);
+    }
+    model.pinned[p] = pinned;
+    let inverse_mass = if pinned {
+        0.0
+    } else {
+        (1.0 / model.mass[p]) as f32
+    };
+    params.torque_compensation =
+        torque_bits(host.semi_implicit.torque_compensation, model.pinned_count());
+    let filter = if params.filter_count > 0 {
+        let filter = SemiFilter::new(model, host)?;
+        params.filter_count = filter.count;
+        Some(filter)
+    } else {
+        None
+    };
+    Ok(Some(Pinning {
+        inverse_mass,
+        filter,
+    }))
+}
+
+/// The goals of pinned particles moving to `targets` over `frame_seconds`
+/// \[s\] of steps of `dt` from `steps_recorded` (see
+/// [`GpuSolver::set_pin_targets`]): `(particle, goal)` as the `work`
+/// section `PIN_TARGET` holds it. An error changes nothing.
+pub(super) fn pin_goals(
+    targets: &[PinTarget],
+    frame_seconds: f64,
+    dt: f64,
+    pinned: &[bool],
+    steps_recorded: u64,
+) -> Result<Vec<(usize, [f32; 4])>> {
+    let steps = motion::frame_steps(frame_seconds, dt)?;
+    motion::check_targets(targets, |p| pinned[p], pinned.len())?;
+    let end = (steps_recorded as u32).wrapping_add(steps);
+    Ok(targets
+        .iter()
+        .map(|t| {
+            let mut goal = t.position.extend(0.0).to_array();
+            goal[3] = f32::from_bits(end);
+            (t.particle, goal)
+        })
+        .collect())
+}
+
+/// The uniform block's part of the setters that change parameters only:
+/// each edits the block given the steps recorded so far. Shared by a
+/// solver and a batch.
+pub(super) mod entry {
+    use super::*;
+
+    /// Gravity [m/s²].
+    pub fn gravity(g: DVec3) -> impl FnOnce(&mut GpuParams, u64) {
+        move |p, _| p.gravity = g.as_vec3().to_array()
+    }
+
+    /// The wind (`None`: none).
+    pub fn wind(wind: Option<Wind>) -> impl FnOnce(&mut GpuParams, u64) {
+        move |p, _| {
+            let w = wind.unwrap_or(NO_WIND);
+            p.wind_velocity = w.velocity.as_vec3().to_array();
+            p.wind_drag = w.drag as f32;
+            p.wind_lift = w.lift as f32;
+        }
+    }
+
+    /// Sphere colliders, moving from the steps recorded so far.
+    pub fn spheres(spheres: &[Sphere]) -> impl FnOnce(&mut GpuParams, u64) + '_ {
+        move |p, steps| {
+            p.spheres = gpu_spheres(spheres);
+            p.sphere_count = spheres.len() as u32;
+            p.motion[1] = steps as u32;
+        }
+    }
+
+    /// Capsule colliders, moving from the steps recorded so far.
+    pub fn capsules(capsules: &[Capsule]) -> impl FnOnce(&mut GpuParams, u64) + '_ {
+        move |p, steps| {
+            p.capsules = gpu_capsules(capsules);
+            p.motion[0] = capsules.len() as u32;
+            p.motion[2] = steps as u32;
+        }
+    }
+}
 
 impl GpuSolver {
     /// Changes gravity [m/s²] from the next recorded step on.
@@ -22,7 +132,7 @@ impl GpuSolver {
         p.gravity = gravity;
         p.validate()?;
         self.host_params = p;
-        self.params.gravity = gravity.as_vec3().to_array();
+        entry::gravity(gravity)(&mut self.params, self.steps_recorded);
         self.upload_params();
         Ok(())
     }
@@ -35,10 +145,7 @@ impl GpuSolver {
         p.wind = wind;
         p.validate()?;
         self.host_params = p;
-        let w = wind.unwrap_or(NO_WIND);
-        self.params.wind_velocity = w.velocity.as_vec3().to_array();
-        self.params.wind_drag = w.drag as f32;
-        self.params.wind_lift = w.lift as f32;
+        entry::wind(wind)(&mut self.params, self.steps_recorded);
         self.update_features()
     }
 
@@ -65,9 +172,7 @@ impl GpuSolver {
         p.spheres = spheres.to_vec();
         p.validate()?;
         self.host_params = p;
-        self.params.spheres = gpu_spheres(spheres);
-        self.params.sphere_count = spheres.len() as u32;
-        self.params.motion[1] = self.steps_recorded as u32;
+        entry::spheres(spheres)(&mut self.params, self.steps_recorded);
         self.update_features()
     }
 
@@ -79,9 +184,7 @@ impl GpuSolver {
         p.capsules = capsules.to_vec();
         p.validate()?;
         self.host_params = p;
-        self.params.capsules = gpu_capsules(capsules);
-        self.params.motion[0] = capsules.len() as u32;
-        self.params.motion[2] = self.steps_recorded as u32;
+        entry::capsules(capsules)(&mut self.params, self.steps_recorded);
         self.update_features()
     }
 
@@ -95,14 +198,15 @@ impl GpuSolver {
     /// An index out of range, an unpinned particle or a non-finite position
     /// is an error naming it, and then nothing is changed.
     pub fn set_pin_targets(&mut self, targets: &[PinTarget], frame_seconds: f64) -> Result<()> {
-        let steps = motion::frame_steps(frame_seconds, self.host_params.dt)?;
-        let pinned = &self.model.pinned;
-        motion::check_targets(targets, |p| pinned[p], pinned.len())?;
-        let end = (self.steps_recorded as u32).wrapping_add(steps);
-        for t in targets {
-            let mut goal = t.position.extend(0.0).to_array();
-            goal[3] = f32::from_bits(end);
-            self.write_pin_goal(t.particle, goal);
+        let goals = pin_goals(
+            targets,
+            frame_seconds,
+            self.host_params.dt,
+            &self.model.pinned,
+            self.steps_recorded,
+        )?;
+        for (p, goal) in goals {
+            self.write_pin_goal(p, goal);
         }
         Ok(())
     }
@@ -157,20 +261,21 @@ impl GpuSolver {
     /// its filter on the host (the pins are constrained inside it).
     pub fn set_pinned(&mut self, p: usize, pinned: bool) -> Result<()> {
         self.check_particle(p)?;
-        if self.model.pinned[p] == pinned {
+        let Some(change) = pin(
+            &mut self.model,
+            &self.host_params,
+            &mut self.params,
+            p,
+            pinned,
+        )?
+        else {
             return Ok(());
-        }
-        self.model.pinned[p] = pinned;
-        let inverse_mass = if pinned {
-            0.0
-        } else {
-            (1.0 / self.model.mass[p]) as f32
         };
         let base = (p * 16) as u64;
         self.queue.write_buffer(
             &self.buffers.x,
             base + 12,
-            bytemuck::bytes_of(&inverse_mass),
+            bytemuck::bytes_of(&change.inverse_mass),
         );
         if pinned {
             self.queue
@@ -178,13 +283,7 @@ impl GpuSolver {
         }
         // A new pin stands still until it is given a target.
         self.write_pin_goal(p, [0.0; 4]);
-        self.params.torque_compensation = torque_bits(
-            self.host_params.semi_implicit.torque_compensation,
-            self.model.pinned_count(),
-        );
-        if self.params.filter_count > 0 {
-            let filter = SemiFilter::new(&self.model, &self.host_params)?;
-            self.params.filter_count = filter.count;
+        if let Some(filter) = change.filter {
             self.queue
                 .write_buffer(&self.buffers.dense, 0, bytemuck::cast_slice(&filter.words));
         }

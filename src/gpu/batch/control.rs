@@ -5,9 +5,10 @@
 use glam::{DVec3, Vec3};
 
 use super::table::Table;
-use super::table_cloth::{entry, TableCloth};
+use super::table_cloth::TableCloth;
 use super::{in_cloth, ClothId, GpuBatch, Member};
 use crate::error::Result;
+use crate::gpu::control::entry;
 use crate::gpu::GpuSolver;
 use crate::params::{Capsule, PinTarget, Sphere, Wind};
 

@@ -116,11 +116,7 @@ pub(super) fn place(a: &mut ClothArrays, starts: &Extents) {
     for q in &mut a.topo[triangles..triangles + 3 * p.triangle_count as usize] {
         *q += pb;
     }
-    // The dense filter's order: a particle per filter position.
-    let f = p.filter_count as usize;
-    for q in a.dense.iter_mut().skip(f * f).take(f) {
-        *q = f32::from_bits(q.to_bits() + pb);
-    }
+    shift_order(&mut a.dense, p.filter_count, pb);
     p.spring_adj_entries += tb;
     p.tri_adj_offsets += tb;
     p.tri_adj_entries += tb;
@@ -133,6 +129,15 @@ pub(super) fn place(a: &mut ClothArrays, starts: &Extents) {
     p.partial_base = base(Region::Partials);
     p.status_base = base(Region::Status);
     p.dense_base = base(Region::Dense);
+}
+
+/// Makes the particles of a dense filter's order (`count` of them after
+/// its `count²` matrix words, as `u32` bits) global: `base` added.
+pub(super) fn shift_order(words: &mut [f32], count: u32, base: u32) {
+    let f = count as usize;
+    for q in words.iter_mut().skip(f * f).take(f) {
+        *q = f32::from_bits(q.to_bits() + base);
+    }
 }
 
 /// The shared buffers, the cloth table and the bind group over them.

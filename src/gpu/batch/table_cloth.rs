@@ -3,28 +3,25 @@
 //! parameters, its ranges), its status and state read back, its normals
 //! and draw range, and its setters.
 
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 
 use super::ranges::{Extents, Region};
 use super::table::{self, Table};
 use super::DrawRange;
 use crate::budget::{self, Counts};
 use crate::cpu::filter::FilterSystem;
-use crate::cpu::motion;
 use crate::error::{Error, Result};
 use crate::gpu::build::cloth_arrays;
+use crate::gpu::control::{pin, pin_goals};
 use crate::gpu::grid::GridBlock;
 use crate::gpu::kernels::{Features, GpuKernels};
-use crate::gpu::layout::{section, status, torque_bits, GpuParams};
+use crate::gpu::layout::{section, status, GpuParams};
 use crate::gpu::path::{self, PathInputs, StepPath};
 use crate::gpu::semi_filter::SemiFilter;
-use crate::gpu::solver::{
-    check_collider_counts, decode_status, gpu_capsules, gpu_spheres, scene_features, GpuState,
-    NO_WIND,
-};
+use crate::gpu::solver::{check_collider_counts, decode_status, scene_features, GpuState};
 use crate::kernel_config::WORKGROUP;
 use crate::model::Model;
-use crate::params::{Capsule, Integrator, Params, PinTarget, Sphere, Wind};
+use crate::params::{Integrator, Params, PinTarget};
 use crate::stats::StepStats;
 
 /// The path a lone solver would take for this cloth: the batch puts the
@@ -307,37 +304,30 @@ impl TableCloth {
         pinned: bool,
     ) -> Result<()> {
         self.check_particle(p)?;
-        if self.model.pinned[p] == pinned {
+        let Some(change) = pin(
+            &mut self.model,
+            &self.host_params,
+            &mut self.params,
+            p,
+            pinned,
+        )?
+        else {
             return Ok(());
-        }
-        self.model.pinned[p] = pinned;
-        let inverse_mass = if pinned {
-            0.0
-        } else {
-            (1.0 / self.model.mass[p]) as f32
         };
         let at = (self.base() + p as u64) * 16;
         let q = table.queue();
         q.write_buffer(
             table.buffer(Region::Particles),
             at + 12,
-            bytemuck::bytes_of(&inverse_mass),
+            bytemuck::bytes_of(&change.inverse_mass),
         );
         if pinned {
             q.write_buffer(table.velocities(), at, bytemuck::cast_slice(&[0f32; 3]));
         }
+        // A new pin stands still until it is given a target.
         self.write_pin_goal(table, p, [0.0; 4]);
-        self.params.torque_compensation = torque_bits(
-            self.host_params.semi_implicit.torque_compensation,
-            self.model.pinned_count(),
-        );
-        if self.params.filter_count > 0 {
-            let mut filter = SemiFilter::new(&self.model, &self.host_params)?;
-            let f = filter.count as usize;
-            for q in filter.words.iter_mut().skip(f * f) {
-                *q = f32::from_bits(q.to_bits() + self.base() as u32);
-            }
-            self.params.filter_count = filter.count;
+        if let Some(mut filter) = change.filter {
+            table::shift_order(&mut filter.words, filter.count, self.base() as u32);
             q.write_buffer(
                 table.buffer(Region::Dense),
                 u64::from(self.params.dense_base) * 4,
@@ -356,53 +346,16 @@ impl TableCloth {
         targets: &[PinTarget],
         frame_seconds: f64,
     ) -> Result<()> {
-        let steps = motion::frame_steps(frame_seconds, self.host_params.dt)?;
-        let pinned = &self.model.pinned;
-        motion::check_targets(targets, |p| pinned[p], pinned.len())?;
-        let end = (self.steps_recorded as u32).wrapping_add(steps);
-        for t in targets {
-            let mut goal = t.position.extend(0.0).to_array();
-            goal[3] = f32::from_bits(end);
-            self.write_pin_goal(table, t.particle, goal);
+        let goals = pin_goals(
+            targets,
+            frame_seconds,
+            self.host_params.dt,
+            &self.model.pinned,
+            self.steps_recorded,
+        )?;
+        for (p, goal) in goals {
+            self.write_pin_goal(table, p, goal);
         }
         Ok(())
-    }
-}
-
-/// The table-entry changes of the setters that only change parameters.
-pub(super) mod entry {
-    use super::*;
-
-    /// Gravity [m/s²].
-    pub fn gravity(g: DVec3) -> impl FnOnce(&mut GpuParams, u64) {
-        move |p, _| p.gravity = g.as_vec3().to_array()
-    }
-
-    /// The wind (`None`: none).
-    pub fn wind(wind: Option<Wind>) -> impl FnOnce(&mut GpuParams, u64) {
-        move |p, _| {
-            let w = wind.unwrap_or(NO_WIND);
-            p.wind_velocity = w.velocity.as_vec3().to_array();
-            p.wind_drag = w.drag as f32;
-            p.wind_lift = w.lift as f32;
-        }
-    }
-
-    /// Sphere colliders, moving from the steps recorded so far.
-    pub fn spheres(spheres: &[Sphere]) -> impl FnOnce(&mut GpuParams, u64) + '_ {
-        move |p, steps| {
-            p.spheres = gpu_spheres(spheres);
-            p.sphere_count = spheres.len() as u32;
-            p.motion[1] = steps as u32;
-        }
-    }
-
-    /// Capsule colliders, moving from the steps recorded so far.
-    pub fn capsules(capsules: &[Capsule]) -> impl FnOnce(&mut GpuParams, u64) + '_ {
-        move |p, steps| {
-            p.capsules = gpu_capsules(capsules);
-            p.motion[0] = capsules.len() as u32;
-            p.motion[2] = steps as u32;
-        }
     }
 }
