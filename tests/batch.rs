@@ -243,3 +243,45 @@ fn a_blow_up_names_the_cloth_and_the_step() {
         other => panic!("expected the cloth named, got {other}"),
     }
 }
+
+#[test]
+fn each_cloth_is_drawn_from_its_range_with_the_normals_it_has_alone() {
+    let ctx = gpu();
+    let p = busy_params(Integrator::Explicit);
+    let (first, second) = (grid(9, 9, corners(), &p), grid(11, 7, corners(), &p));
+    let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+    batch.add(&first, &p).expect("first");
+    let id = batch.add(&second, &p).expect("second");
+    let mut lone = GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &second, &p).expect("lone");
+    batch.step(STEPS).expect("batch");
+    lone.step(STEPS).expect("lone");
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    batch.encode_normals(&mut encoder);
+    lone.encode_normals(&mut encoder);
+    ctx.queue.submit([encoder.finish()]);
+    let range = batch.draw_range(id).expect("draw range");
+    let n = second.particle_count() as u64 * 16;
+    let at = range.base_vertex as u64 * 16;
+    assert!(at > 0, "the second cloth starts after the first");
+    let tris = second.triangles.len() as u64 * 12;
+    let parts = wgcloth::gpu::readback::read_buffers(
+        &ctx.device,
+        &ctx.queue,
+        &[
+            (range.normals, at, n),
+            (lone.normals_buffer(), 0, n),
+            (range.index_buffer, u64::from(range.indices.start) * 4, tris),
+        ],
+    )
+    .expect("read-back");
+    assert_eq!(range.indices.len() as u32, lone.index_count());
+    assert!(parts[0] == parts[1], "normals differ from the lone cloth's");
+    // The cloth's own triangles, relative to its first vertex.
+    let want: Vec<u8> = second
+        .triangles
+        .iter()
+        .flatten()
+        .flat_map(|i| i.to_ne_bytes())
+        .collect();
+    assert!(parts[2] == want, "indices are not the cloth's triangles");
+}
