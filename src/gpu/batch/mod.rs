@@ -243,10 +243,20 @@ impl GpuBatch {
         self.cloths().len()
     }
 
+    /// The table entries a dispatch covers: up to the last slot that holds
+    /// a cloth in the shared buffers (the table holds at least those; the
+    /// kernels skip the zeroed entries of other slots).
+    fn table_span(&self) -> u32 {
+        self.slots
+            .iter()
+            .rposition(|s| matches!(s.member, Some(Member::Table(_))))
+            .map_or(0, |k| k as u32 + 1)
+    }
+
     /// Records `n` steps of every cloth into `encoder` without submitting.
     pub fn encode_steps(&mut self, encoder: &mut wgpu::CommandEncoder, n: u32) {
-        let mut dispatches =
-            f64::from(self.table.encode_steps(encoder, n, self.slots.len() as u32));
+        let span = self.table_span();
+        let mut dispatches = f64::from(self.table.encode_steps(encoder, n, span));
         for s in &mut self.slots {
             match &mut s.member {
                 Some(Member::Table(c)) => c.steps_recorded += u64::from(n),
@@ -376,7 +386,7 @@ impl GpuBatch {
     /// dispatch)`, the dispatches of cloths that share a kernel and size
     /// added up (what `wgcloth run --batch N --verbose` prints).
     pub fn describe_step(&self) -> Vec<(&'static str, u32, u32)> {
-        let mut out = self.table.describe_step(self.slots.len() as u32);
+        let mut out = self.table.describe_step(self.table_span());
         for s in &self.slots {
             let passes = match &s.member {
                 Some(Member::Solo(solver)) => solver.describe_step(),

@@ -441,6 +441,9 @@ impl Table {
         n: u32,
         slots: u32,
     ) -> u32 {
+        // Never a workgroup past the table: what it would read there is
+        // the device's choice (zeros, or a clamped, live entry).
+        let slots = slots.min(u32::try_from(self.entries).unwrap_or(u32::MAX));
         if self.steps.is_empty() || slots == 0 {
             return 0;
         }
