@@ -162,7 +162,9 @@ impl GpuBatch {
         s.member = Some(member);
         if let Err(e) = self.prepare() {
             // Not added: its pipelines could not be built.
-            self.slots[slot].member = None;
+            if let Some(Member::Table(c)) = self.slots[slot].member.take() {
+                c.remove(&mut self.table, slot32);
+            }
             return Err(e);
         }
         Ok(ClothId {

@@ -131,6 +131,21 @@ pub(super) fn place(a: &mut ClothArrays, starts: &Extents) {
     p.dense_base = base(Region::Dense);
 }
 
+/// Features with what either has: the kernel variants that step cloths
+/// of both.
+pub(super) fn either(a: Features, b: Features) -> Features {
+    Features {
+        wind: a.wind || b.wind,
+        ground: a.ground || b.ground,
+        spheres: a.spheres || b.spheres,
+        filter: a.filter || b.filter,
+        damping: a.damping || b.damping,
+        coarse: a.coarse || b.coarse,
+        constant_blocks: a.constant_blocks || b.constant_blocks,
+        ..a
+    }
+}
+
 /// Makes the particles of a dense filter's order (`count` of them after
 /// its `count²` matrix words, as `u32` bits) global: `base` added.
 pub(super) fn shift_order(words: &mut [f32], count: u32, base: u32) {
@@ -164,6 +179,8 @@ pub(super) struct Table {
     steps: Vec<(Integrator, (Dispatch, wgpu::ComputePipeline))>,
     /// The vertex-normal pass for those features.
     normals_pass: Option<wgpu::ComputePipeline>,
+    /// The features the pipelines were taken for.
+    features: Option<Features>,
 }
 
 impl Table {
@@ -191,6 +208,7 @@ impl Table {
             group,
             steps: Vec::new(),
             normals_pass: None,
+            features: None,
         }
     }
 
@@ -407,6 +425,17 @@ impl Table {
         present: &[Integrator],
         features: Option<Features>,
     ) -> Result<()> {
+        // Never fewer features than before: a pipeline with a feature a
+        // cloth lacks gives it the same bits, so removing a cloth compiles
+        // nothing.
+        let features = match (self.features, features) {
+            (Some(a), Some(b)) => Some(either(a, b)),
+            (a, b) => b.or(a),
+        };
+        if self.steps.iter().map(|s| s.0).eq(present.iter().copied()) && features == self.features {
+            // What a setter called every frame finds: nothing to take.
+            return Ok(());
+        }
         let mut steps = Vec::new();
         let mut normals = None;
         for (&integrator, features) in present.iter().zip(std::iter::repeat(features).flatten()) {
@@ -429,6 +458,7 @@ impl Table {
         }
         self.steps = steps;
         self.normals_pass = normals;
+        self.features = features;
         Ok(())
     }
 

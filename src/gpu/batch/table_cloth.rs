@@ -14,6 +14,7 @@ use crate::error::{Error, Result};
 use crate::gpu::build::cloth_arrays;
 use crate::gpu::control::{pin, pin_goals};
 use crate::gpu::grid::GridBlock;
+use crate::gpu::guarded;
 use crate::gpu::kernels::{Features, GpuKernels};
 use crate::gpu::layout::{section, status, GpuParams};
 use crate::gpu::path::{self, PathInputs, StepPath};
@@ -29,8 +30,7 @@ use crate::stats::StepStats;
 pub(super) fn path(kernels: &GpuKernels, model: &Model, params: &Params) -> Result<StepPath> {
     params.validate()?;
     let counts = Counts::of_model(model);
-    let dense = params.integrator == Integrator::SemiImplicit
-        && FilterSystem::dense(params.semi_implicit.filter, counts.free as usize);
+    let dense = dense_filter(model, params);
     let limits = kernels.device().limits();
     let inputs = PathInputs {
         integrator: params.integrator,
@@ -39,6 +39,15 @@ pub(super) fn path(kernels: &GpuKernels, model: &Model, params: &Params) -> Resu
         limits: &limits,
     };
     Ok(path::choose(&inputs, None)?.path)
+}
+
+/// Whether the cloth is semi-implicit with the dense filter.
+fn dense_filter(model: &Model, params: &Params) -> bool {
+    params.integrator == Integrator::SemiImplicit
+        && FilterSystem::dense(
+            params.semi_implicit.filter,
+            Counts::of_model(model).free as usize,
+        )
 }
 
 /// The integrators present among `cloths`, and the union of their
@@ -53,20 +62,7 @@ pub(super) fn union<'a>(
         if !present.contains(&c.integrator) {
             present.push(c.integrator);
         }
-        let f = c.features;
-        all = Some(match all {
-            None => f,
-            Some(a) => Features {
-                wind: a.wind || f.wind,
-                ground: a.ground || f.ground,
-                spheres: a.spheres || f.spheres,
-                filter: a.filter || f.filter,
-                damping: a.damping || f.damping,
-                coarse: a.coarse || f.coarse,
-                constant_blocks: a.constant_blocks || f.constant_blocks,
-                ..a
-            },
-        });
+        all = Some(all.map_or(c.features, |a| table::either(a, c.features)));
     }
     present.sort_by_key(|i| Integrator::ALL.iter().position(|j| j == i));
     (present, all)
@@ -103,10 +99,16 @@ impl TableCloth {
     ) -> Result<TableCloth> {
         check_collider_counts(params.spheres.len(), params.capsules.len())?;
         let device = table.device().clone();
-        // The arrays built on the host; the device's bytes are the shared
-        // buffers', checked when they grow.
+        // The arrays built on the host (the device's bytes are the shared
+        // buffers', checked when they grow).
         let counts = Counts::of_model(model);
-        let need = budget::gpu_bytes(counts, model.springs.len() as u64, params, false, 0);
+        let dense = dense_filter(model, params);
+        let bandwidth = if dense {
+            budget::filter_bandwidth(model)
+        } else {
+            0
+        };
+        let need = budget::gpu_bytes(counts, model.springs.len() as u64, params, dense, bandwidth);
         budget::check_host(need.host, || {
             format!("a cloth of {} particles for the batch", counts.particles)
         })?;
@@ -116,24 +118,35 @@ impl TableCloth {
         };
         // The workgroup kernels read the adjacency lists: general layout.
         let mut arrays = cloth_arrays(model, params, filter, None, GridBlock::ONE)?;
+        let model = model.try_clone()?;
         let lens = table::extents(&arrays, model.triangles.len());
         let starts = table.reserve(&lens, slots)?;
         table::place(&mut arrays, &starts);
-        table.upload(slot, &arrays, &model.triangles, &starts);
-        let normals_params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("wgcloth.batch.normals_params"),
-            size: std::mem::size_of::<GpuParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
+        let uploaded = guarded(&device, "adding a cloth to the batch", None, || {
+            table.upload(slot, &arrays, &model.triangles, &starts);
+            Ok(device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("wgcloth.batch.normals_params"),
+                size: std::mem::size_of::<GpuParams>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }))
         });
+        let normals_params = match uploaded {
+            Ok(b) => b,
+            Err(e) => {
+                table.free(slot, &starts, &lens);
+                return Err(e);
+            }
+        };
+        let features = scene_features(&model, params, None);
         let cloth = TableCloth {
             integrator: params.integrator,
             params: arrays.params,
             starts,
             lens,
-            model: model.try_clone()?,
+            model,
             host_params: params.clone(),
-            features: scene_features(model, params, None),
+            features,
             normals_params,
             steps_recorded: 0,
         };
