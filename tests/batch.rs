@@ -6,9 +6,10 @@
 mod gpu_common;
 
 use gpu_common::{busy_params, corners, gpu, grid};
+use wgcloth::glam::DVec3;
 use wgcloth::gpu::{ClothId, GpuBatch, GpuSolver, GpuState, StepPath};
 use wgcloth::kernel_config::WORKGROUP_STEP_MAX_PARTICLES;
-use wgcloth::params::{FixupMethod, Integrator};
+use wgcloth::params::{Capsule, FixupMethod, Integrator, PinTarget, Sphere, Wind};
 use wgcloth::{Model, Params, Scene, StepStats};
 
 /// Steps of the comparisons: enough for the falling cloths to reach the
@@ -284,4 +285,121 @@ fn each_cloth_is_drawn_from_its_range_with_the_normals_it_has_alone() {
         .flat_map(|i| i.to_ne_bytes())
         .collect();
     assert!(parts[2] == want, "indices are not the cloth's triangles");
+}
+
+/// A change a game makes between frames.
+enum Change {
+    Gravity(DVec3),
+    Wind(Option<Wind>),
+    Spheres(Vec<Sphere>),
+    Capsules(Vec<Capsule>),
+    Pinned(usize, bool),
+    Targets(Vec<PinTarget>),
+    Position(usize, wgcloth::glam::Vec3),
+}
+
+/// Frame `frame`'s changes: gravity and wind, a moving sphere and a
+/// capsule, a corner released and a middle particle pinned (frame 1), the
+/// other corner dragged by a pin target, the middle particle moved.
+fn frame_changes(frame: u32) -> Vec<Change> {
+    let f = f64::from(frame);
+    let mut out = vec![
+        Change::Gravity(DVec3::new(0.5 * f, -9.81, 0.0)),
+        Change::Wind(Some(Wind {
+            velocity: DVec3::new(1.0 + f, 0.0, 2.0),
+            drag: 0.5,
+            lift: 0.1,
+        })),
+        Change::Spheres(vec![Sphere {
+            center: DVec3::new(0.3, 0.6 + 0.05 * f, 0.4),
+            radius: 0.15,
+            friction: 0.2,
+            velocity: DVec3::new(0.0, 0.5, 0.0),
+        }]),
+        Change::Capsules(vec![Capsule {
+            a: DVec3::new(0.0, 0.5, 0.6),
+            b: DVec3::new(1.0, 0.5, 0.6),
+            radius: 0.05,
+            friction: 0.1,
+            velocity: DVec3::ZERO,
+        }]),
+    ];
+    if frame == 1 {
+        out.extend([Change::Pinned(0, false), Change::Pinned(40, true)]);
+    }
+    let up = 0.01 * frame as f32;
+    out.extend([
+        Change::Position(40, wgcloth::glam::Vec3::new(0.5, 1.0 + up, 0.5)),
+        Change::Targets(vec![PinTarget {
+            particle: 8,
+            position: wgcloth::glam::Vec3::new(1.0 + 2.0 * up, 1.0, 0.0),
+        }]),
+    ]);
+    out
+}
+
+/// Seconds a pin target's move takes.
+const FRAME_SECONDS: f64 = 0.01;
+
+fn change_lone(s: &mut GpuSolver, c: &Change) -> wgcloth::Result<()> {
+    match c {
+        Change::Gravity(g) => s.set_gravity(*g),
+        Change::Wind(w) => s.set_wind(*w),
+        Change::Spheres(v) => s.set_spheres(v),
+        Change::Capsules(v) => s.set_capsules(v),
+        Change::Pinned(p, on) => s.set_pinned(*p, *on),
+        Change::Targets(t) => s.set_pin_targets(t, FRAME_SECONDS),
+        Change::Position(p, x) => s.set_position(*p, *x),
+    }
+}
+
+fn change_in_batch(b: &mut GpuBatch, id: ClothId, c: &Change) -> wgcloth::Result<()> {
+    match c {
+        Change::Gravity(g) => b.set_gravity(id, *g),
+        Change::Wind(w) => b.set_wind(id, *w),
+        Change::Spheres(v) => b.set_spheres(id, v),
+        Change::Capsules(v) => b.set_capsules(id, v),
+        Change::Pinned(p, on) => b.set_pinned(id, *p, *on),
+        Change::Targets(t) => b.set_pin_targets(id, t, FRAME_SECONDS),
+        Change::Position(p, x) => b.set_position(id, *p, *x),
+    }
+}
+
+#[test]
+fn a_batch_cloths_setters_change_it_as_a_lone_solvers_change_it() {
+    let ctx = gpu();
+    let p = busy_params(Integrator::Explicit);
+    let (first, second) = (grid(9, 9, corners(), &p), grid(9, 9, corners(), &p));
+    let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+    let untouched = batch.add(&first, &p).expect("first");
+    let id = batch.add(&second, &p).expect("second");
+    assert_eq!(batch.step_path(id).ok(), Some(StepPath::Workgroup));
+    let mut lone = GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &second, &p).expect("lone");
+    let frames = 5;
+    for frame in 1..=frames {
+        for c in frame_changes(frame) {
+            change_lone(&mut lone, &c).expect("lone change");
+            change_in_batch(&mut batch, id, &c).expect("batch change");
+        }
+        batch.step(STEPS / frames).expect("batch steps");
+        lone.step(STEPS / frames).expect("lone steps");
+    }
+    assert_bits(
+        "the changed cloth",
+        &batch.read_state(id).expect("read"),
+        &lone.read_state().expect("read"),
+    );
+    let (want, _) = alone(
+        &Cloth {
+            name: "untouched",
+            model: first.try_clone().expect("model"),
+            params: p.clone(),
+        },
+        STEPS / frames * frames,
+    );
+    assert_bits(
+        "the untouched cloth",
+        &batch.read_state(untouched).expect("read"),
+        &want,
+    );
 }
