@@ -289,6 +289,74 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
     return acc;
 }
 
+// The CG set-up of particle p, whose Δv (with its filter kind in w) is
+// `dv`, from (A Δv)_p, unfiltered, `adv` (twin: the particle loop of
+// cpu::cg::init): r = S b − S A Δv, and without coarse levels s = S P r
+// with ρ's term r·s in r's w (with them cg_update's first call computes s and
+// ρ's terms); a zero previous direction and product.
+fn cg_init_end(p: u32, dv: vec4<f32>, adv: vec3<f32>, coarse: bool) {
+    let kind = dv.w;
+    let q = filter_with(kind, p, adv);
+    let r = filter_with(kind, p, work[wi(W_RHS, p)].xyz) - q;
+    if (coarse) {
+        work[wi(W_R, p)] = vec4<f32>(r, 0.0);
+    } else {
+        let s = filter_with(kind, p, precond_mul(p, r));
+        work[wi(W_R, p)] = vec4<f32>(r, dot3(r, s));
+        work[wi(W_S, p)] = vec4<f32>(s, kind);
+    }
+    work[wi(W_C, p)] = vec4<f32>(0.0);
+    work[wi(W_Q, p)] = vec4<f32>(0.0);
+}
+
+// cg_init of particle p through the adjacency lists.
+fn cg_init_item(p: u32, coarse: bool) {
+    cg_init_end(p, work[wi(W_DV, p)], apply_a(W_DV, p), coarse);
+}
+
+// c = s + β c and q = S (A s) + β q for particle p, whose s (with its
+// filter kind in w) is `s` and (A s)_p, unfiltered, `as_p`, with cᵀq's
+// term in q's w (twin: the particle loop of cpu::cg::apply).
+fn cg_apply_end(p: u32, s: vec4<f32>, as_p: vec3<f32>, beta: f32) {
+    let t = filter_with(s.w, p, as_p);
+    let c = s.xyz + work[wi(W_C, p)].xyz * beta;
+    let q = t + work[wi(W_Q, p)].xyz * beta;
+    work[wi(W_C, p)] = vec4<f32>(c, 0.0);
+    work[wi(W_Q, p)] = vec4<f32>(q, dot3(c, q));
+}
+
+// cg_apply of particle p through the adjacency lists.
+fn cg_apply_item(p: u32, beta: f32) {
+    cg_apply_end(p, work[wi(W_S, p)], apply_a(W_S, p), beta);
+}
+
+// Δv of particle p after the step `alpha` along c (stored) and r after
+// it (returned, with the particle's filter kind in w: the caller stores r
+// with its term of ρ). The `first` update (after cg_init) only
+// preconditions the initial residual.
+fn update_particle(p: u32, alpha: f32, first: bool) -> vec4<f32> {
+    var r = work[wi(W_R, p)].xyz;
+    if (first) {
+        return vec4<f32>(r, filter_kind(p));
+    }
+    let dv = work[wi(W_DV, p)];
+    let dv_new = dv.xyz + work[wi(W_C, p)].xyz * alpha;
+    r -= work[wi(W_Q, p)].xyz * alpha;
+    work[wi(W_DV, p)] = vec4<f32>(dv_new, dv.w);
+    return vec4<f32>(r, dv.w);
+}
+
+// The CG update of particle p without coarse levels (twin: the particle
+// loop of cpu::cg::update): Δv and r (update_particle), s = S P r with
+// the filter kind in its w, ρ's term r·P r in r's w.
+fn cg_update_item(p: u32, alpha: f32, first: bool) {
+    let rk = update_particle(p, alpha, first);
+    let r = rk.xyz;
+    let s = precond_mul(p, r);
+    work[wi(W_R, p)] = vec4<f32>(r, dot3(r, s));
+    work[wi(W_S, p)] = vec4<f32>(filter_with(rk.w, p, s), rk.w);
+}
+
 // Indirect dispatch arguments of cg_apply (words 0–2) and cg_update
 // (words 3–5) (group 1, bound only to cg_start, cg_alpha and cg_beta,
 // which write them): workgroups, or 0 once CG has stopped, so a stopped
@@ -460,6 +528,24 @@ fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
 // decides convergence and is summed where it is tested), α, β.
 fn scalar_index(k: u32) -> u32 {
     return P_SLOTS * params.partial_count + k;
+}
+
+// α = δ / cᵀq, cᵀq summed from the w of W_Q (twin: cpu::cg::alpha). A
+// cᵀq that is not positive means c vanished to rounding: CG stops.
+// Invocation 0 stores α or the stop and returns whether CG goes on (the
+// others return false). Call from uniform control flow.
+fn cg_alpha_scalar(lid: u32) -> bool {
+    let cq = sum_w(W_Q, P_CQ, lid);
+    if (lid != 0u) {
+        return false;
+    }
+    let running = finite1(cq) && cq > 0.0;
+    if (running) {
+        partials[scalar_index(C_ALPHA)] = partials[scalar_index(C_DELTA)] / cq;
+    } else {
+        atomicStore(&status[STATUS_CG_STOPPED], 1u);
+    }
+    return running;
 }
 
 // Whether CG has stopped (converged or broken down; set by the one-group
