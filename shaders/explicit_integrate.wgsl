@@ -2,6 +2,8 @@
 // v* = 0). Twin: cpu::explicit::integrate.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
+#include "common/fixup.wgsl"
+#include "common/step.wgsl"
 #include "common/no_spring_data.wgsl"
 #include "generated/grid_block.wgsl"
 
@@ -22,12 +24,8 @@ override SNAP_OUT: u32 = 0xffffffffu;
 fn explicit_integrate(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (p == 0u) {
-        atomicAdd(&status[STATUS_STEP], 1u);
-        atomicStore(&status[STATUS_FIXUP_MOVED], 0u);
-        atomicStore(&status[STATUS_FIXUP_STOPPED], 0u);
-        atomicStore(&status[STATUS_FIXUP_RESULT], W_X_PRED);
-        atomicStore(&status[STATUS_FIXUP_PASSES], 0u);
-        atomicStore(&status[STATUS_FIXUP_FLAG], 0u);
+        atomicAdd(&status[sw(STATUS_STEP)], 1u);
+        reset_fixup();
     }
     // On a grid: one invocation per block of particles.
     if (grid_gather_done(p)) {
@@ -70,13 +68,9 @@ fn block_end(p: u32, own: BlockData, sum: vec3<f32>) {
 // force `f` on it [N].
 fn integrate_particle(p: u32, x0: vec4<f32>, v0: vec4<f32>, f: vec3<f32>) {
     let w = x0.w;
-    var vn = v0.xyz + f * (params.dt * w);
-    var xn = x0.xyz;
-    if (w > 0.0) {
-        xn += vn * params.dt;
-    } else {
-        vn = vec3<f32>(0.0);
-    }
+    let pred = predict(x0, v0, f);
+    var xn = pred[0];
+    var vn = pred[1];
     if (FUSED) {
         let clock = particle_clock(p);
         if (w > 0.0) {
@@ -103,6 +97,5 @@ fn integrate_particle(p: u32, x0: vec4<f32>, v0: vec4<f32>, f: vec3<f32>) {
         }
         return;
     }
-    work[wi(W_X_PRED, p)] = vec4<f32>(xn, 0.0);
-    work[wi(W_V_NEW, p)] = vec4<f32>(vn, 0.0);
+    store_prediction(p, xn, vn);
 }

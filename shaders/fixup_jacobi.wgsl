@@ -4,6 +4,7 @@
 // cpu::fixup::jacobi (one pass).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
+#include "common/fixup.wgsl"
 #include "common/no_spring_data.wgsl"
 #include "generated/grid_block.wgsl"
 
@@ -12,25 +13,6 @@ override DST: u32 = 1u;
 // Pass k's flag slot is k mod 3 (FLAG); FIRST marks pass 0.
 override FLAG: u32 = 0u;
 override FIRST: bool = true;
-
-// Twin: cpu::fixup SLACK_ULPS × f32::EPSILON.
-const SLACK: f32 = 1.0 + 1.1920929e-7 * 64.0;
-
-// Twin: cpu::fixup::correction. Returns the correction c (end i moves by
-// −w_i c, end j by +w_j c) and whether the spring is over its limit.
-fn correction(s: u32) -> vec4<f32> {
-    let sp = springs[s];
-    if (sp.max_len <= 0.0) {
-        return vec4<f32>(0.0);
-    }
-    let d = work[wi(SRC, sp.i)].xyz - work[wi(SRC, sp.j)].xyz;
-    let l = len3(d);
-    let w = x[sp.i].w + x[sp.j].w;
-    if (l > sp.max_len * SLACK && w > 0.0) {
-        return vec4<f32>(d * ((l - sp.max_len) / (l * w)), 1.0);
-    }
-    return vec4<f32>(0.0);
-}
 
 // The grid gather (generated/grid_block.wgsl): each particle's SRC
 // position and inverse mass; the sum (xyz: Σ ±c, w: count) of the
@@ -65,21 +47,9 @@ fn block_term(acc: vec4<f32>, own: BlockData, other: BlockData, inc: Incident, s
 }
 
 fn block_end(p: u32, own: BlockData, acc: vec4<f32>) {
-    move_particle(p, own.x, own.w, acc.xyz, u32(acc.w));
-}
-
-// Moves particle p (SRC position `xp`, inverse mass `w`) by the mean of
-// its `count` corrections, whose sum is `sum`, into DST.
-fn move_particle(p: u32, xp: vec3<f32>, w: f32, sum: vec3<f32>, count: u32) {
-    var xn = xp;
-    if (count > 0u) {
-        atomicStore(&status[STATUS_FIXUP_MOVED], 1u);
-        atomicStore(&status[STATUS_FIXUP_FLAG + FLAG], 1u);
-        if (w > 0.0) {
-            xn += sum * (w * params.fixup_omega / f32(count));
-        }
+    if (fixup_move(p, own.x, own.w, acc.xyz, u32(acc.w), DST)) {
+        fixup_moved(FLAG);
     }
-    work[wi(DST, p)] = vec4<f32>(xn, 0.0);
 }
 
 @compute @workgroup_size(WORKGROUP)
@@ -88,41 +58,25 @@ fn fixup_jacobi(@builtin(global_invocation_id) gid: vec3<u32>) {
     // Stop once a pass moved nothing (twin: the CPU's `break`): its result,
     // in SRC, is final. Pass k reads pass k−1's flag and clears pass k+1's,
     // which no invocation of this dispatch reads.
-    if (atomicLoad(&status[STATUS_FIXUP_STOPPED]) != 0u) {
+    if (atomicLoad(&status[sw(STATUS_FIXUP_STOPPED)]) != 0u) {
         return;
     }
-    if (!FIRST && atomicLoad(&status[STATUS_FIXUP_FLAG + (FLAG + 2u) % 3u]) == 0u) {
+    if (!FIRST && atomicLoad(&status[sw(STATUS_FIXUP_FLAG + (FLAG + 2u) % 3u)]) == 0u) {
         if (p == 0u) {
-            atomicStore(&status[STATUS_FIXUP_STOPPED], 1u);
+            atomicStore(&status[sw(STATUS_FIXUP_STOPPED)], 1u);
         }
         return;
     }
     if (p == 0u) {
-        atomicStore(&status[STATUS_FIXUP_FLAG + (FLAG + 1u) % 3u], 0u);
-        atomicStore(&status[STATUS_FIXUP_RESULT], DST);
-        atomicAdd(&status[STATUS_FIXUP_PASSES], 1u);
+        atomicStore(&status[sw(STATUS_FIXUP_FLAG + (FLAG + 1u) % 3u)], 0u);
+        atomicStore(&status[sw(STATUS_FIXUP_RESULT)], DST);
+        atomicAdd(&status[sw(STATUS_FIXUP_PASSES)], 1u);
     }
     // On a grid: one invocation per block of particles.
     if (grid_gather_done(p)) {
         return;
     }
-    let own = block_load(lone_point(p));
-    var sum = vec3<f32>(0.0);
-    var count = 0u;
-    let begin = topo[p];
-    let end = topo[p + 1u];
-    for (var k = begin; k < end; k++) {
-        let e = topo[params.spring_adj_entries + k];
-        let c = correction(e >> 1u);
-        if (c.w == 0.0) {
-            continue;
-        }
-        if ((e & 1u) == 0u) {
-            sum -= c.xyz;
-        } else {
-            sum += c.xyz;
-        }
-        count += 1u;
+    if (fixup_particle(p, SRC, DST)) {
+        fixup_moved(FLAG);
     }
-    move_particle(p, own.x, own.w, sum, count);
 }

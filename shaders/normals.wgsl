@@ -10,8 +10,8 @@ fn normals(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     var n = vec3<f32>(0.0);
-    let tb = topo[params.tri_adj_offsets + p];
-    let te = topo[params.tri_adj_offsets + p + 1u];
+    let tb = tri_adj(p);
+    let te = tri_adj(p + 1u);
     for (var k = tb; k < te; k++) {
         let base = params.triangles + 3u * topo[params.tri_adj_entries + k];
         let a = x[topo[base]].xyz;

@@ -11,8 +11,8 @@
 fn semi_cg_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (p == 0u) {
-        atomicStore(&status[STATUS_CG_ITERATIONS], 0u);
-        atomicStore(&status[STATUS_CG_STOPPED], 0u);
+        atomicStore(&status[sw(STATUS_CG_ITERATIONS)], 0u);
+        atomicStore(&status[sw(STATUS_CG_STOPPED)], 0u);
     }
     if (p < params.particle_count) {
         var kind = FILTER_FREE;
@@ -20,8 +20,8 @@ fn semi_cg_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
             kind = FILTER_FIXED;
         }
         var diag = v[p].w;
-        let begin = topo[p];
-        let end = topo[p + 1u];
+        let begin = spring_adj(p);
+        let end = spring_adj(p + 1u);
         for (var k = begin; k < end; k++) {
             diag += spring_work[si(S_BLOCK, topo[params.spring_adj_entries + k] >> 1u)].w;
         }

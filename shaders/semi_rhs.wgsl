@@ -22,7 +22,7 @@ override ZERO_DV: bool = true;
 fn semi_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
     let p = gid.x;
     if (p == 0u) {
-        atomicAdd(&status[STATUS_STEP], 1u);
+        atomicAdd(&status[sw(STATUS_STEP)], 1u);
     }
     if (p >= params.particle_count) {
         return;
@@ -35,8 +35,8 @@ fn semi_rhs(@builtin(global_invocation_id) gid: vec3<u32>) {
     let rotation_free = (params.torque_compensation & TORQUE_LOCAL) != 0u;
     var acc = vec3<f32>(0.0);
     let clock = particle_clock(p);
-    let begin = topo[p];
-    let end = topo[p + 1u];
+    let begin = spring_adj(p);
+    let end = spring_adj(p + 1u);
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
         let sp = springs[e >> 1u];

@@ -25,6 +25,37 @@ pub const REDUCTION_BLOCK: usize = WORKGROUP as usize;
 /// device's limits are lower).
 pub const SUM_GROUP: u32 = 256;
 
+/// The most particles a cloth may have to be stepped by one workgroup
+/// (the workgroup path: `shaders/cloth_*.wgsl`), which the solver then
+/// chooses: 64² = 4096, the range of game cloths (16² to 64²).
+/// Every phase of a step loops over the cloth's particles with
+/// [`SUM_GROUP`] invocations, so the step's time grows with the cloth
+/// while a multi-dispatch step spreads it over every core or compute
+/// unit; at 4096 particles each invocation takes 16 particles a phase and
+/// the reductions 64 blocks (one per invocation, a quarter of the
+/// workgroup), beyond which the dispatches saved no longer pay for the
+/// lost parallelism on a GPU.
+pub const WORKGROUP_STEP_MAX_PARTICLES: u32 = 4096;
+
+/// Workgroup memory the workgroup kernels need at most \[bytes\]: the
+/// cloth's parameters (`Params`, 1 584 bytes), the staging of the block
+/// sums (`SUM_GROUP` words), the reduction scratch (`WORKGROUP` words) and
+/// a few shared words, rounded up to 4 KiB — a quarter of the 16 KiB every
+/// WebGPU device allows.
+pub const WORKGROUP_STEP_SHARED_BYTES: u32 = 4096;
+
+/// The integrators as the kernels know them (`params.integrator`,
+/// WGSL: `INTEGRATOR_*`): each workgroup kernel steps the cloths of its
+/// own.
+pub mod integrator {
+    /// Symplectic Euler.
+    pub const EXPLICIT: u32 = 0;
+    /// Backward Euler with CG.
+    pub const IMPLICIT: u32 = 1;
+    /// The semi-implicit filter.
+    pub const SEMI_IMPLICIT: u32 = 2;
+}
+
 /// Most spheres the GPU solver takes (they live in the uniform block).
 pub const MAX_SPHERES: usize = 16;
 
@@ -240,7 +271,10 @@ fn wgsl_u32() -> Vec<(String, u32)> {
             .zip(0u32..)
             .map(|(n, k)| (format!("W_{n}"), k)),
     );
-    let named: [(&str, u32); 30] = [
+    let named: [(&str, u32); 33] = [
+        ("INTEGRATOR_EXPLICIT", integrator::EXPLICIT),
+        ("INTEGRATOR_IMPLICIT", integrator::IMPLICIT),
+        ("INTEGRATOR_SEMI_IMPLICIT", integrator::SEMI_IMPLICIT),
         ("W_X_START", work::X_START),
         ("W_LEVEL1_D", work::LEVEL1_D),
         ("W_LEVEL1_O", work::LEVEL1_O),

@@ -8,7 +8,8 @@ use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::{DVec3, Vec3};
 use wgcloth::gpu::{
-    pipeline_cache, GpuContext, GpuKernels, GpuSolver, GpuState, GridBlock, Kernel, Variant,
+    pipeline_cache, GpuContext, GpuKernels, GpuSolver, GpuState, GridBlock, Kernel, StepPath,
+    Variant,
 };
 use wgcloth::kernel_config::{SUM_GROUP, WORKGROUP};
 use wgcloth::model::{ClothSpec, Pin};
@@ -19,9 +20,11 @@ fn model(pins: Vec<Pin>, p: &Params) -> Model {
     grid(13, 11, pins, p)
 }
 
+/// `steps` steps on the multi-dispatch path, whose grid kernels and
+/// single-pass steps these tests reach (tests/workgroup.rs tests the
+/// workgroup path), after `setup`.
 fn run(model: &Model, p: &Params, steps: u32, setup: impl FnOnce(&mut GpuSolver)) -> GpuState {
-    let ctx = gpu();
-    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, p).expect("GPU solver");
+    let mut g = solver_on(model, p, StepPath::MultiDispatch);
     g.tuning_mut().set_adaptive_cg_budget(false);
     setup(&mut g);
     g.step(steps).expect("GPU steps");
@@ -222,9 +225,8 @@ fn single_pass_against_general(wind: bool) {
     }
     p.fixup.iterations = 0;
     let m = model(corners(), &p);
-    let ctx = gpu();
     let run = |specialised: bool| {
-        let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+        let mut g = solver_on(&m, &p, StepPath::MultiDispatch);
         g.tuning_mut()
             .set_specialised(specialised)
             .expect("kernels");

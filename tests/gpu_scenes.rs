@@ -4,6 +4,7 @@
 mod gpu_common;
 
 use gpu_common::*;
+use wgcloth::gpu::StepPath;
 use wgcloth::params::{FixupMethod, Integrator};
 use wgcloth::Scene;
 
@@ -68,7 +69,6 @@ fn grid_and_general_kernels_match_the_cpu_mirror() {
         grid.triangles.clone(),
     )
     .expect("valid parts");
-    let ctx = gpu();
     for integrator in Integrator::ALL {
         scene.params.integrator = integrator;
         scene.params.dt = if integrator == Integrator::Explicit {
@@ -78,8 +78,9 @@ fn grid_and_general_kernels_match_the_cpu_mirror() {
         };
         for (what, model, per_spring_pass) in [("grid", &grid, false), ("general", &general, true)]
         {
-            let g = wgcloth::gpu::GpuSolver::new(&ctx.device, &ctx.queue, model, &scene.params)
-                .expect("GPU solver");
+            // The multi-dispatch path's plan shows its layout (a small
+            // explicit cloth would otherwise take the workgroup path).
+            let g = solver_on(model, &scene.params, StepPath::MultiDispatch);
             if integrator == Integrator::Explicit {
                 let plan = g.tuning().step_plan();
                 assert_eq!(

@@ -2,21 +2,21 @@
 //! the general kernels' results, switched-off features record fewer
 //! dispatches, and the fix-up stops on the device. The step plan it records
 //! is typed, and the debug API runs it dispatch by dispatch. On lavapipe in
-//! CI.
+//! CI. Every solver here takes the multi-dispatch path, whose plan these
+//! tests read (tests/workgroup.rs tests the workgroup path).
 
 mod gpu_common;
 
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::DVec3;
-use wgcloth::gpu::{DebugBuffer, FixupPhase, GpuSolver, GpuState, Kernel, Launch, Variant};
+use wgcloth::gpu::{DebugBuffer, FixupPhase, GpuState, Kernel, Launch, StepPath, Variant};
 use wgcloth::model::{Corner, Pin};
 use wgcloth::params::{Integrator, Wind};
 use wgcloth::{Model, Params};
 
 fn run(model: &Model, params: &Params, specialised: bool) -> (GpuState, f64) {
-    let ctx = gpu();
-    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, params).expect("GPU solver");
+    let mut g = solver_on(model, params, StepPath::MultiDispatch);
     g.tuning_mut().set_adaptive_cg_budget(false);
     g.tuning_mut()
         .set_specialised(specialised)
@@ -121,8 +121,7 @@ fn the_fixup_stops_on_the_device_when_nothing_is_over_stretched() {
         &p,
         vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)],
     );
-    let ctx = gpu();
-    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    let mut g = solver_on(&m, &p, StepPath::MultiDispatch);
     let mut c = CpuSolver::<f32>::new(&m, &p).expect("CPU solver");
     let mut early = 0;
     for step in 1..=60 {
@@ -143,11 +142,10 @@ fn the_fixup_stops_on_the_device_when_nothing_is_over_stretched() {
 /// the step end.
 #[test]
 fn the_plan_names_kernels_and_variants() {
-    let ctx = gpu();
     let mut p = base(Integrator::Explicit);
     p.fixup.iterations = 0;
     let m = model(&p, vec![]);
-    let g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    let g = solver_on(&m, &p, StepPath::MultiDispatch);
     let plan: Vec<(Kernel, Variant)> = g.debug_plan().iter().map(|d| d.pipeline()).collect();
     assert_eq!(
         plan,
@@ -157,7 +155,7 @@ fn the_plan_names_kernels_and_variants() {
         ]
     );
     p.fixup.iterations = 3;
-    let g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    let g = solver_on(&m, &p, StepPath::MultiDispatch);
     let plan: Vec<(Kernel, Variant)> = g.debug_plan().iter().map(|d| d.pipeline()).collect();
     let fixup = |k| (Kernel::FixupJacobi, Variant::Fixup(FixupPhase::of_pass(k)));
     assert_eq!(
@@ -176,10 +174,9 @@ fn the_plan_names_kernels_and_variants() {
 /// slots, and the per-particle ones from `cg_args`.
 #[test]
 fn cg_iterations_launch_from_their_slots() {
-    let ctx = gpu();
     let p = base(Integrator::Implicit);
     let m = model(&p, vec![]);
-    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    let mut g = solver_on(&m, &p, StepPath::MultiDispatch);
     g.tuning_mut().set_adaptive_cg_budget(false);
     let plan = g.debug_plan();
     let launches = |k: Kernel| -> Vec<Launch> {
@@ -213,11 +210,10 @@ fn a_step_run_dispatch_by_dispatch_equals_one_step() {
     single.fixup.iterations = 0;
     cases.push(("explicit single pass".into(), single));
     let corners = vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)];
-    let ctx = gpu();
     for (what, p) in cases {
         let m = model(&p, corners.clone());
         let solver = || {
-            let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+            let mut g = solver_on(&m, &p, StepPath::MultiDispatch);
             g.tuning_mut().set_adaptive_cg_budget(false);
             // Some steps first, so the pieces start from a moving cloth.
             g.step(3).expect("steps");
@@ -253,10 +249,9 @@ fn a_step_run_dispatch_by_dispatch_equals_one_step() {
 /// naming what is allowed; a write lands at the buffer's start.
 #[test]
 fn the_debug_api_refuses_what_does_not_fit() {
-    let ctx = gpu();
     let p = base(Integrator::Explicit);
     let m = model(&p, vec![]);
-    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &m, &p).expect("GPU solver");
+    let mut g = solver_on(&m, &p, StepPath::MultiDispatch);
     let len = g.debug_plan().len();
     let e = g.debug_run(0..len + 1).expect_err("past the plan");
     assert!(e.to_string().contains(&format!("0..{len}")), "{e}");

@@ -25,7 +25,7 @@ use twins::{
 };
 use wgcloth::cpu::twins as cpu;
 use wgcloth::cpu::twins::Filter;
-use wgcloth::gpu::{DebugBuffer, Dispatch, Kernel, Variant};
+use wgcloth::gpu::{DebugBuffer, Dispatch, Kernel, StepPath, Variant};
 use wgcloth::kernel_config::{partials, spring_work, status, work};
 use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
 use wgcloth::real::Vec3;
@@ -179,6 +179,7 @@ const TWIN_TESTS: &[(Kernel, fn())] = &[
     (Kernel::TorqueApply, torque_apply_matches_its_twin),
     (Kernel::SemiIntegrate, semi_integrate_matches_its_twin),
     (Kernel::SemiCgPrepare, semi_cg_prepare_matches_its_twin),
+    (Kernel::ClothExplicit, cloth_explicit_matches_its_twin),
 ];
 
 /// Kernels without a twin, and why (see [`TWIN_TESTS`]).
@@ -1115,4 +1116,64 @@ fn semi_cg_prepare_matches_its_twin() {
     wk.dv_prev = xyz(&before, at(work::DV_PREV), n);
     cpu::semi_implicit::cg_prepare(sys, wk);
     assert_cg_setup(&out, &flags, wk, n);
+}
+
+/// The status words the host reads after a submit (`GpuSolver::check`):
+/// the step count, the first non-finite step and particle, CG's counts
+/// and the fix-up's passes.
+const HOST_STATUS: [usize; 6] = [
+    status::STEP,
+    status::BAD_STEP,
+    status::BAD_PARTICLE,
+    status::CG_ITERATIONS,
+    status::CG_MAX_ITERATIONS,
+    status::FIXUP_PASSES,
+];
+
+/// Steps compared after the first: enough for the busy scene's fix-up to
+/// stop early in some steps and run every pass in others.
+const WORKGROUP_STEPS: u32 = 40;
+
+/// A workgroup kernel's twin is the CPU solver's whole step: after 1 and
+/// after [`WORKGROUP_STEPS`] steps of the busy scene for `integrator`
+/// (general layout, pinned or free), every particle's x and v equal the
+/// mirror's bit for bit, and the status words the host reads equal the
+/// multi-dispatch path's (whose own twins are the tests above).
+fn check_workgroup_step(integrator: Integrator, pinned: bool, kernel: Kernel) {
+    let p = params(integrator);
+    let pins = if pinned { corners() } else { Vec::new() };
+    let model = without_grid(&grid(NX, NY, pins, &p));
+    let mut wg = Twins::on_path(&model, &p, true, 0, StepPath::Workgroup);
+    let plan = wg.plan();
+    assert!(
+        plan.len() == 1 && plan[0].kernel == kernel,
+        "one dispatch of {kernel} per step: {plan:?}"
+    );
+    let mut md = Twins::on_path(&model, &p, true, 0, StepPath::MultiDispatch);
+    let mut done = 0;
+    for steps in [1, WORKGROUP_STEPS - 1] {
+        wg.gpu
+            .step(steps)
+            .unwrap_or_else(|e| panic!("{kernel}: {e}"));
+        md.gpu
+            .step(steps)
+            .unwrap_or_else(|e| panic!("multi-dispatch: {e}"));
+        wg.cpu
+            .step_n(u64::from(steps))
+            .unwrap_or_else(|e| panic!("CPU: {e}"));
+        done += steps;
+        wg.assert_states_agree(&format!("after {done} steps of {kernel}"));
+        let (a, b) = (wg.read(DebugBuffer::Status), md.read(DebugBuffer::Status));
+        let words = |s: &[u32]| HOST_STATUS.map(|k| s[k]);
+        assert_eq!(
+            words(&a),
+            words(&b),
+            "status words {HOST_STATUS:?} after {done} steps: {kernel}, multi-dispatch"
+        );
+    }
+}
+
+#[test]
+fn cloth_explicit_matches_its_twin() {
+    check_workgroup_step(Integrator::Explicit, true, Kernel::ClothExplicit);
 }

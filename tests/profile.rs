@@ -9,7 +9,7 @@ use std::collections::BTreeSet;
 use std::sync::OnceLock;
 
 use cli_common::{assert_status, stdout, wgcloth};
-use wgcloth::gpu::{GpuContext, GpuSolver, Kernel, Profile, Profiler, Timestamps};
+use wgcloth::gpu::{GpuContext, GpuSolver, Kernel, Profile, Profiler, StepPath, Timestamps};
 use wgcloth::params::Integrator;
 use wgcloth::{Model, Params, Scene};
 
@@ -43,6 +43,20 @@ fn scene(name: &str, integrator: Integrator) -> (Model, Params) {
 fn solver(model: &Model, params: &Params) -> GpuSolver {
     let ctx = gpu();
     GpuSolver::new(&ctx.device, &ctx.queue, model, params).expect("GPU solver")
+}
+
+/// A solver on the multi-dispatch path, whose passes the byte counts
+/// below name one by one.
+fn multi_dispatch(model: &Model, params: &Params) -> GpuSolver {
+    let ctx = gpu();
+    GpuSolver::with_step_path(
+        ctx.kernels(),
+        &ctx.queue,
+        model,
+        params,
+        StepPath::MultiDispatch,
+    )
+    .expect("GPU solver")
 }
 
 /// The distinct kernels of the solver's step plan, in order of first
@@ -124,7 +138,7 @@ fn bytes_of_a_grid_step_match_the_hand_count() {
     let (model, params) = scene("hanging", Integrator::Explicit);
     let n = model.particle_count() as u64;
     assert_eq!(n, 33 * 33);
-    let g = solver(&model, &params);
+    let g = multi_dispatch(&model, &params);
     let profile = g.profile(&Profiler::new(Timestamps::None));
     let row = |k: Kernel| row_of(&profile, k);
     // finish_step reads x, v, the fix-up's result, the new v and the
@@ -150,7 +164,7 @@ fn bytes_of_a_mesh_step_match_the_hand_count() {
     // springs buffer and an adjacency list), with 10 fix-up passes.
     let (model, params) = scene("banner", Integrator::SemiImplicit);
     let (n, s) = (model.particle_count() as u64, model.springs.len() as u64);
-    let g = solver(&model, &params);
+    let g = multi_dispatch(&model, &params);
     let profile = g.profile(&Profiler::new(Timestamps::None));
     let row = |k: Kernel| row_of(&profile, k);
     // spring_forces reads each particle's x and v (16 bytes each) and each

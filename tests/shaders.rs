@@ -144,6 +144,16 @@ fn pod_twins_match_their_wgsl_structs() {
             partial_count,
             filter_count,
             torque_compensation,
+            particle_base,
+            spring_base,
+            topo_base,
+            work_base,
+            spring_work_base,
+            partial_base,
+            status_base,
+            dense_base,
+            integrator,
+            fixup_iterations,
             grid,
             grid_rest_a,
             grid_rest_b,
@@ -226,7 +236,9 @@ fn render_shader_parses_and_validates() {
 
 /// What a kernel that includes a hook file of the grid gather defines
 /// itself (see the files' heads): a stub of each, in the kernel's types.
-const HOOKS: [(&str, &str); 2] = [
+const HOOKS: [(&str, &str); 3] = [
+    // Binding 0 comes from common/bindings.wgsl or cloth_bindings.wgsl.
+    ("common/layout", "var<private> params: Params;\n"),
     (
         "common/apply_block",
         "const APPLY_SEC: u32 = W_S;\n\

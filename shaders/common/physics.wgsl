@@ -255,8 +255,8 @@ fn spring_sum(p: u32, xp: vec3<f32>, vp: vec3<f32>, sec: u32) -> vec3<f32> {
         sum = grid_force_term(sum, p, rc, xp, vp, vec4<i32>(2, 0, 5, 0), sec);
         return sum;
     }
-    let begin = topo[p];
-    let end = topo[p + 1u];
+    let begin = spring_adj(p);
+    let end = spring_adj(p + 1u);
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
         let f = spring_work[si(S_FORCE, e >> 1u)].xyz;
@@ -293,8 +293,8 @@ fn external_force(p: u32) -> vec3<f32> {
 fn add_wind(p: u32, f_in: vec3<f32>, sec: u32) -> vec3<f32> {
     var f = f_in;
     if (HAS_WIND) {
-        let tb = topo[params.tri_adj_offsets + p];
-        let te = topo[params.tri_adj_offsets + p + 1u];
+        let tb = tri_adj(p);
+        let te = tri_adj(p + 1u);
         for (var k = tb; k < te; k++) {
             f += wind_triangle_force(topo[params.tri_adj_entries + k], sec);
         }
@@ -480,15 +480,16 @@ fn store_state(p: u32, xp: vec3<f32>, vp: vec3<f32>, inv_mass: f32, mass: f32) -
 }
 
 // Whether particle p's new state is finite; if not, records the step (the
-// first bad step and, within it, the lowest particle) for the host.
+// first bad step and, within it, the lowest particle of the cloth) for
+// the host.
 fn finite_or_reported(p: u32, xp: vec3<f32>, vp: vec3<f32>) -> bool {
     if (finite3(xp) && finite3(vp)) {
         return true;
     }
-    let step = atomicLoad(&status[STATUS_STEP]);
-    let first = atomicMin(&status[STATUS_BAD_STEP], step);
+    let step = atomicLoad(&status[sw(STATUS_STEP)]);
+    let first = atomicMin(&status[sw(STATUS_BAD_STEP)], step);
     if (step <= first) {
-        atomicMin(&status[STATUS_BAD_PARTICLE], p);
+        atomicMin(&status[sw(STATUS_BAD_PARTICLE)], local(p));
     }
     return false;
 }

@@ -59,6 +59,11 @@ pub trait Solver {
     fn passes(&self) -> Vec<(&'static str, u32, u32)> {
         Vec::new()
     }
+    /// How the GPU records a step and why (`--verbose`); `None` for the
+    /// CPU.
+    fn step_path(&self) -> Option<String> {
+        None
+    }
     /// The GPU profile of the steps so far (`--profile`); `None` when not
     /// profiling.
     fn profile(&self) -> Option<Profile> {
@@ -248,6 +253,15 @@ impl Solver for Gpu {
 
     fn passes(&self) -> Vec<(&'static str, u32, u32)> {
         self.solver.tuning().describe_step()
+    }
+
+    fn step_path(&self) -> Option<String> {
+        let tuning = self.solver.tuning();
+        Some(format!(
+            "{} ({})",
+            tuning.step_path(),
+            tuning.step_path_reason()
+        ))
     }
 
     fn profile(&self) -> Option<Profile> {

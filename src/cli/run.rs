@@ -87,6 +87,9 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     };
     print!("{summary}");
     if args.verbose {
+        if let Some(path) = &summary.outcome.step_path {
+            println!("step path: {path}");
+        }
         print_passes(&summary.outcome.passes, summary.outcome.backend);
     }
     if let Some(profile) = &summary.outcome.profile {
@@ -209,6 +212,7 @@ impl Run<'_> {
 
         let (steps, time, device) = (solver.steps(), solver.time(), solver.device());
         let passes = solver.passes();
+        let step_path = solver.step_path();
         let profile = solver.profile();
         let stats = solver.stats(self.params);
         let s = solver.state()?;
@@ -223,6 +227,7 @@ impl Run<'_> {
         commit_all(outputs)?;
         Ok(Outcome {
             passes,
+            step_path,
             profile,
             backend: S::BACKEND,
             precision: S::Real::NAME,

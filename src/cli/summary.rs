@@ -34,6 +34,8 @@ pub struct Summary<'a> {
 pub struct Outcome {
     /// The passes of one step (see `Solver::passes`), as last recorded.
     pub passes: Vec<(&'static str, u32, u32)>,
+    /// How the GPU records a step, and why (see `Solver::step_path`).
+    pub step_path: Option<String>,
     /// Each kernel's GPU time and bytes per step (`--profile`).
     pub profile: Option<wgcloth::gpu::Profile>,
     /// Backend name (`"cpu"`, `"gpu"`).
@@ -291,6 +293,7 @@ mod tests {
             wall: Duration::from_secs(2),
             outcome: Outcome {
                 passes: Vec::new(),
+                step_path: None,
                 profile: None,
                 backend: "gpu",
                 precision: "f32",

@@ -37,6 +37,9 @@ pub(super) struct Uploads<'a> {
     pub constant_blocks: Option<f32>,
     /// CG iterations a step records at most.
     pub cg_max_iterations: u32,
+    /// The workgroup kernels step the cloth: the parameters are also its
+    /// one-entry cloth table.
+    pub workgroup: bool,
 }
 
 /// A cloth's buffers and bind groups.
@@ -63,6 +66,9 @@ pub(super) struct ClothBuffers {
     pub beta_slots: wgpu::Buffer,
     /// Group 0.
     pub bind_group: wgpu::BindGroup,
+    /// Group 0 of the workgroup kernels (on the workgroup path): the
+    /// parameters as a cloth table of one.
+    pub cloth_group: Option<wgpu::BindGroup>,
     /// Group 1 of cg_start, cg_alpha and cg_beta ([`ArgsGroup::ALL`]
     /// order).
     pub args_groups: [wgpu::BindGroup; 3],
@@ -119,9 +125,12 @@ impl ClothBuffers {
     ) -> Result<ClothBuffers> {
         let n = u64::from(up.params.particle_count);
         let vertex = STORAGE | wgpu::BufferUsages::VERTEX;
-        let uniform = wgpu::BufferUsages::UNIFORM
+        let mut uniform = wgpu::BufferUsages::UNIFORM
             | wgpu::BufferUsages::COPY_DST
             | wgpu::BufferUsages::COPY_SRC;
+        if up.workgroup {
+            uniform |= wgpu::BufferUsages::STORAGE;
+        }
         let partial_words = u64::from(partials::SLOTS) * n.div_ceil(u64::from(WORKGROUP))
             + u64::from(partials::CG_SCALARS);
         let params = init(
@@ -197,6 +206,13 @@ impl ClothBuffers {
             layout: kernels.group0(),
             entries: &entries,
         });
+        let cloth_group = up.workgroup.then(|| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("wgcloth.cloth_bindings"),
+                layout: kernels.cloth_group0(),
+                entries: &entries,
+            })
+        });
         let (cg_args, alpha_slots, beta_slots) = indirect_args(device, up.cg_max_iterations);
         let args_groups = ArgsGroup::ALL.map(|g| {
             let entries: Vec<_> = g
@@ -231,6 +247,7 @@ impl ClothBuffers {
             alpha_slots,
             beta_slots,
             bind_group,
+            cloth_group,
             args_groups,
         })
     }

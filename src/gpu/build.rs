@@ -7,6 +7,7 @@ use super::cg_budget::CgBudget;
 use super::grid::{fixup_limit, GridBlock, GridLayout};
 use super::kernels::GpuKernels;
 use super::layout::{torque_bits, GpuParams, GpuSpring};
+use super::path::{PathChoice, StepPath};
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 use super::solver::{
     gpu_capsules, gpu_spheres, plan_inputs, scene_features, GpuSolver, Prepared, NO_GROUND, NO_WIND,
@@ -14,9 +15,9 @@ use super::solver::{
 use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_with_capacity};
 use crate::error::Result;
-use crate::kernel_config::WORKGROUP;
+use crate::kernel_config::{integrator, WORKGROUP};
 use crate::model::Model;
-use crate::params::{Params, SpringParams};
+use crate::params::{Integrator, Params, SpringParams};
 
 /// Word offsets of the parts of `topo` after the spring adjacency offsets.
 struct TopoOffsets {
@@ -134,6 +135,25 @@ struct Shape<'a> {
     /// The semi-implicit filter is solved by CG.
     semi_cg: bool,
     cg_tolerance: f64,
+    fixup_iterations: u32,
+}
+
+/// The integrator as the kernels know it (`params.integrator`).
+pub(crate) fn integrator_code(i: Integrator) -> u32 {
+    match i {
+        Integrator::Explicit => integrator::EXPLICIT,
+        Integrator::Implicit => integrator::IMPLICIT,
+        Integrator::SemiImplicit => integrator::SEMI_IMPLICIT,
+    }
+}
+
+/// Fix-up passes per step: none without a constrained spring kind.
+fn fixup_iterations(params: &Params) -> u32 {
+    if params.springs.iter().any(|s| s.max_stretch.is_some()) {
+        params.fixup.iterations
+    } else {
+        0
+    }
 }
 
 /// The uniform block of `model` under `params`.
@@ -179,6 +199,17 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
             params.semi_implicit.torque_compensation,
             model.pinned_count(),
         ),
+        particle_base: 0,
+        spring_base: 0,
+        topo_base: 0,
+        work_base: 0,
+        spring_work_base: 0,
+        partial_base: 0,
+        status_base: 0,
+        dense_base: 0,
+        integrator: integrator_code(params.integrator),
+        fixup_iterations: shape.fixup_iterations,
+        _pad: [0; 2],
         grid: grid_words,
         grid_rest_a: [rest[0], rest[1], rest[2], rest[3]],
         grid_rest_b: [rest[4], rest[5], 0.0, 0.0],
@@ -205,14 +236,15 @@ impl GpuSolver {
     /// `kernels` (the parameters and the limits were checked by
     /// [`GpuSolver::with_kernels`]).
     pub(super) fn build(
-        device: &wgpu::Device,
         queue: &wgpu::Queue,
         model: &Model,
         params: &Params,
         filter: Option<SemiFilter>,
         grid: Option<GridLayout>,
         kernels: GpuKernels,
+        path: PathChoice,
     ) -> Result<GpuSolver> {
+        let device = &kernels.device().clone();
         let block = GridBlock::for_adapter(&device.adapter_info());
         let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
         let (cg_tolerance, cg_max_iterations) = if semi_cg {
@@ -227,6 +259,7 @@ impl GpuSolver {
         let (topo, offsets) = topology(model, slot_of)?;
         let springs = device_springs(model, params, slots, slot_of)?;
         let (x, v) = initial_state(model)?;
+        let fixup_iterations = fixup_iterations(params);
         let shape = Shape {
             grid: grid.as_ref(),
             block,
@@ -235,6 +268,7 @@ impl GpuSolver {
             filter: filter.as_ref(),
             semi_cg,
             cg_tolerance,
+            fixup_iterations,
         };
         let gpu_params = uniform_block(model, params, shape);
         let buffers = ClothBuffers::new(
@@ -251,20 +285,17 @@ impl GpuSolver {
                 dense: filter.as_ref().map_or(&[], |f| &f.words),
                 constant_blocks: semi_cg.then_some((params.dt * params.dt) as f32),
                 cg_max_iterations,
+                workgroup: path.path == StepPath::Workgroup,
             },
         )?;
         let features = scene_features(model, params, grid.as_ref().map(|_| block));
-        let fixup_iterations = if params.springs.iter().any(|s| s.max_stretch.is_some()) {
-            params.fixup.iterations
-        } else {
-            0
-        };
         let inputs = plan_inputs(
             params.integrator,
             features,
             &gpu_params,
             slots as u32,
             fixup_iterations,
+            path.path,
         );
         let prepared = Prepared::new(&kernels, &inputs)?;
         queue.submit([]);
@@ -288,6 +319,7 @@ impl GpuSolver {
             recorded: std::cell::Cell::new((0, 0)),
             specialised: true,
             host_params: params.clone(),
+            path,
         })
     }
 }

@@ -61,6 +61,9 @@ pub enum Kernel {
     SemiIntegrate,
     /// Per particle: the semi-implicit filter's CG system.
     SemiCgPrepare,
+    /// Per cloth, one workgroup each: a whole explicit step (the
+    /// workgroup path, see [`StepPath`](super::StepPath)).
+    ClothExplicit,
 }
 
 /// `(kernel, name, WGSL source before composition)`, in [`Kernel::ALL`]
@@ -114,6 +117,7 @@ kernels! {
     TorqueApply = "torque_apply",
     SemiIntegrate = "semi_integrate",
     SemiCgPrepare = "semi_cg_prepare",
+    ClothExplicit = "cloth_explicit",
 }
 
 impl std::fmt::Display for Kernel {
@@ -156,6 +160,13 @@ impl ArgsGroup {
 }
 
 impl Kernel {
+    /// Whether the kernel steps whole cloths, one workgroup each, from the
+    /// cloth table (binding 0 a storage array of parameters: see
+    /// `shaders/common/cloth_bindings.wgsl`).
+    pub const fn steps_cloths(self) -> bool {
+        matches!(self, Kernel::ClothExplicit)
+    }
+
     /// The group 1 of a kernel that writes indirect dispatch arguments.
     pub const fn args_group(self) -> Option<ArgsGroup> {
         match self {
@@ -288,13 +299,16 @@ pub enum Launch {
     AlphaSlot(u32),
     /// Indirectly from CG iteration `k`'s slot of `beta_slots`.
     BetaSlot(u32),
+    /// One workgroup per cloth of the cloth table, `n` cloths (the
+    /// workgroup kernels, [`Kernel::steps_cloths`]).
+    Cloths(u32),
 }
 
 impl Launch {
     /// Byte offset of the arguments in their buffer.
     pub(crate) fn offset(self) -> u64 {
         match self {
-            Launch::Direct | Launch::ApplyArgs => 0,
+            Launch::Direct | Launch::ApplyArgs | Launch::Cloths(_) => 0,
             Launch::UpdateArgs => 12,
             Launch::AlphaSlot(k) | Launch::BetaSlot(k) => u64::from(k) * 12,
         }

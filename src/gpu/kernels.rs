@@ -90,6 +90,10 @@ struct Inner {
     device: wgpu::Device,
     /// Group 0: the buffers of `shaders/common/bindings.wgsl`.
     group0: wgpu::BindGroupLayout,
+    /// Group 0 of the workgroup kernels: binding 0 the cloth table (see
+    /// `shaders/common/cloth_bindings.wgsl`), the rest as `group0`.
+    cloth_group0: wgpu::BindGroupLayout,
+    cloth_layout: wgpu::PipelineLayout,
     /// Group 1 of each [`ArgsGroup`], in [`ArgsGroup::ALL`] order.
     args: [wgpu::BindGroupLayout; 3],
     layout: wgpu::PipelineLayout,
@@ -176,6 +180,17 @@ impl GpuKernels {
             bind_group_layouts: &[Some(&group0)],
             immediate_size: 0,
         });
+        let mut cloth_entries = vec![storage_entry(0, true)];
+        cloth_entries.extend(GROUP0_STORAGE.iter().map(|&(b, ro)| storage_entry(b, ro)));
+        let cloth_group0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("wgcloth.cloth_bindings"),
+            entries: &cloth_entries,
+        });
+        let cloth_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("wgcloth.cloth_pipeline_layout"),
+            bind_group_layouts: &[Some(&cloth_group0)],
+            immediate_size: 0,
+        });
         let args = ArgsGroup::ALL.map(|g| {
             let entries: Vec<_> = g
                 .bindings()
@@ -198,6 +213,8 @@ impl GpuKernels {
             inner: Arc::new(Inner {
                 device: device.clone(),
                 group0,
+                cloth_group0,
+                cloth_layout,
                 args,
                 layout,
                 args_layouts,
@@ -221,6 +238,14 @@ impl GpuKernels {
     /// Group 0's layout (the buffers every kernel binds).
     pub(super) fn group0(&self) -> &wgpu::BindGroupLayout {
         &self.inner.group0
+    }
+
+    /// Group 0's layout of the workgroup kernels
+    /// ([`Kernel::steps_cloths`]): the cloth table in binding 0, a
+    /// read-only storage array of `Params`, then the buffers of
+    /// [`GpuKernels::group0`].
+    pub(crate) fn cloth_group0(&self) -> &wgpu::BindGroupLayout {
+        &self.inner.cloth_group0
     }
 
     /// Group 1's layout of a kernel that writes dispatch arguments.
@@ -366,6 +391,7 @@ impl GpuKernels {
         constants.extend(variant.constants(kernel));
         let layout = match kernel.args_group() {
             Some(g) => &self.inner.args_layouts[g.index()],
+            None if kernel.steps_cloths() => &self.inner.cloth_layout,
             None => &self.inner.layout,
         };
         let what = format!("compiling the kernel {kernel} ({variant:?})");

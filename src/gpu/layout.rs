@@ -41,7 +41,8 @@ pub struct GpuCapsule {
 }
 const _: () = assert!(std::mem::size_of::<GpuCapsule>() == 48);
 
-/// Twin of WGSL `Params` (the uniform block).
+/// Twin of WGSL `Params` (the uniform block of the multi-dispatch
+/// kernels; an element of the cloth table of the workgroup kernels).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable, PartialEq)]
 pub struct GpuParams {
@@ -86,6 +87,30 @@ pub struct GpuParams {
     /// Which parts of the semi-implicit torque compensation apply:
     /// [`TORQUE_LOCAL`] and [`TORQUE_GLOBAL`] bits (see [`torque_bits`]).
     pub torque_compensation: u32,
+    /// The cloth's first particle in `x`, `v` and the normals (the
+    /// cloth's place in shared buffers: each `*_base` is an element index;
+    /// all zero for a lone cloth).
+    pub particle_base: u32,
+    /// Its first spring in `springs`.
+    pub spring_base: u32,
+    /// Its spring adjacency offsets in `topo`.
+    pub topo_base: u32,
+    /// Its first `work` entry.
+    pub work_base: u32,
+    /// Its first `spring_work` entry.
+    pub spring_work_base: u32,
+    /// Its first reduction partial.
+    pub partial_base: u32,
+    /// Its first status word.
+    pub status_base: u32,
+    /// Its first word of the dense filter.
+    pub dense_base: u32,
+    /// Its integrator ([`crate::kernel_config::integrator`]).
+    pub integrator: u32,
+    /// Fix-up passes per step (0: no constrained spring kind).
+    pub fixup_iterations: u32,
+    /// Padding to the WGSL struct's 16-byte alignment.
+    pub _pad: [u32; 2],
     /// Grid layout (see `gpu/grid.rs`): columns, rows, a bit per spring
     /// kind present, unused; zero for the general kernels.
     pub grid: [u32; 4],
@@ -117,7 +142,15 @@ pub struct GpuParams {
     pub capsules: [GpuCapsule; MAX_CAPSULES],
 }
 const _: () =
-    assert!(std::mem::size_of::<GpuParams>() == 256 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES);
+    assert!(std::mem::size_of::<GpuParams>() == 304 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES);
+// A workgroup kernel's copy of its cloth's parameters, its staging and
+// reduction words and its shared words fit the memory it is chosen for.
+const _: () = assert!(
+    std::mem::size_of::<GpuParams>()
+        + 4 * (crate::kernel_config::SUM_GROUP + crate::kernel_config::WORKGROUP) as usize
+        + 64
+        <= crate::kernel_config::WORKGROUP_STEP_SHARED_BYTES as usize
+);
 
 /// Twin of WGSL `Spring`.
 #[repr(C)]

@@ -26,6 +26,7 @@ pub mod pipeline_cache;
 // the embedding API.
 #[doc(hidden)]
 pub mod layout;
+mod path;
 mod plan;
 mod profile;
 #[doc(hidden)]
@@ -41,6 +42,7 @@ mod velocity;
 pub use context::{GpuContext, BACKEND_NAMES};
 pub(crate) use errors::guarded;
 pub use grid::GridBlock;
+pub use path::StepPath;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 pub use solver::{GpuSolver, GpuState};
 // The kernels' typed identity and the debug API that runs them one by one:

@@ -14,6 +14,10 @@
 //! its per-particle passes are dispatched with zero workgroups. The
 //! fix-up, too, stops on the device once a pass moves nothing.
 //!
+//! On the workgroup path ([`StepPath::Workgroup`]) a step is one dispatch
+//! of the integrator's workgroup kernel ([`Launch::Cloths`]), which runs
+//! all of the above inside one workgroup, barriers between its phases.
+//!
 //! A single-pass explicit step reads every particle's neighbours, so it
 //! cannot update the state in place: consecutive steps alternate between
 //! the x, v buffers and a snapshot in `work`
@@ -23,7 +27,8 @@
 
 use super::kernel::{Dispatch, FixupPhase, Kernel, Launch, Variant};
 use super::kernels::Features;
-use crate::kernel_config::WORKGROUP;
+use super::path::StepPath;
+use crate::kernel_config::{SUM_GROUP, WORKGROUP};
 use crate::params::Integrator;
 
 /// What the plan depends on besides the features.
@@ -48,6 +53,8 @@ pub(super) struct PlanInputs {
     pub torque: bool,
     /// Fix-up passes per step.
     pub fixup_iterations: u32,
+    /// How a step is recorded.
+    pub path: StepPath,
 }
 
 /// One part of a step: a dispatch, or the CG iterations, which repeat
@@ -78,6 +85,14 @@ pub(super) struct Plan<T> {
 impl Plan<Dispatch> {
     /// The plan of `inputs`.
     pub fn new(inputs: &PlanInputs) -> Plan<Dispatch> {
+        if let Some(kernel) = workgroup_kernel(inputs) {
+            let step = Dispatch::direct(kernel, SUM_GROUP).launched(Launch::Cloths(1));
+            return Plan {
+                seed: None,
+                steps: [vec![Part::Once(step)], vec![Part::Once(step)]],
+                alternates: false,
+            };
+        }
         if single_pass_explicit(inputs) {
             let step = Dispatch::direct(Kernel::ExplicitIntegrate, inputs.gather);
             return Plan {
@@ -197,6 +212,18 @@ pub(super) fn in_iteration(d: Dispatch, k: u32) -> Dispatch {
         Launch::AlphaSlot(_) => d.launched(Launch::AlphaSlot(k)),
         Launch::BetaSlot(_) => d.launched(Launch::BetaSlot(k)),
         _ => d,
+    }
+}
+
+/// The workgroup kernel of a step on the workgroup path: one per
+/// integrator.
+fn workgroup_kernel(i: &PlanInputs) -> Option<Kernel> {
+    if i.path != StepPath::Workgroup {
+        return None;
+    }
+    match i.integrator {
+        Integrator::Explicit => Some(Kernel::ClothExplicit),
+        Integrator::SemiImplicit | Integrator::Implicit => None,
     }
 }
 

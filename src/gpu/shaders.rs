@@ -9,7 +9,10 @@
 //! than stored: `generated/config.wgsl`, the shared numbers of
 //! [`crate::kernel_config`] (see [`kernel_config::wgsl`]), and
 //! `generated/grid_block.wgsl`, the block gather of the grid kernels for
-//! the solver's [`GridBlock`] (see [`GridBlock::wgsl`]). Everything is
+//! the solver's [`GridBlock`] (see [`GridBlock::wgsl`]). One file stands in
+//! for another ([`STANDS_IN`]): `common/cloth_bindings.wgsl`, the
+//! workgroup kernels' bind group, for `common/bindings.wgsl`, so the
+//! common files that include the latter serve both kinds of kernel. Everything is
 //! embedded with `include_str!`, so the crate needs no files at run time,
 //! and `tests/shaders.rs` validates every composed kernel and every common
 //! file with naga on any machine.
@@ -33,9 +36,19 @@ macro_rules! wgsl {
     };
 }
 
+/// `(file, the file it stands in for)`: once the first is included, an
+/// include of the second is already satisfied; the first included after
+/// the second is an error (both declare `params`).
+const STANDS_IN: &[(&str, &str)] = &[("common/cloth_bindings", "common/bindings")];
+
 /// Shared files an `#include` may name.
 pub const COMMON: &[(&str, &str)] = &[
+    wgsl!("common/layout"),
     wgsl!("common/bindings"),
+    wgsl!("common/cloth_bindings"),
+    wgsl!("common/step"),
+    wgsl!("common/fixup"),
+    wgsl!("common/cloth_step"),
     wgsl!("common/physics"),
     wgsl!("common/cg"),
     wgsl!("common/coarse"),
@@ -89,6 +102,15 @@ fn include_into(
         }
         if done.contains(&stem) {
             continue;
+        }
+        if let Some(&(_, replaced)) = STANDS_IN.iter().find(|(by, _)| *by == stem) {
+            if done.contains(&replaced) {
+                return Err(format!(
+                    "`{stem}` is included after `{replaced}`, which it stands in for: \
+                     include it first"
+                ));
+            }
+            done.push(replaced);
         }
         if stem == GRID_BLOCK {
             done.push(GRID_BLOCK);

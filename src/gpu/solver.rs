@@ -7,6 +7,7 @@ use super::grid::{GridBlock, GridLayout};
 use super::kernel::{Dispatch, Kernel, Launch};
 use super::kernels::{Features, GpuKernels};
 use super::layout::{self, GpuCapsule, GpuParams, GpuSphere, MAX_CAPSULES, MAX_SPHERES};
+use super::path::{self, PathChoice, PathInputs, StepPath};
 use super::plan::{self, Plan, PlanInputs};
 use super::readback;
 use super::semi_filter::SemiFilter;
@@ -92,6 +93,8 @@ pub struct GpuSolver {
     pub(super) specialised: bool,
     /// The parameters with the current colliders, wind and gravity.
     pub(super) host_params: Params,
+    /// How a step is recorded, and why.
+    pub(super) path: PathChoice,
 }
 
 /// What the step plan depends on (`params`: as uploaded).
@@ -101,6 +104,7 @@ pub(super) fn plan_inputs(
     params: &GpuParams,
     spring_slots: u32,
     fixup_iterations: u32,
+    path: StepPath,
 ) -> PlanInputs {
     let particles = params.particle_count;
     PlanInputs {
@@ -117,6 +121,7 @@ pub(super) fn plan_inputs(
         filter_count: params.filter_count,
         torque: params.torque_compensation & layout::TORQUE_GLOBAL != 0,
         fixup_iterations,
+        path,
     }
 }
 
@@ -279,21 +284,65 @@ impl GpuSolver {
 
     /// [`GpuSolver::new`] on the device of `kernels`, taking its pipelines
     /// from that library.
+    ///
+    /// The solver steps the cloth on the workgroup path wherever that can
+    /// (see [`StepPath`] and [`GpuTuning::step_path`](super::GpuTuning::step_path)),
+    /// else on the multi-dispatch path.
     pub fn with_kernels(
         kernels: &GpuKernels,
         queue: &wgpu::Queue,
         model: &Model,
         params: &Params,
     ) -> Result<GpuSolver> {
+        GpuSolver::create(kernels, queue, model, params, None)
+    }
+
+    /// [`GpuSolver::with_kernels`] on the step path `path` rather than the
+    /// one it would choose (for tests and benchmarks: both paths give the
+    /// same results). The workgroup path for a cloth it cannot step —
+    /// beyond [`WORKGROUP_STEP_MAX_PARTICLES`](crate::kernel_config::WORKGROUP_STEP_MAX_PARTICLES)
+    /// particles, an integrator or filter without a workgroup kernel, a
+    /// device with too small a workgroup — is an error that says which.
+    pub fn with_step_path(
+        kernels: &GpuKernels,
+        queue: &wgpu::Queue,
+        model: &Model,
+        params: &Params,
+        path: StepPath,
+    ) -> Result<GpuSolver> {
+        GpuSolver::create(kernels, queue, model, params, Some(path))
+    }
+
+    fn create(
+        kernels: &GpuKernels,
+        queue: &wgpu::Queue,
+        model: &Model,
+        params: &Params,
+        forced: Option<StepPath>,
+    ) -> Result<GpuSolver> {
         let device = kernels.device();
         params.validate()?;
         let counts = Counts::of_model(model);
         let dense = params.integrator == Integrator::SemiImplicit
             && FilterSystem::dense(params.semi_implicit.filter, counts.free as usize);
-        let grid = GridLayout::of(model, params);
+        let limits = device.limits();
+        let path = path::choose(
+            &PathInputs {
+                integrator: params.integrator,
+                particles: counts.particles,
+                dense,
+                limits: &limits,
+            },
+            forced,
+        )?;
+        // The workgroup kernels read the adjacency lists: a grid cloth on
+        // that path is uploaded in general layout.
+        let grid = match path.path {
+            StepPath::Workgroup => None,
+            StepPath::MultiDispatch => GridLayout::of(model, params),
+        };
         let n = counts.particles;
         let s = grid.as_ref().map_or(model.springs.len(), GridLayout::slots) as u64;
-        let limits = device.limits();
         let solver = "the solver";
         limit("max_bind_groups", solver, limits.max_bind_groups.into(), 2)?;
         limit(
@@ -353,7 +402,7 @@ impl GpuSolver {
             None
         };
         guarded(device, &what, Some(need.device), || {
-            Self::build(device, queue, model, params, filter, grid, kernels.clone())
+            Self::build(queue, model, params, filter, grid, kernels.clone(), path)
         })
     }
 
@@ -375,6 +424,12 @@ impl GpuSolver {
         let launch = plan::in_iteration(*d, iteration).launch;
         match launch {
             Launch::Direct => pass.dispatch_workgroups(d.items.div_ceil(WORKGROUP), 1, 1),
+            Launch::Cloths(n) => {
+                if let Some(group) = &self.buffers.cloth_group {
+                    pass.set_bind_group(0, group, &[]);
+                }
+                pass.dispatch_workgroups(n, 1, 1)
+            }
             Launch::ApplyArgs | Launch::UpdateArgs => {
                 pass.dispatch_workgroups_indirect(&self.buffers.cg_args, launch.offset())
             }
@@ -412,6 +467,7 @@ impl GpuSolver {
             &self.params,
             self.spring_slots,
             self.fixup_iterations,
+            self.path.path,
         )
     }
 

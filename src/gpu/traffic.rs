@@ -196,6 +196,23 @@ impl Kernel {
             Kernel::TorqueApply => const { &[term(Particle, 2 * VEC4, VEC4)] },
             // x, v, Δv; the predicted x and new v.
             Kernel::SemiIntegrate => const { &[term(Particle, 3 * VEC4, 2 * VEC4)] },
+            // The whole explicit step of spring_forces, explicit_integrate
+            // and finish_step in one dispatch, their rows added up: x, v
+            // of the springs' ends, then of the particle, its predicted x
+            // and new v, and finish_step's reads; the predicted x and new
+            // v, then x, v and the clock; each spring's data and force,
+            // and its force gathered again with its adjacency entries.
+            // The fix-up passes, whose number the device decides each
+            // step, are not counted (each moves a fixup_jacobi row).
+            Kernel::ClothExplicit => {
+                const {
+                    &[
+                        term(Particle, 9 * VEC4, 5 * VEC4),
+                        term(AdjacencyRow, OFFSET, 0),
+                        term(Spring, SPRING + VEC4 + ADJACENCY, VEC4),
+                    ]
+                }
+            }
             // x, v, Δv, the right-hand side; the filter, z, the
             // preconditioner's blocks, the right-hand side; the spring
             // blocks.

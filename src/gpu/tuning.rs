@@ -3,6 +3,7 @@
 
 use super::grid::GridBlock;
 use super::kernel::Dispatch;
+use super::path::StepPath;
 use super::solver::GpuSolver;
 use crate::error::Result;
 
@@ -64,6 +65,19 @@ impl GpuTuning<'_> {
     /// encoder, one submit).
     pub fn dispatches_per_step(&self) -> f64 {
         self.solver.dispatches_per_step()
+    }
+
+    /// How a step is recorded: one workgroup per cloth, or a dispatch per
+    /// phase (see [`StepPath`]; chosen when the solver is built, or forced
+    /// with [`GpuSolver::with_step_path`]).
+    pub fn step_path(&self) -> StepPath {
+        self.solver.path.path
+    }
+
+    /// Why the solver takes [`GpuTuning::step_path`], in a sentence (what
+    /// `wgcloth run --verbose` prints).
+    pub fn step_path_reason(&self) -> &str {
+        &self.solver.path.reason
     }
 
     /// The grid gather's block shape (see

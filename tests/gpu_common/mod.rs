@@ -6,7 +6,7 @@ use std::sync::OnceLock;
 
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::{DVec3, Vec3};
-use wgcloth::gpu::{GpuContext, GpuSolver};
+use wgcloth::gpu::{GpuContext, GpuSolver, StepPath};
 use wgcloth::model::{ClothSpec, Corner, Pin};
 use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
 use wgcloth::{Model, Params};
@@ -53,6 +53,14 @@ pub fn compare(model: &Model, params: &Params, steps: u32) -> (f64, usize, Vec3,
     let cx = c.positions();
     let (d, p) = worst(&gs.x, &cx);
     (d, p, gs.x[p], cx[p])
+}
+
+/// A GPU solver for `model` on the step path `path` (for the tests of one
+/// path's plan; both paths give the same bits).
+pub fn solver_on(model: &Model, params: &Params, path: StepPath) -> GpuSolver {
+    let ctx = gpu();
+    GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, model, params, path)
+        .unwrap_or_else(|e| panic!("GPU solver on the {path} path: {e}"))
 }
 
 /// A GPU solver that records the full CG budget every step, so its

@@ -3,7 +3,7 @@
 //! bit-for-bit comparison of output words.
 
 use wgcloth::cpu::twins::{self, CpuSolver, Filter, SpringBlock, State, Sym3, System, Workspace};
-use wgcloth::gpu::{DebugBuffer, Dispatch, GpuSolver, Kernel};
+use wgcloth::gpu::{DebugBuffer, Dispatch, GpuKernels, GpuSolver, Kernel, StepPath};
 use wgcloth::kernel_config::filter_kind::{FIXED, FREE, PLANE};
 use wgcloth::real::Vec3;
 use wgcloth::{Model, Params};
@@ -32,16 +32,27 @@ impl Twins {
     /// (no adaptive budget), as the CPU runs them.
     pub fn new(model: &Model, params: &Params, specialised: bool, warm: u32) -> Self {
         let t = Self::unchecked(model, params, specialised, warm);
-        let x = t.read(DebugBuffer::X);
-        let v = t.read(DebugBuffer::V);
-        let st = t.cpu.state();
-        assert_same(
-            "x after the warm-up",
-            &x,
-            &pack(&st.x, |p| inv_mass(&t.cpu, p)),
-        );
-        assert_same("v after the warm-up", &v, &pack(&st.v, |p| mass(&t.cpu, p)));
+        t.assert_states_agree("after the warm-up");
         t
+    }
+
+    /// Panics unless the device's positions and velocities (with the
+    /// masses in w) equal the mirror's bit for bit; `when` names the
+    /// moment in the message.
+    pub fn assert_states_agree(&self, when: &str) {
+        let x = self.read(DebugBuffer::X);
+        let v = self.read(DebugBuffer::V);
+        let st = self.cpu.state();
+        assert_same(
+            &format!("x {when}"),
+            &x,
+            &pack(&st.x, |p| inv_mass(&self.cpu, p)),
+        );
+        assert_same(
+            &format!("v {when}"),
+            &v,
+            &pack(&st.v, |p| mass(&self.cpu, p)),
+        );
     }
 
     /// As [`Twins::new`], for a scene whose backends are not expected to
@@ -49,9 +60,21 @@ impl Twins {
     /// solved by CG on the device, exactly on the CPU): the tests load
     /// every input from the device anyway.
     pub fn unchecked(model: &Model, params: &Params, specialised: bool, warm: u32) -> Self {
+        Self::on_path(model, params, specialised, warm, StepPath::MultiDispatch)
+    }
+
+    /// As [`Twins::unchecked`], the GPU stepping on `path`.
+    pub fn on_path(
+        model: &Model,
+        params: &Params,
+        specialised: bool,
+        warm: u32,
+        path: StepPath,
+    ) -> Self {
         let ctx = gpu();
-        let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, params)
-            .unwrap_or_else(|e| panic!("GPU solver: {e}"));
+        let kernels = GpuKernels::new(&ctx.device);
+        let mut g = GpuSolver::with_step_path(&kernels, &ctx.queue, model, params, path)
+            .unwrap_or_else(|e| panic!("GPU solver on the {path} path: {e}"));
         let mut tuning = g.tuning_mut();
         tuning
             .set_specialised(specialised)
