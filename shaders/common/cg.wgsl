@@ -4,6 +4,13 @@
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 
+// Aggregate a's entry of `work` section `section` (the coarse levels,
+// common/coarse.wgsl, keep one entry per aggregate of both levels, level
+// 1's first, where the particles keep one per particle).
+fn wa(section: u32, a: u32) -> u32 {
+    return wi(section, params.particle_base + a);
+}
+
 // Twin: implicit::Filter::apply. `f` is W_Z's w (kind), `n` W_FILTER's xyz.
 fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
     if (!HAS_FILTER) {
@@ -273,8 +280,8 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
         acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(2, 0, 5, 0));
         return acc;
     }
-    let begin = topo[p];
-    let end = topo[p + 1u];
+    let begin = spring_adj(p);
+    let end = spring_adj(p + 1u);
     let others = spring_adj_others();
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
@@ -378,17 +385,17 @@ fn cg_update_item(p: u32, alpha: f32, first: bool) {
 
 // The CG iteration in progress (counted by cg_beta).
 fn cg_iteration() -> u32 {
-    return atomicLoad(&status[STATUS_CG_ITERATIONS]);
+    return atomicLoad(&status[sw(STATUS_CG_ITERATIONS)]);
 }
 
 // cg_start: clear the slots the last solve left enabled, then enable
 // alpha 0 if CG runs.
 fn start_slots(running: bool) {
-    alpha_slots[3u * atomicLoad(&status[STATUS_ALPHA_SLOT])] = 0u;
-    beta_slots[3u * atomicLoad(&status[STATUS_BETA_SLOT])] = 0u;
+    alpha_slots[3u * atomicLoad(&status[sw(STATUS_ALPHA_SLOT)])] = 0u;
+    beta_slots[3u * atomicLoad(&status[sw(STATUS_BETA_SLOT)])] = 0u;
     if (running) {
         alpha_slots[0] = 1u;
-        atomicStore(&status[STATUS_ALPHA_SLOT], 0u);
+        atomicStore(&status[sw(STATUS_ALPHA_SLOT)], 0u);
     }
 }
 
@@ -400,7 +407,7 @@ fn alpha_slots_next(k: u32, running: bool) {
     }
     if (running) {
         beta_slots[3u * k] = 1u;
-        atomicStore(&status[STATUS_BETA_SLOT], k);
+        atomicStore(&status[sw(STATUS_BETA_SLOT)], k);
     }
 }
 
@@ -410,7 +417,7 @@ fn beta_slots_next(k: u32, running: bool) {
     alpha_slots[3u * k] = 0u;
     if (running && 3u * (k + 1u) < arrayLength(&alpha_slots)) {
         alpha_slots[3u * (k + 1u)] = 1u;
-        atomicStore(&status[STATUS_ALPHA_SLOT], k + 1u);
+        atomicStore(&status[sw(STATUS_ALPHA_SLOT)], k + 1u);
     }
 }
 
@@ -448,7 +455,7 @@ fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
         for (var k = 0u; k < count; k++) {
             total += scratch[k];
         }
-        partials[slot * params.partial_count + wid] = total;
+        partials[pi(slot, wid)] = total;
     }
 }
 
@@ -457,7 +464,7 @@ fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
 fn sum_partials(slot: u32) -> f32 {
     var total = 0.0;
     for (var k = 0u; k < params.partial_count; k++) {
-        total += partials[slot * params.partial_count + k];
+        total += partials[pi(slot, k)];
     }
     return total;
 }
@@ -470,9 +477,9 @@ const STAGED_LEVEL2: u32 = 1u;
 // level-2 aggregate k's W_COARSE_Z (see cg_coarse).
 fn staged_value(source: u32, slot: u32, k: u32) -> f32 {
     if (source == STAGED_LEVEL2) {
-        return work[wi(W_COARSE_Z, params.coarse.z + k)].w;
+        return work[wa(W_COARSE_Z, params.coarse.z + k)].w;
     }
-    return partials[slot * params.partial_count + k];
+    return partials[pi(slot, k)];
 }
 
 var<workgroup> stage: array<f32, SUM_GROUP>;
@@ -511,13 +518,13 @@ fn sum_staged(source: u32, slot: u32, count: u32, lid: u32) -> f32 {
 // from uniform control flow.
 fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
     for (var b = lid; b < params.partial_count; b += SUM_GROUP) {
-        let start = b * WORKGROUP;
-        let end = min(start + WORKGROUP, params.particle_count);
+        let start = params.particle_base + b * WORKGROUP;
+        let end = min(start + WORKGROUP, params.particle_base + params.particle_count);
         var block = 0.0;
         for (var p = start; p < end; p++) {
             block += work[wi(sec, p)].w;
         }
-        partials[slot * params.partial_count + b] = block;
+        partials[pi(slot, b)] = block;
     }
     storageBarrier();
     return sum_staged(STAGED_PARTIALS, slot, params.partial_count, lid);
@@ -527,7 +534,7 @@ fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
 // coarse levels more than ρ = rᵀP⁻¹r with the block-Jacobi P alone, which
 // decides convergence and is summed where it is tested), α, β.
 fn scalar_index(k: u32) -> u32 {
-    return P_SLOTS * params.partial_count + k;
+    return params.partial_base + P_SLOTS * params.partial_count + k;
 }
 
 // α = δ / cᵀq, cᵀq summed from the w of W_Q (twin: cpu::cg::alpha). A
@@ -543,7 +550,7 @@ fn cg_alpha_scalar(lid: u32) -> bool {
     if (running) {
         partials[scalar_index(C_ALPHA)] = partials[scalar_index(C_DELTA)] / cq;
     } else {
-        atomicStore(&status[STATUS_CG_STOPPED], 1u);
+        atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);
     }
     return running;
 }
@@ -553,12 +560,12 @@ fn cg_alpha_scalar(lid: u32) -> bool {
 // those kernels, which have barriers after it).
 fn cg_stopped(lid: u32) -> bool {
     if (lid == 0u) {
-        shared_flag = atomicLoad(&status[STATUS_CG_STOPPED]);
+        shared_flag = atomicLoad(&status[sw(STATUS_CG_STOPPED)]);
     }
     return workgroupUniformLoad(&shared_flag) != 0u;
 }
 
 // Whether CG has stopped, for a per-particle kernel (no barrier).
 fn cg_done() -> bool {
-    return atomicLoad(&status[STATUS_CG_STOPPED]) != 0u;
+    return atomicLoad(&status[sw(STATUS_CG_STOPPED)]) != 0u;
 }

@@ -38,8 +38,8 @@ fn coarse_index(side: u32, at: vec2<u32>) -> u32 {
 // Index of particle p's aggregate of side `side`, among both levels'
 // (twin: Aggregation::of).
 fn coarse_of(side: u32, p: u32) -> u32 {
-    let row = p / params.coarse.x;
-    let col = p % params.coarse.x;
+    let row = local(p) / params.coarse.x;
+    let col = local(p) % params.coarse.x;
     return coarse_index(side, vec2<u32>(row / side, col / side));
 }
 
@@ -56,11 +56,11 @@ fn level1_particle(a: u32, k: u32) -> u32 {
     if (row >= params.coarse.y || col >= nx) {
         return NO_PARTICLE;
     }
-    return row * nx + col;
+    return params.particle_base + row * nx + col;
 }
 
 fn coarse_inverse(k: u32) -> Sym3 {
-    return Sym3(work[wi(W_COARSE_INV_D, k)].xyz, work[wi(W_COARSE_INV_O, k)].xyz);
+    return Sym3(work[wa(W_COARSE_INV_D, k)].xyz, work[wa(W_COARSE_INV_O, k)].xyz);
 }
 
 // δ = rᵀM⁻¹r from ρ = rᵀP⁻¹r: ρ itself without coarse levels, else
@@ -89,7 +89,7 @@ fn cg_start_scalars(lid: u32, coarse: bool) -> bool {
     partials[scalar_index(C_BETA)] = 0.0;
     let running = rho > params.cg_tolerance_sq * delta0;
     if (!running) {
-        atomicStore(&status[STATUS_CG_STOPPED], 1u);
+        atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);
     }
     return running;
 }
@@ -115,9 +115,9 @@ fn cg_beta_scalars(lid: u32, coarse: bool) -> BetaDone {
     partials[scalar_index(C_BETA)] = delta / partials[scalar_index(C_DELTA)];
     partials[scalar_index(C_DELTA)] = delta;
     let running = rho > params.cg_tolerance_sq * partials[scalar_index(C_DELTA0)];
-    let iteration = atomicAdd(&status[STATUS_CG_ITERATIONS], 1u);
+    let iteration = atomicAdd(&status[sw(STATUS_CG_ITERATIONS)], 1u);
     if (!running) {
-        atomicStore(&status[STATUS_CG_STOPPED], 1u);
+        atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);
     }
     return BetaDone(running, iteration);
 }
@@ -147,7 +147,7 @@ fn coarse_setup_item(k: u32) {
     var trace = 0.0;
     for (var row = row0; row < min(row0 + side, params.coarse.y); row++) {
         for (var col = col0; col < min(col0 + side, nx); col++) {
-            let p = row * nx + col;
+            let p = params.particle_base + row * nx + col;
             d += work[wi(sec_d, p)].xyz;
             o += work[wi(sec_o, p)].xyz;
             mass += v[p].w;
@@ -163,8 +163,8 @@ fn coarse_setup_item(k: u32) {
     if (inv.ok) {
         m = Sym3(inv.m.d * theta, inv.m.o * theta);
     }
-    work[wi(W_COARSE_INV_D, k)] = vec4<f32>(m.d, 0.0);
-    work[wi(W_COARSE_INV_O, k)] = vec4<f32>(m.o, 0.0);
+    work[wa(W_COARSE_INV_D, k)] = vec4<f32>(m.d, 0.0);
+    work[wa(W_COARSE_INV_O, k)] = vec4<f32>(m.o, 0.0);
 }
 
 // The CG update of level-1 aggregate `a`'s particles (row-major; twin:
@@ -189,7 +189,7 @@ fn cg_update_aggregate(a: u32, alpha: f32, first: bool) {
         }
     }
     let z = sym3_mul(coarse_inverse(a), r1);
-    work[wi(W_COARSE_Z, a)] = vec4<f32>(r1, dot3(r1, z));
+    work[wa(W_COARSE_Z, a)] = vec4<f32>(r1, dot3(r1, z));
     for (var k = 0u; k < LEVEL1_SIDE * LEVEL1_SIDE; k++) {
         let p = level1_particle(a, k);
         if (p != NO_PARTICLE) {
@@ -204,7 +204,7 @@ fn cg_update_aggregate(a: u32, alpha: f32, first: bool) {
 // particle by particle (twin: Coarse::prolong); s keeps the filter kind
 // in its w.
 fn cg_prolong_item(a: u32) {
-    let z = work[wi(W_COARSE_Z, coarse_of(LEVEL2_SIDE, level1_particle(a, 0u)))].xyz;
+    let z = work[wa(W_COARSE_Z, coarse_of(LEVEL2_SIDE, level1_particle(a, 0u)))].xyz;
     for (var k = 0u; k < LEVEL1_SIDE * LEVEL1_SIDE; k++) {
         let p = level1_particle(a, k);
         if (p != NO_PARTICLE) {
@@ -235,7 +235,7 @@ fn cg_coarse(rho: f32, lid: u32) -> f32 {
         var r2 = vec3<f32>(0.0);
         for (var row1 = row2 * LEVEL_RATIO; row1 < min((row2 + 1u) * LEVEL_RATIO, down1); row1++) {
             for (var col1 = col2 * LEVEL_RATIO; col1 < min((col2 + 1u) * LEVEL_RATIO, across1); col1++) {
-                let level1 = work[wi(W_COARSE_Z, row1 * across1 + col1)];
+                let level1 = work[wa(W_COARSE_Z, row1 * across1 + col1)];
                 term += level1.w;
                 r2 += level1.xyz;
             }
@@ -243,7 +243,7 @@ fn cg_coarse(rho: f32, lid: u32) -> f32 {
         let k = n1 + b;
         let z = sym3_mul(coarse_inverse(k), r2);
         term += dot3(r2, z);
-        work[wi(W_COARSE_Z, k)] = vec4<f32>(z, term);
+        work[wa(W_COARSE_Z, k)] = vec4<f32>(z, term);
     }
     storageBarrier();
     return rho + sum_staged(STAGED_LEVEL2, 0u, n2, lid);
@@ -271,7 +271,7 @@ var<private> near: Near;
 const GRID_REACH: i32 = 2;
 
 fn level2_correction(at: vec2<i32>) -> vec3<f32> {
-    return work[wi(W_COARSE_Z, coarse_index(LEVEL2_SIDE, vec2<u32>(at)))].xyz;
+    return work[wa(W_COARSE_Z, coarse_index(LEVEL2_SIDE, vec2<u32>(at)))].xyz;
 }
 
 // Loads the corrections near the block whose first particle is at `o`

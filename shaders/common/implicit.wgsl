@@ -14,9 +14,9 @@
 // The step's status words at its start: one more step, CG not yet run.
 // Once per step, by one invocation.
 fn implicit_step_start() {
-    atomicAdd(&status[STATUS_STEP], 1u);
-    atomicStore(&status[STATUS_CG_ITERATIONS], 0u);
-    atomicStore(&status[STATUS_CG_STOPPED], 0u);
+    atomicAdd(&status[sw(STATUS_STEP)], 1u);
+    atomicStore(&status[sw(STATUS_CG_ITERATIONS)], 0u);
+    atomicStore(&status[sw(STATUS_CG_STOPPED)], 0u);
 }
 
 // Spring s linearised at the start of the step (twin: the spring loop of
@@ -74,8 +74,8 @@ fn implicit_prepare_item(p: u32, coarse: bool) {
     var kv = vec3<f32>(0.0);
     var pre = Sym3(vec3<f32>(v0.w), vec3<f32>(0.0));
     var levels = levels_start(p, v0.w, coarse);
-    let begin = topo[p];
-    let end = topo[p + 1u];
+    let begin = spring_adj(p);
+    let end = spring_adj(p + 1u);
     let others = spring_adj_others();
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
@@ -157,7 +157,7 @@ fn prepare_particle(
 // CG_MAX_ITERATIONS takes the step's count. Once per step, by one
 // invocation, after CG.
 fn record_cg_max() {
-    atomicMax(&status[STATUS_CG_MAX_ITERATIONS], atomicLoad(&status[STATUS_CG_ITERATIONS]));
+    atomicMax(&status[sw(STATUS_CG_MAX_ITERATIONS)], atomicLoad(&status[sw(STATUS_CG_ITERATIONS)]));
 }
 
 // The end of particle p's step (twin: cpu::implicit::finish): v += Δv,
