@@ -135,6 +135,8 @@ struct Shape<'a> {
     /// The semi-implicit filter is solved by CG.
     semi_cg: bool,
     cg_tolerance: f64,
+    /// Most CG iterations per step.
+    cg_max_iterations: u32,
     fixup_iterations: u32,
 }
 
@@ -209,7 +211,8 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
         dense_base: 0,
         integrator: integrator_code(params.integrator),
         fixup_iterations: shape.fixup_iterations,
-        _pad: [0; 2],
+        cg_max_iterations: shape.cg_max_iterations,
+        _pad: [0; 1],
         grid: grid_words,
         grid_rest_a: [rest[0], rest[1], rest[2], rest[3]],
         grid_rest_b: [rest[4], rest[5], 0.0, 0.0],
@@ -268,6 +271,7 @@ impl GpuSolver {
             filter: filter.as_ref(),
             semi_cg,
             cg_tolerance,
+            cg_max_iterations,
             fixup_iterations,
         };
         let gpu_params = uniform_block(model, params, shape);
