@@ -31,7 +31,7 @@ fn cg_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (grid_gather_done(p)) {
         return;
     }
-    apply_end(p, work[wi(W_S, p)], apply_a(W_S, p));
+    cg_apply_item(p, beta);
 }
 
 // s at a stencil point from what cg_update stored there (s and the
@@ -44,11 +44,8 @@ fn apply_value(pt: GridPoint, stored: vec4<f32>) -> vec3<f32> {
 }
 
 // c = s + β c and q = S (A s) + β q for particle p, whose s (with its
-// filter kind in w) is `s` and (A s)_p, unfiltered, `as_p`.
+// filter kind in w) is `s` and (A s)_p, unfiltered, `as_p` (the grid
+// gather's hook).
 fn apply_end(p: u32, s: vec4<f32>, as_p: vec3<f32>) {
-    let t = filter_with(s.w, p, as_p);
-    let c = s.xyz + work[wi(W_C, p)].xyz * beta;
-    let q = t + work[wi(W_Q, p)].xyz * beta;
-    work[wi(W_C, p)] = vec4<f32>(c, 0.0);
-    work[wi(W_Q, p)] = vec4<f32>(q, dot3(c, q));
+    cg_apply_end(p, s, as_p, beta);
 }

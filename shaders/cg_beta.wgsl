@@ -1,6 +1,6 @@
 // CG iteration, scalars: ρ summed from the w of W_R, δ_new = ρ plus the
 // coarse terms, β = δ_new / δ, count the iteration, and stop if ρ has
-// converged (one workgroup).
+// converged (one workgroup; cg_beta_scalars, twin: cpu::cg::beta).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
@@ -11,18 +11,13 @@ fn cg_beta(@builtin(local_invocation_id) lid: vec3<u32>) {
     if (cg_stopped(lid.x)) {
         return;
     }
-    let rho = sum_w(W_R, P_RS, lid.x);
-    let delta = cg_delta(rho, lid.x);
+    let done = cg_beta_scalars(lid.x, COARSE);
     if (lid.x != 0u) {
         return;
     }
-    partials[scalar_index(C_BETA)] = delta / partials[scalar_index(C_DELTA)];
-    partials[scalar_index(C_DELTA)] = delta;
     // The direction update of this iteration is only needed by the next.
-    let running = rho > params.cg_tolerance_sq * partials[scalar_index(C_DELTA0)];
-    beta_slots_next(atomicAdd(&status[STATUS_CG_ITERATIONS], 1u), running);
-    if (!running) {
-        atomicStore(&status[STATUS_CG_STOPPED], 1u);
+    beta_slots_next(done.iteration, done.running);
+    if (!done.running) {
         set_cg_args(false);
     }
 }

@@ -180,6 +180,7 @@ const TWIN_TESTS: &[(Kernel, fn())] = &[
     (Kernel::SemiIntegrate, semi_integrate_matches_its_twin),
     (Kernel::SemiCgPrepare, semi_cg_prepare_matches_its_twin),
     (Kernel::ClothExplicit, cloth_explicit_matches_its_twin),
+    (Kernel::ClothImplicit, cloth_implicit_matches_its_twin),
 ];
 
 /// Kernels without a twin, and why (see [`TWIN_TESTS`]).
@@ -1176,4 +1177,9 @@ fn check_workgroup_step(integrator: Integrator, pinned: bool, kernel: Kernel) {
 #[test]
 fn cloth_explicit_matches_its_twin() {
     check_workgroup_step(Integrator::Explicit, true, Kernel::ClothExplicit);
+}
+
+#[test]
+fn cloth_implicit_matches_its_twin() {
+    check_workgroup_step(Integrator::Implicit, true, Kernel::ClothImplicit);
 }

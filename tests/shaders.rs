@@ -154,6 +154,7 @@ fn pod_twins_match_their_wgsl_structs() {
             dense_base,
             integrator,
             fixup_iterations,
+            cg_max_iterations,
             grid,
             grid_rest_a,
             grid_rest_b,

@@ -4,6 +4,13 @@
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 
+// Aggregate a's entry of `work` section `section` (the coarse levels,
+// common/coarse.wgsl, keep one entry per aggregate of both levels, level
+// 1's first, where the particles keep one per particle).
+fn wa(section: u32, a: u32) -> u32 {
+    return wi(section, params.particle_base + a);
+}
+
 // Twin: implicit::Filter::apply. `f` is W_Z's w (kind), `n` W_FILTER's xyz.
 fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
     if (!HAS_FILTER) {
@@ -273,8 +280,8 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
         acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(2, 0, 5, 0));
         return acc;
     }
-    let begin = topo[p];
-    let end = topo[p + 1u];
+    let begin = spring_adj(p);
+    let end = spring_adj(p + 1u);
     let others = spring_adj_others();
     for (var k = begin; k < end; k++) {
         let e = topo[params.spring_adj_entries + k];
@@ -287,6 +294,74 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
         acc += select(y, -y, at_j);
     }
     return acc;
+}
+
+// The CG set-up of particle p, whose Δv (with its filter kind in w) is
+// `dv`, from (A Δv)_p, unfiltered, `adv` (twin: the particle loop of
+// cpu::cg::init): r = S b − S A Δv, and without coarse levels s = S P r
+// with ρ's term r·s in r's w (with them cg_update's first call computes s and
+// ρ's terms); a zero previous direction and product.
+fn cg_init_end(p: u32, dv: vec4<f32>, adv: vec3<f32>, coarse: bool) {
+    let kind = dv.w;
+    let q = filter_with(kind, p, adv);
+    let r = filter_with(kind, p, work[wi(W_RHS, p)].xyz) - q;
+    if (coarse) {
+        work[wi(W_R, p)] = vec4<f32>(r, 0.0);
+    } else {
+        let s = filter_with(kind, p, precond_mul(p, r));
+        work[wi(W_R, p)] = vec4<f32>(r, dot3(r, s));
+        work[wi(W_S, p)] = vec4<f32>(s, kind);
+    }
+    work[wi(W_C, p)] = vec4<f32>(0.0);
+    work[wi(W_Q, p)] = vec4<f32>(0.0);
+}
+
+// cg_init of particle p through the adjacency lists.
+fn cg_init_item(p: u32, coarse: bool) {
+    cg_init_end(p, work[wi(W_DV, p)], apply_a(W_DV, p), coarse);
+}
+
+// c = s + β c and q = S (A s) + β q for particle p, whose s (with its
+// filter kind in w) is `s` and (A s)_p, unfiltered, `as_p`, with cᵀq's
+// term in q's w (twin: the particle loop of cpu::cg::apply).
+fn cg_apply_end(p: u32, s: vec4<f32>, as_p: vec3<f32>, beta: f32) {
+    let t = filter_with(s.w, p, as_p);
+    let c = s.xyz + work[wi(W_C, p)].xyz * beta;
+    let q = t + work[wi(W_Q, p)].xyz * beta;
+    work[wi(W_C, p)] = vec4<f32>(c, 0.0);
+    work[wi(W_Q, p)] = vec4<f32>(q, dot3(c, q));
+}
+
+// cg_apply of particle p through the adjacency lists.
+fn cg_apply_item(p: u32, beta: f32) {
+    cg_apply_end(p, work[wi(W_S, p)], apply_a(W_S, p), beta);
+}
+
+// Δv of particle p after the step `alpha` along c (stored) and r after
+// it (returned, with the particle's filter kind in w: the caller stores r
+// with its term of ρ). The `first` update (after cg_init) only
+// preconditions the initial residual.
+fn update_particle(p: u32, alpha: f32, first: bool) -> vec4<f32> {
+    var r = work[wi(W_R, p)].xyz;
+    if (first) {
+        return vec4<f32>(r, filter_kind(p));
+    }
+    let dv = work[wi(W_DV, p)];
+    let dv_new = dv.xyz + work[wi(W_C, p)].xyz * alpha;
+    r -= work[wi(W_Q, p)].xyz * alpha;
+    work[wi(W_DV, p)] = vec4<f32>(dv_new, dv.w);
+    return vec4<f32>(r, dv.w);
+}
+
+// The CG update of particle p without coarse levels (twin: the particle
+// loop of cpu::cg::update): Δv and r (update_particle), s = S P r with
+// the filter kind in its w, ρ's term r·P r in r's w.
+fn cg_update_item(p: u32, alpha: f32, first: bool) {
+    let rk = update_particle(p, alpha, first);
+    let r = rk.xyz;
+    let s = precond_mul(p, r);
+    work[wi(W_R, p)] = vec4<f32>(r, dot3(r, s));
+    work[wi(W_S, p)] = vec4<f32>(filter_with(rk.w, p, s), rk.w);
 }
 
 // Indirect dispatch arguments of cg_apply (words 0–2) and cg_update
@@ -310,17 +385,17 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
 
 // The CG iteration in progress (counted by cg_beta).
 fn cg_iteration() -> u32 {
-    return atomicLoad(&status[STATUS_CG_ITERATIONS]);
+    return atomicLoad(&status[sw(STATUS_CG_ITERATIONS)]);
 }
 
 // cg_start: clear the slots the last solve left enabled, then enable
 // alpha 0 if CG runs.
 fn start_slots(running: bool) {
-    alpha_slots[3u * atomicLoad(&status[STATUS_ALPHA_SLOT])] = 0u;
-    beta_slots[3u * atomicLoad(&status[STATUS_BETA_SLOT])] = 0u;
+    alpha_slots[3u * atomicLoad(&status[sw(STATUS_ALPHA_SLOT)])] = 0u;
+    beta_slots[3u * atomicLoad(&status[sw(STATUS_BETA_SLOT)])] = 0u;
     if (running) {
         alpha_slots[0] = 1u;
-        atomicStore(&status[STATUS_ALPHA_SLOT], 0u);
+        atomicStore(&status[sw(STATUS_ALPHA_SLOT)], 0u);
     }
 }
 
@@ -332,7 +407,7 @@ fn alpha_slots_next(k: u32, running: bool) {
     }
     if (running) {
         beta_slots[3u * k] = 1u;
-        atomicStore(&status[STATUS_BETA_SLOT], k);
+        atomicStore(&status[sw(STATUS_BETA_SLOT)], k);
     }
 }
 
@@ -342,7 +417,7 @@ fn beta_slots_next(k: u32, running: bool) {
     alpha_slots[3u * k] = 0u;
     if (running && 3u * (k + 1u) < arrayLength(&alpha_slots)) {
         alpha_slots[3u * (k + 1u)] = 1u;
-        atomicStore(&status[STATUS_ALPHA_SLOT], k + 1u);
+        atomicStore(&status[sw(STATUS_ALPHA_SLOT)], k + 1u);
     }
 }
 
@@ -380,7 +455,7 @@ fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
         for (var k = 0u; k < count; k++) {
             total += scratch[k];
         }
-        partials[slot * params.partial_count + wid] = total;
+        partials[pi(slot, wid)] = total;
     }
 }
 
@@ -389,7 +464,7 @@ fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
 fn sum_partials(slot: u32) -> f32 {
     var total = 0.0;
     for (var k = 0u; k < params.partial_count; k++) {
-        total += partials[slot * params.partial_count + k];
+        total += partials[pi(slot, k)];
     }
     return total;
 }
@@ -402,9 +477,9 @@ const STAGED_LEVEL2: u32 = 1u;
 // level-2 aggregate k's W_COARSE_Z (see cg_coarse).
 fn staged_value(source: u32, slot: u32, k: u32) -> f32 {
     if (source == STAGED_LEVEL2) {
-        return work[wi(W_COARSE_Z, params.coarse.z + k)].w;
+        return work[wa(W_COARSE_Z, params.coarse.z + k)].w;
     }
-    return partials[slot * params.partial_count + k];
+    return partials[pi(slot, k)];
 }
 
 var<workgroup> stage: array<f32, SUM_GROUP>;
@@ -443,13 +518,13 @@ fn sum_staged(source: u32, slot: u32, count: u32, lid: u32) -> f32 {
 // from uniform control flow.
 fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
     for (var b = lid; b < params.partial_count; b += SUM_GROUP) {
-        let start = b * WORKGROUP;
-        let end = min(start + WORKGROUP, params.particle_count);
+        let start = params.particle_base + b * WORKGROUP;
+        let end = min(start + WORKGROUP, params.particle_base + params.particle_count);
         var block = 0.0;
         for (var p = start; p < end; p++) {
             block += work[wi(sec, p)].w;
         }
-        partials[slot * params.partial_count + b] = block;
+        partials[pi(slot, b)] = block;
     }
     storageBarrier();
     return sum_staged(STAGED_PARTIALS, slot, params.partial_count, lid);
@@ -459,7 +534,25 @@ fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
 // coarse levels more than ρ = rᵀP⁻¹r with the block-Jacobi P alone, which
 // decides convergence and is summed where it is tested), α, β.
 fn scalar_index(k: u32) -> u32 {
-    return P_SLOTS * params.partial_count + k;
+    return params.partial_base + P_SLOTS * params.partial_count + k;
+}
+
+// α = δ / cᵀq, cᵀq summed from the w of W_Q (twin: cpu::cg::alpha). A
+// cᵀq that is not positive means c vanished to rounding: CG stops.
+// Invocation 0 stores α or the stop and returns whether CG goes on (the
+// others return false). Call from uniform control flow.
+fn cg_alpha_scalar(lid: u32) -> bool {
+    let cq = sum_w(W_Q, P_CQ, lid);
+    if (lid != 0u) {
+        return false;
+    }
+    let running = finite1(cq) && cq > 0.0;
+    if (running) {
+        partials[scalar_index(C_ALPHA)] = partials[scalar_index(C_DELTA)] / cq;
+    } else {
+        atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);
+    }
+    return running;
 }
 
 // Whether CG has stopped (converged or broken down; set by the one-group
@@ -467,12 +560,12 @@ fn scalar_index(k: u32) -> u32 {
 // those kernels, which have barriers after it).
 fn cg_stopped(lid: u32) -> bool {
     if (lid == 0u) {
-        shared_flag = atomicLoad(&status[STATUS_CG_STOPPED]);
+        shared_flag = atomicLoad(&status[sw(STATUS_CG_STOPPED)]);
     }
     return workgroupUniformLoad(&shared_flag) != 0u;
 }
 
 // Whether CG has stopped, for a per-particle kernel (no barrier).
 fn cg_done() -> bool {
-    return atomicLoad(&status[STATUS_CG_STOPPED]) != 0u;
+    return atomicLoad(&status[sw(STATUS_CG_STOPPED)]) != 0u;
 }

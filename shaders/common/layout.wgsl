@@ -99,8 +99,10 @@ struct Params {
     integrator: u32,
     // Fix-up passes per step (0: no constrained spring kind).
     fixup_iterations: u32,
+    // Most CG iterations per step (the workgroup kernels' loop; the
+    // multi-dispatch path records its budget instead).
+    cg_max_iterations: u32,
     _pad0: u32,
-    _pad1: u32,
     // Grid layout (src/gpu/grid.rs): columns, rows, a bit per spring kind
     // present; rest length per direction; stiffness and damping per kind.
     grid: vec4<u32>,

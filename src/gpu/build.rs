@@ -135,6 +135,8 @@ struct Shape<'a> {
     /// The semi-implicit filter is solved by CG.
     semi_cg: bool,
     cg_tolerance: f64,
+    /// Most CG iterations per step.
+    cg_max_iterations: u32,
     fixup_iterations: u32,
 }
 
@@ -209,7 +211,8 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
         dense_base: 0,
         integrator: integrator_code(params.integrator),
         fixup_iterations: shape.fixup_iterations,
-        _pad: [0; 2],
+        cg_max_iterations: shape.cg_max_iterations,
+        _pad: [0; 1],
         grid: grid_words,
         grid_rest_a: [rest[0], rest[1], rest[2], rest[3]],
         grid_rest_b: [rest[4], rest[5], 0.0, 0.0],
@@ -260,10 +263,10 @@ pub(super) fn cloth_arrays(
     block: GridBlock,
 ) -> Result<ClothArrays> {
     let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
-    let cg_tolerance = if semi_cg {
-        FILTER_CG_TOLERANCE
+    let (cg_tolerance, cg_max_iterations) = if semi_cg {
+        (FILTER_CG_TOLERANCE, FILTER_CG_MAX_ITERATIONS)
     } else {
-        params.implicit.tolerance
+        (params.implicit.tolerance, params.implicit.max_iterations)
     };
     // Where each spring lives on the device: its slot in grid layout,
     // else its index.
@@ -280,6 +283,7 @@ pub(super) fn cloth_arrays(
         filter: filter.as_ref(),
         semi_cg,
         cg_tolerance,
+        cg_max_iterations,
         fixup_iterations: fixup_iterations(params),
     };
     let params = uniform_block(model, params, shape);

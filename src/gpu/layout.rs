@@ -109,8 +109,11 @@ pub struct GpuParams {
     pub integrator: u32,
     /// Fix-up passes per step (0: no constrained spring kind).
     pub fixup_iterations: u32,
+    /// Most CG iterations per step (`implicit.max_iterations`, or the
+    /// scalable semi-implicit filter's): the workgroup kernels' loop.
+    pub cg_max_iterations: u32,
     /// Padding to the WGSL struct's 16-byte alignment.
-    pub _pad: [u32; 2],
+    pub _pad: [u32; 1],
     /// Grid layout (see `gpu/grid.rs`): columns, rows, a bit per spring
     /// kind present, unused; zero for the general kernels.
     pub grid: [u32; 4],

@@ -74,9 +74,7 @@ fn workgroup_refusal(i: &PathInputs<'_>) -> Result<()> {
         Integrator::SemiImplicit => {
             return no_kernel("the semi-implicit integrator has no workgroup kernel yet")
         }
-        Integrator::Implicit => {
-            return no_kernel("the implicit integrator has no workgroup kernel yet")
-        }
+        Integrator::Implicit => {}
     }
     if i.particles > u64::from(WORKGROUP_STEP_MAX_PARTICLES) {
         return Err(Error::InvalidParameter {

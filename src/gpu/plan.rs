@@ -223,7 +223,8 @@ fn workgroup_kernel(i: &PlanInputs) -> Option<Kernel> {
     }
     match i.integrator {
         Integrator::Explicit => Some(Kernel::ClothExplicit),
-        Integrator::SemiImplicit | Integrator::Implicit => None,
+        Integrator::Implicit => Some(Kernel::ClothImplicit),
+        Integrator::SemiImplicit => None,
     }
 }
 

@@ -52,6 +52,7 @@ pub const COMMON: &[(&str, &str)] = &[
     wgsl!("common/physics"),
     wgsl!("common/cg"),
     wgsl!("common/coarse"),
+    wgsl!("common/implicit"),
     wgsl!("common/apply_block"),
     wgsl!("common/no_spring_data"),
     wgsl!("common/torque"),

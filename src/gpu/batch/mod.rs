@@ -206,18 +206,6 @@ impl GpuBatch {
         }
     }
 
-    /// The cloth of `id`, mutably.
-    fn member_mut(&mut self, id: ClothId) -> Result<&mut Member> {
-        let unknown = self.unknown(id);
-        match self.slots.get_mut(id.slot as usize) {
-            Some(Slot {
-                generation,
-                member: Some(m),
-            }) if *generation == id.generation => Ok(m),
-            _ => Err(unknown),
-        }
-    }
-
     /// The error for an id that is not in the batch.
     fn unknown(&self, id: ClothId) -> Error {
         Error::InvalidParameter {
@@ -297,9 +285,17 @@ impl GpuBatch {
         let ids = self.cloths();
         let mut out = Vec::with_capacity(ids.len());
         for id in ids {
-            let stats = match self.member_mut(id)? {
-                Member::Table(c) => c.decode(&words),
-                Member::Solo(solver) => solver.check(),
+            self.member(id)?;
+            let stats = match &mut self.slots[id.slot as usize].member {
+                None => continue,
+                Some(Member::Table(c)) => {
+                    let stats = c.decode(&words);
+                    if stats.as_ref().is_ok_and(|s| s.cg_max_iterations > 0) {
+                        c.restart_cg_window(&self.table);
+                    }
+                    stats
+                }
+                Some(Member::Solo(solver)) => solver.check(),
             };
             out.push((id, stats.map_err(|e| in_cloth(id, e))?));
         }

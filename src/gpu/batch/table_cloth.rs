@@ -179,6 +179,15 @@ impl TableCloth {
         self.decode_words(mine)
     }
 
+    /// Starts its window of [`StepStats::cg_max_iterations`] afresh: the
+    /// next check reports the steps after this one (as a lone solver's).
+    pub(super) fn restart_cg_window(&self, table: &Table) {
+        let word = u64::from(self.params.status_base) + status::CG_MAX_ITERATIONS as u64;
+        table
+            .queue()
+            .write_buffer(table.buffer(Region::Status), word * 4, &[0; 4]);
+    }
+
     /// Its statistics from its own status words.
     fn decode_words(&self, words: &[u32]) -> Result<StepStats> {
         // No CG budget on the workgroup path: never hit (as a lone solver

@@ -1,0 +1,206 @@
+// The implicit step's per-item work (twin: cpu::implicit) in the general
+// (adjacency) layout: the body of each multi-dispatch kernel
+// (implicit_springs, implicit_prepare, implicit_finish) as a function, so
+// that the kernel and cloth_implicit, which runs the whole step in one
+// workgroup, run the same code. The grid forms stay in the kernel files.
+// `coarse` says whether the cloth has coarse levels: the kernels pass
+// their COARSE, cloth_implicit reads it from params.coarse.
+
+#include "common/bindings.wgsl"
+#include "common/physics.wgsl"
+#include "common/cg.wgsl"
+#include "common/coarse.wgsl"
+
+// The step's status words at its start: one more step, CG not yet run.
+// Once per step, by one invocation.
+fn implicit_step_start() {
+    atomicAdd(&status[sw(STATUS_STEP)], 1u);
+    atomicStore(&status[sw(STATUS_CG_ITERATIONS)], 0u);
+    atomicStore(&status[sw(STATUS_CG_STOPPED)], 0u);
+}
+
+// Spring s linearised at the start of the step (twin: the spring loop of
+// cpu::implicit::springs): its block, K v and force into S_BLOCK, S_KV
+// and S_FORCE.
+fn implicit_springs_item(s: u32) {
+    let sp = springs[s];
+    let xi = x[sp.i].xyz;
+    let xj = x[sp.j].xyz;
+    let vi = v[sp.i].xyz;
+    let vj = v[sp.j].xyz;
+    let lin = linearise(sp.rest, sp.k, sp.kd, xi, xj, vi, vj);
+    spring_work[si(S_BLOCK, s)] = lin.blk;
+    spring_work[si(S_KV, s)] = vec4<f32>(lin.kv, 0.0);
+    spring_work[si(S_FORCE, s)] = vec4<f32>(lin.f, 0.0);
+}
+
+// A particle's contributions to its aggregates' D at both levels (twin:
+// `levels` in cpu::implicit::prepare): its mass times I plus the blocks of
+// its springs whose other end lies in another aggregate of that level.
+struct Levels {
+    own: vec2<u32>,
+    d1: Sym3,
+    d2: Sym3,
+}
+
+fn levels_start(p: u32, m: f32, coarse: bool) -> Levels {
+    let diag = Sym3(vec3<f32>(m), vec3<f32>(0.0));
+    if (!coarse) {
+        return Levels(vec2<u32>(0u), diag, diag);
+    }
+    return Levels(vec2<u32>(coarse_of(LEVEL1_SIDE, p), coarse_of(LEVEL2_SIDE, p)), diag, diag);
+}
+
+// `l` plus the block `blk` of a spring whose other end is `other`.
+fn levels_add(l: Levels, other: u32, blk: vec4<f32>, coarse: bool) -> Levels {
+    if (!coarse) {
+        return l;
+    }
+    var out = l;
+    if (coarse_of(LEVEL1_SIDE, other) != l.own.x) {
+        out.d1 = sym3_add_block(out.d1, blk);
+    }
+    if (coarse_of(LEVEL2_SIDE, other) != l.own.y) {
+        out.d2 = sym3_add_block(out.d2, blk);
+    }
+    return out;
+}
+
+// The set-up of particle p from the spring pass's K v and blocks, in
+// adjacency order (twin: the particle loop of cpu::implicit::prepare).
+fn implicit_prepare_item(p: u32, coarse: bool) {
+    let x0 = x[p];
+    let v0 = v[p];
+    var kv = vec3<f32>(0.0);
+    var pre = Sym3(vec3<f32>(v0.w), vec3<f32>(0.0));
+    var levels = levels_start(p, v0.w, coarse);
+    let begin = spring_adj(p);
+    let end = spring_adj(p + 1u);
+    let others = spring_adj_others();
+    for (var k = begin; k < end; k++) {
+        let e = topo[params.spring_adj_entries + k];
+        let s = e >> 1u;
+        let kvs = spring_work[si(S_KV, s)].xyz;
+        kv += select(kvs, -kvs, (e & 1u) != 0u);
+        let blk = spring_work[si(S_BLOCK, s)];
+        pre = sym3_add_block(pre, blk);
+        levels = levels_add(levels, topo[others + k], blk, coarse);
+    }
+    let f = total_force(p, x0, v0, STATE_BUFFERS);
+    prepare_particle(p, x0, v0, f, kv, pre, levels, coarse);
+}
+
+// The rest of particle p's set-up from its state `x0`, `v0`, the total
+// force `f` on it [N], the sum `kv` of its springs' K v, the matrix
+// `pre` = m I plus its springs' blocks, and its coarse contributions
+// (stored when `coarse`).
+fn prepare_particle(
+    p: u32,
+    x0: vec4<f32>,
+    v0: vec4<f32>,
+    f: vec3<f32>,
+    kv: vec3<f32>,
+    pre_in: Sym3,
+    levels: Levels,
+    coarse: bool,
+) {
+    let m = v0.w;
+    let vp = v0.xyz;
+    var kind = FILTER_FREE;
+    var normal = vec3<f32>(0.0);
+    var friction = 0.0;
+    var z = vec3<f32>(0.0);
+    let clock = particle_clock(p);
+    if (x0.w <= 0.0) {
+        kind = FILTER_FIXED;
+        // A moving pin's prescribed change of velocity (Baraff–Witkin's z).
+        z = pin_velocity(p, clock, x0.xyz) - vp;
+    } else {
+        let c = find_contact(x0.xyz, CONTACT_SLOP, clock);
+        if (c.found && (dot3(f, c.normal) < 0.0 || dot3(vp - c.velocity, c.normal) < 0.0)) {
+            kind = FILTER_PLANE;
+            normal = c.normal;
+            friction = c.friction;
+            // The approach speed relative to the collider.
+            let vc = contact_velocity(x0.xyz, clock);
+            z = normal * (-min(dot3(vp - vc, normal), 0.0));
+        }
+    }
+    let rhs = (f + kv * params.dt) * params.dt;
+    // Twin: Sym3::inverse, with its fallback to 1/m I.
+    var pre = Sym3(vec3<f32>(1.0 / m), vec3<f32>(0.0));
+    let inv = sym3_inverse(pre_in);
+    if (inv.ok) {
+        pre = inv.m;
+    }
+    if (GRID && (HAS_GROUND || HAS_SPHERES)) {
+        work[wi(W_X_START, p)] = x0;
+    }
+    work[wi(W_Z, p)] = vec4<f32>(z, kind);
+    work[wi(W_FILTER, p)] = vec4<f32>(normal, friction);
+    work[wi(W_PRE_DIAG, p)] = vec4<f32>(pre.d, 0.0);
+    work[wi(W_PRE_OFF, p)] = vec4<f32>(pre.o, 0.0);
+    if (coarse) {
+        // The trace of the block-Jacobi block, for θ (coarse_setup).
+        let trace = pre_in.d.x + pre_in.d.y + pre_in.d.z;
+        work[wi(W_LEVEL1_D, p)] = vec4<f32>(levels.d1.d, 0.0);
+        work[wi(W_LEVEL1_O, p)] = vec4<f32>(levels.d1.o, trace);
+        work[wi(W_LEVEL2_D, p)] = vec4<f32>(levels.d2.d, 0.0);
+        work[wi(W_LEVEL2_O, p)] = vec4<f32>(levels.d2.o, 0.0);
+    }
+    let dv = filter_apply(kind, normal, warm_start(p)) + z;
+    work[wi(W_DV, p)] = vec4<f32>(dv, kind);
+    let sb = filter_apply(kind, normal, rhs);
+    work[wi(W_RHS, p)] = vec4<f32>(rhs, dot3(sb, sym3_mul(pre, sb)));
+}
+
+// CG_MAX_ITERATIONS takes the step's count. Once per step, by one
+// invocation, after CG.
+fn record_cg_max() {
+    atomicMax(&status[sw(STATUS_CG_MAX_ITERATIONS)], atomicLoad(&status[sw(STATUS_CG_ITERATIONS)]));
+}
+
+// The end of particle p's step (twin: cpu::implicit::finish): v += Δv,
+// friction at its filtered contact from the constraint impulse, x += dt v,
+// collisions (pins: towards their goals), the clock, store. It reads its
+// neighbours' Δv, never their x or v, so the particles may finish in any
+// order.
+fn implicit_finish_item(p: u32) {
+    let x0 = x[p];
+    let v0 = v[p];
+    let clock = particle_clock(p);
+    var vp = v0.xyz + work[wi(W_DV, p)].xyz;
+    // Only colliders make plane filters: without them the contact code
+    // is compiled out (lavapipe runs a branch no lane takes).
+    if ((HAS_GROUND || HAS_SPHERES) && work[wi(W_Z, p)].w == FILTER_PLANE) {
+        let filt = work[wi(W_FILTER, p)];
+        let normal = filt.xyz;
+        let impulse = dot3(apply_a(W_DV, p) - work[wi(W_RHS, p)].xyz, normal);
+        if (impulse > 0.0) {
+            // Friction on the velocity relative to the collider.
+            let vc = contact_velocity(x0.xyz, clock);
+            let rel = vp - vc;
+            let tangential = rel - normal * dot3(rel, normal);
+            let speed = len3(tangential);
+            let loss = filt.w * impulse / v0.w;
+            var kept = 0.0;
+            if (speed > loss && speed > TINY) {
+                kept = (speed - loss) / speed;
+            }
+            vp = vc + unseen3(normal * dot3(rel, normal) + tangential * kept);
+        }
+    }
+    var xp = x0.xyz;
+    if (x0.w > 0.0) {
+        xp += vp * params.dt;
+        let r = collide_particle(xp, vp, clock);
+        xp = r[0];
+        vp = r[1];
+    } else {
+        let r = pin_step(p, clock, xp);
+        xp = r[0];
+        vp = r[1];
+    }
+    advance_clock(p, clock);
+    _ = store_state(p, xp, vp, x0.w, v0.w);
+}
