@@ -4,7 +4,7 @@
 
 use std::borrow::Cow;
 
-use wgcloth::gpu::{ClothId, GpuBatch};
+use wgcloth::gpu::{ClothId, GpuBatch, StepPath};
 use wgcloth::real::Vec3;
 use wgcloth::{GpuContext, Model, Params, StepStats};
 
@@ -67,6 +67,14 @@ impl Solver for GpuCopies {
 
     fn passes(&self) -> Vec<(&'static str, u32, u32)> {
         self.batch.describe_step()
+    }
+
+    fn step_path(&self) -> Option<String> {
+        let path = self.batch.step_path(self.first).ok()?;
+        Some(match path {
+            StepPath::Workgroup => format!("{path} (the batch's shared buffers, one dispatch)"),
+            StepPath::MultiDispatch => format!("{path} (a solver of its own in the batch)"),
+        })
     }
 
     fn advance(&mut self, mut n: u64) -> wgcloth::Result<()> {
