@@ -180,6 +180,10 @@ const TWIN_TESTS: &[(Kernel, fn())] = &[
     (Kernel::SemiIntegrate, semi_integrate_matches_its_twin),
     (Kernel::SemiCgPrepare, semi_cg_prepare_matches_its_twin),
     (Kernel::ClothExplicit, cloth_explicit_matches_its_twin),
+    (
+        Kernel::ClothSemiImplicit,
+        cloth_semi_implicit_matches_its_twin,
+    ),
 ];
 
 /// Kernels without a twin, and why (see [`TWIN_TESTS`]).
@@ -1176,4 +1180,13 @@ fn check_workgroup_step(integrator: Integrator, pinned: bool, kernel: Kernel) {
 #[test]
 fn cloth_explicit_matches_its_twin() {
     check_workgroup_step(Integrator::Explicit, true, Kernel::ClothExplicit);
+}
+
+/// Pinned (the per-spring torque compensation) and free (the global
+/// torque passes, whose sums the kernel reduces itself).
+#[test]
+fn cloth_semi_implicit_matches_its_twin() {
+    for pinned in [true, false] {
+        check_workgroup_step(Integrator::SemiImplicit, pinned, Kernel::ClothSemiImplicit);
+    }
 }

@@ -380,7 +380,7 @@ fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
         for (var k = 0u; k < count; k++) {
             total += scratch[k];
         }
-        partials[slot * params.partial_count + wid] = total;
+        partials[pi(slot, wid)] = total;
     }
 }
 
@@ -389,7 +389,7 @@ fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
 fn sum_partials(slot: u32) -> f32 {
     var total = 0.0;
     for (var k = 0u; k < params.partial_count; k++) {
-        total += partials[slot * params.partial_count + k];
+        total += partials[pi(slot, k)];
     }
     return total;
 }

@@ -64,6 +64,9 @@ pub enum Kernel {
     /// Per cloth, one workgroup each: a whole explicit step (the
     /// workgroup path, see [`StepPath`](super::StepPath)).
     ClothExplicit,
+    /// Per cloth, one workgroup each: a whole semi-implicit step with the
+    /// dense filter.
+    ClothSemiImplicit,
 }
 
 /// `(kernel, name, WGSL source before composition)`, in [`Kernel::ALL`]
@@ -118,6 +121,7 @@ kernels! {
     SemiIntegrate = "semi_integrate",
     SemiCgPrepare = "semi_cg_prepare",
     ClothExplicit = "cloth_explicit",
+    ClothSemiImplicit = "cloth_semi_implicit",
 }
 
 impl std::fmt::Display for Kernel {
@@ -164,7 +168,7 @@ impl Kernel {
     /// cloth table (binding 0 a storage array of parameters: see
     /// `shaders/common/cloth_bindings.wgsl`).
     pub const fn steps_cloths(self) -> bool {
-        matches!(self, Kernel::ClothExplicit)
+        matches!(self, Kernel::ClothExplicit | Kernel::ClothSemiImplicit)
     }
 
     /// The group 1 of a kernel that writes indirect dispatch arguments.

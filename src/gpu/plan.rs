@@ -223,7 +223,9 @@ fn workgroup_kernel(i: &PlanInputs) -> Option<Kernel> {
     }
     match i.integrator {
         Integrator::Explicit => Some(Kernel::ClothExplicit),
-        Integrator::SemiImplicit | Integrator::Implicit => None,
+        Integrator::SemiImplicit => Some(Kernel::ClothSemiImplicit),
+        // The hook of the implicit workgroup kernel.
+        Integrator::Implicit => None,
     }
 }
 
