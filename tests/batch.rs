@@ -9,7 +9,7 @@ use gpu_common::{busy_params, corners, gpu, grid};
 use wgcloth::glam::DVec3;
 use wgcloth::gpu::{ClothId, GpuBatch, GpuSolver, GpuState, StepPath};
 use wgcloth::kernel_config::WORKGROUP_STEP_MAX_PARTICLES;
-use wgcloth::params::{Capsule, FixupMethod, Integrator, PinTarget, Sphere, Wind};
+use wgcloth::params::{Capsule, FilterMethod, FixupMethod, Integrator, PinTarget, Sphere, Wind};
 use wgcloth::{Model, Params, Scene, StepStats};
 
 /// Steps of the comparisons: enough for the falling cloths to reach the
@@ -55,6 +55,14 @@ fn mixed_cloths() -> Vec<Cloth> {
         name: "tablecloth mesh",
         model: mesh.model().expect("the tablecloth mesh"),
         params: mesh_params,
+    });
+    // The CG filter has no workgroup kernel: a solver of its own.
+    let mut banded = busy_params(Integrator::SemiImplicit);
+    banded.semi_implicit.filter = FilterMethod::Banded;
+    cloths.push(Cloth {
+        name: "semi-implicit 7², banded filter",
+        model: grid(7, 7, corners(), &banded),
+        params: banded,
     });
     for integrator in [Integrator::SemiImplicit, Integrator::Implicit] {
         let p = busy_params(integrator);

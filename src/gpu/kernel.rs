@@ -67,6 +67,9 @@ pub enum Kernel {
     /// Per cloth, one workgroup each: a whole implicit step, CG included
     /// (the workgroup path).
     ClothImplicit,
+    /// Per cloth, one workgroup each: a whole semi-implicit step with the
+    /// dense filter.
+    ClothSemiImplicit,
 }
 
 /// `(kernel, name, WGSL source before composition)`, in [`Kernel::ALL`]
@@ -122,6 +125,7 @@ kernels! {
     SemiCgPrepare = "semi_cg_prepare",
     ClothExplicit = "cloth_explicit",
     ClothImplicit = "cloth_implicit",
+    ClothSemiImplicit = "cloth_semi_implicit",
 }
 
 impl std::fmt::Display for Kernel {
@@ -168,7 +172,10 @@ impl Kernel {
     /// cloth table (binding 0 a storage array of parameters: see
     /// `shaders/common/cloth_bindings.wgsl`).
     pub const fn steps_cloths(self) -> bool {
-        matches!(self, Kernel::ClothExplicit | Kernel::ClothImplicit)
+        matches!(
+            self,
+            Kernel::ClothExplicit | Kernel::ClothImplicit | Kernel::ClothSemiImplicit
+        )
     }
 
     /// The group 1 of a kernel that writes indirect dispatch arguments.

@@ -224,7 +224,7 @@ fn workgroup_kernel(i: &PlanInputs) -> Option<Kernel> {
     match i.integrator {
         Integrator::Explicit => Some(Kernel::ClothExplicit),
         Integrator::Implicit => Some(Kernel::ClothImplicit),
-        Integrator::SemiImplicit => None,
+        Integrator::SemiImplicit => Some(Kernel::ClothSemiImplicit),
     }
 }
 
