@@ -6,7 +6,9 @@
 //! wait) and of the CPU reference in f32, their ratio, and the dispatches
 //! and submits per step; the issue's 128² yardstick (minimum and median);
 //! the grid kernels against the general ones at 129²; what skipping saves
-//! at 65²; then criterion times the GPU step (`iter_custom`: submit plus
+//! at 65²; the workgroup path (one workgroup steps the cloth, one dispatch
+//! per step) against the multi-dispatch path and the CPU at the sizes it
+//! takes (15², 33² of the default sizes); then criterion times the GPU step (`iter_custom`: submit plus
 //! wait) at the same sizes. The adapter is the default one
 //! (`WGPU_ADAPTER_NAME` picks another). `WGCLOTH_BENCH_QUICK=1` shortens
 //! the run; `WGCLOTH_BENCH_SIZES=33,65` picks sizes (on lavapipe the 257²
@@ -24,7 +26,8 @@ use std::time::Instant;
 use criterion::{criterion_group, Criterion};
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::DVec3;
-use wgcloth::gpu::{GpuContext, GpuSolver};
+use wgcloth::gpu::{GpuContext, GpuSolver, StepPath};
+use wgcloth::kernel_config::WORKGROUP_STEP_MAX_PARTICLES;
 use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
 
@@ -55,10 +58,23 @@ fn gpu_solver_with(
     params: &Params,
     specialised: bool,
 ) -> GpuSolver {
-    let mut g = match GpuSolver::new(&ctx.device, &ctx.queue, model, params) {
+    let g = match GpuSolver::new(&ctx.device, &ctx.queue, model, params) {
         Ok(g) => g,
         Err(e) => panic!("GPU solver: {e}"),
     };
+    warmed(g, specialised)
+}
+
+/// A solver on `path`, warmed up.
+fn gpu_solver_on(ctx: &GpuContext, model: &Model, params: &Params, path: StepPath) -> GpuSolver {
+    match GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, model, params, path) {
+        Ok(g) => warmed(g, true),
+        Err(e) => panic!("GPU solver on the {path} path: {e}"),
+    }
+}
+
+/// `g` with its kernels `specialised` or not, stepped past the rest state.
+fn warmed(mut g: GpuSolver, specialised: bool) -> GpuSolver {
     if let Err(e) = g.tuning_mut().set_specialised(specialised) {
         panic!("GPU kernels: {e}");
     }
@@ -316,6 +332,67 @@ fn grid_table(ctx: &GpuContext) {
     }
 }
 
+/// The integrators with a workgroup kernel.
+const WORKGROUP_INTEGRATORS: [Integrator; 3] = [
+    Integrator::Explicit,
+    Integrator::Implicit,
+    Integrator::SemiImplicit,
+];
+
+/// The workgroup path against the multi-dispatch path and the `f32` CPU,
+/// at the sizes the workgroup path takes: explicit with 10 fix-up passes
+/// (the issue's target), implicit (coarse levels, CG tolerance 1e-3),
+/// semi-implicit with the dense filter; median ms
+/// per step, each path's ratio to the CPU, dispatches per step.
+fn workgroup_table(ctx: &GpuContext) {
+    let sizes: Vec<usize> = sizes()
+        .into_iter()
+        .filter(|&n| n * n <= WORKGROUP_STEP_MAX_PARTICLES as usize)
+        .collect();
+    if sizes.is_empty() {
+        return;
+    }
+    println!(
+        "
+One workgroup per cloth against multi-dispatch and the CPU (f32), ms per step"
+    );
+    println!(
+        "{:>6} {:>14} {:>9} {:>9} {:>9} {:>9} {:>9} {:>11}",
+        "size", "integrator", "multi", "workgrp", "CPU", "multi/CPU", "wg/CPU", "dispatches"
+    );
+    let samples = if common::quick() { 3 } else { 7 };
+    for n in sizes {
+        for integrator in WORKGROUP_INTEGRATORS {
+            let (model, mut params) = scene(integrator, n);
+            if integrator == Integrator::Explicit {
+                params.fixup.iterations = 10;
+            }
+            let batch = if integrator == Integrator::Explicit {
+                20
+            } else {
+                5
+            };
+            let mut multi = gpu_solver_on(ctx, &model, &params, StepPath::MultiDispatch);
+            let t_multi = gpu_median(&mut multi, batch, samples);
+            let mut wg = gpu_solver_on(ctx, &model, &params, StepPath::Workgroup);
+            let t_wg = gpu_median(&mut wg, batch, samples);
+            let cpu = cpu_median(&model, &params, samples);
+            println!(
+                "{:>6} {:>14} {:>9.3} {:>9.3} {:>9.3} {:>8.2}× {:>8.2}× {:>5.0}/{:<5.0}",
+                format!("{n}²"),
+                integrator.as_str(),
+                t_multi * 1e3,
+                t_wg * 1e3,
+                cpu * 1e3,
+                t_multi / cpu,
+                t_wg / cpu,
+                multi.tuning().dispatches_per_step(),
+                wg.tuning().dispatches_per_step()
+            );
+        }
+    }
+}
+
 fn gpu_step(c: &mut Criterion) {
     let ctx = GpuContext::new(None).unwrap_or_else(|e| panic!("{e}"));
     common::gpu_step_group(c, &ctx, "gpu_step", &sizes(), |integrator, n| {
@@ -333,6 +410,7 @@ fn main() {
             yardstick(&ctx);
             grid_table(&ctx);
             skipping_table(&ctx);
+            workgroup_table(&ctx);
         }
         Err(e) => panic!("the GPU benchmark needs an adapter: {e}"),
     }

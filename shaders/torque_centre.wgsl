@@ -11,14 +11,11 @@ fn torque_centre(
     @builtin(workgroup_id) wg: vec3<u32>,
 ) {
     let p = gid.x;
-    var m = 0.0;
-    var mx = vec3<f32>(0.0);
+    var t = array<f32, T_CENTRE_SUMS>();
     if (p < params.particle_count) {
-        m = v[p].w;
-        mx = x[p].xyz * m;
+        t = centre_terms(p);
     }
-    reduce_to_partial(m, lid.x, wg.x, torque_slot(T_MASS));
-    reduce_to_partial(mx.x, lid.x, wg.x, torque_slot(T_MX));
-    reduce_to_partial(mx.y, lid.x, wg.x, torque_slot(T_MX + 1u));
-    reduce_to_partial(mx.z, lid.x, wg.x, torque_slot(T_MX + 2u));
+    for (var k = 0u; k < T_CENTRE_SUMS; k++) {
+        reduce_to_partial(t[k], lid.x, wg.x, torque_slot(T_MASS + k));
+    }
 }

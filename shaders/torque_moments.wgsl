@@ -13,28 +13,11 @@ fn torque_moments(
 ) {
     let centre = centre_of_mass(lid.x);
     let p = gid.x;
-    var moment = vec3<f32>(0.0);
-    var t = array<f32, 6>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    var t = array<f32, T_MOMENT_SUMS>();
     if (p < params.particle_count) {
-        let m = v[p].w;
-        let r = x[p].xyz - centre;
-        moment = cross3(r, work[wi(W_DV, p)].xyz * m - external_force(p) * params.dt);
-        // Twin: Sym3::add_iso_aniso(m |r|², −m, r) on a zero matrix.
-        let a = m * dot3(r, r);
-        let b = -m;
-        t = array<f32, 6>(
-            a + b * r.x * r.x,
-            a + b * r.y * r.y,
-            a + b * r.z * r.z,
-            b * r.x * r.y,
-            b * r.x * r.z,
-            b * r.y * r.z,
-        );
+        t = moment_terms(p, centre);
     }
-    reduce_to_partial(moment.x, lid.x, wg.x, torque_slot(T_EXCESS));
-    reduce_to_partial(moment.y, lid.x, wg.x, torque_slot(T_EXCESS + 1u));
-    reduce_to_partial(moment.z, lid.x, wg.x, torque_slot(T_EXCESS + 2u));
-    for (var k = 0u; k < 6u; k++) {
-        reduce_to_partial(t[k], lid.x, wg.x, torque_slot(T_INERTIA + k));
+    for (var k = 0u; k < T_MOMENT_SUMS; k++) {
+        reduce_to_partial(t[k], lid.x, wg.x, torque_slot(T_EXCESS + k));
     }
 }

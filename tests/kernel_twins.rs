@@ -181,6 +181,10 @@ const TWIN_TESTS: &[(Kernel, fn())] = &[
     (Kernel::SemiCgPrepare, semi_cg_prepare_matches_its_twin),
     (Kernel::ClothExplicit, cloth_explicit_matches_its_twin),
     (Kernel::ClothImplicit, cloth_implicit_matches_its_twin),
+    (
+        Kernel::ClothSemiImplicit,
+        cloth_semi_implicit_matches_its_twin,
+    ),
 ];
 
 /// Kernels without a twin, and why (see [`TWIN_TESTS`]).
@@ -1182,4 +1186,13 @@ fn cloth_explicit_matches_its_twin() {
 #[test]
 fn cloth_implicit_matches_its_twin() {
     check_workgroup_step(Integrator::Implicit, true, Kernel::ClothImplicit);
+}
+
+/// Pinned (the per-spring torque compensation) and free (the global
+/// torque passes, whose sums the kernel reduces itself).
+#[test]
+fn cloth_semi_implicit_matches_its_twin() {
+    for pinned in [true, false] {
+        check_workgroup_step(Integrator::SemiImplicit, pinned, Kernel::ClothSemiImplicit);
+    }
 }

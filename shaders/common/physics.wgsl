@@ -404,6 +404,13 @@ fn unseen3(a: vec3<f32>) -> vec3<f32> {
     return bitcast<vec3<f32>>(bitcast<vec3<u32>>(a) ^ vec3<u32>(bitcast<u32>(params.kind_k[3])));
 }
 
+// `a` itself, as unseen3: a term that is a product, added to a running
+// sum where it is computed, is rounded before the addition instead of
+// being fused into a multiply-add.
+fn unseen1(a: f32) -> f32 {
+    return bitcast<f32>(bitcast<u32>(a) ^ bitcast<u32>(params.kind_k[3]));
+}
+
 // Twin: cpu::collide::after_contact.
 fn after_contact(c: Contact, tangential: vec3<f32>, vn: f32) -> vec3<f32> {
     let speed = len3(tangential);

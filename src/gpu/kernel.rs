@@ -64,6 +64,9 @@ pub enum Kernel {
     /// Per cloth, one workgroup each: a whole explicit step (the
     /// workgroup path, see [`StepPath`](super::StepPath)).
     ClothExplicit,
+    /// Per cloth, one workgroup each: a whole semi-implicit step with the
+    /// dense filter.
+    ClothSemiImplicit,
     /// Per cloth, one workgroup each: a whole implicit step, CG included
     /// (the workgroup path).
     ClothImplicit,
@@ -121,6 +124,7 @@ kernels! {
     SemiIntegrate = "semi_integrate",
     SemiCgPrepare = "semi_cg_prepare",
     ClothExplicit = "cloth_explicit",
+    ClothSemiImplicit = "cloth_semi_implicit",
     ClothImplicit = "cloth_implicit",
 }
 
@@ -168,7 +172,10 @@ impl Kernel {
     /// cloth table (binding 0 a storage array of parameters: see
     /// `shaders/common/cloth_bindings.wgsl`).
     pub const fn steps_cloths(self) -> bool {
-        matches!(self, Kernel::ClothExplicit | Kernel::ClothImplicit)
+        matches!(
+            self,
+            Kernel::ClothExplicit | Kernel::ClothSemiImplicit | Kernel::ClothImplicit
+        )
     }
 
     /// The group 1 of a kernel that writes indirect dispatch arguments.

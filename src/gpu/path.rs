@@ -52,39 +52,70 @@ pub(super) struct PathChoice {
     pub reason: String,
 }
 
-/// Why the workgroup path cannot step this cloth, as the error that
-/// forcing it returns; `Ok` where it can.
-fn workgroup_refusal(i: &PathInputs<'_>) -> Result<()> {
-    let no_kernel = |why: &str| {
-        Err(Error::InvalidParameter {
+/// Why the workgroup path cannot step a cloth: a sentence (what
+/// `--verbose` prints when the solver chooses the multi-dispatch path) and
+/// the error that forcing the workgroup path returns.
+struct Refusal {
+    reason: String,
+    error: Error,
+}
+
+impl From<Error> for Refusal {
+    fn from(error: Error) -> Refusal {
+        Refusal {
+            reason: error.to_string(),
+            error,
+        }
+    }
+}
+
+/// A refusal of the workgroup path, `reason` saying why and `allowed` what
+/// the error names as allowed.
+fn refusal(reason: String, allowed: String, got: String) -> Refusal {
+    Refusal {
+        error: Error::InvalidParameter {
             key: "step path".into(),
-            allowed: format!("the multi-dispatch path: {why}"),
-            got: StepPath::Workgroup.to_string(),
-        })
+            allowed,
+            got,
+        },
+        reason,
+    }
+}
+
+/// Why the workgroup path cannot step this cloth; `Ok` where it can.
+fn workgroup_refusal(i: &PathInputs<'_>) -> std::result::Result<(), Refusal> {
+    let no_kernel = |why: &str| {
+        Err(refusal(
+            why.to_string(),
+            format!("the multi-dispatch path ({why})"),
+            StepPath::Workgroup.to_string(),
+        ))
     };
     // One arm per integrator: which of its cloths a workgroup kernel steps.
     match i.integrator {
         Integrator::Explicit => {}
-        Integrator::SemiImplicit if !i.dense => {
+        Integrator::SemiImplicit if i.dense => {}
+        Integrator::SemiImplicit => {
             return no_kernel(
                 "the semi-implicit filter beyond the dense filter's size is solved by CG, \
                  which has no workgroup kernel",
             )
         }
-        Integrator::SemiImplicit => {
-            return no_kernel("the semi-implicit integrator has no workgroup kernel yet")
-        }
         Integrator::Implicit => {}
     }
     if i.particles > u64::from(WORKGROUP_STEP_MAX_PARTICLES) {
-        return Err(Error::InvalidParameter {
-            key: "step path".into(),
-            allowed: format!(
+        return Err(refusal(
+            format!(
+                "{} particles, more than the workgroup path's {WORKGROUP_STEP_MAX_PARTICLES} \
+                 (WORKGROUP_STEP_MAX_PARTICLES)",
+                i.particles
+            ),
+            format!(
                 "the workgroup path for at most {WORKGROUP_STEP_MAX_PARTICLES} particles \
                  (WORKGROUP_STEP_MAX_PARTICLES)"
             ),
-            got: format!("{} particles", i.particles),
-        });
+            format!("{} particles", i.particles),
+        ));
     }
     let what = "the workgroup path";
     let l = i.limits;
@@ -105,20 +136,21 @@ fn workgroup_refusal(i: &PathInputs<'_>) -> Result<()> {
         what,
         l.max_compute_workgroup_storage_size.into(),
         WORKGROUP_STEP_SHARED_BYTES.into(),
-    )
+    )?;
+    Ok(())
 }
 
 /// The path of a cloth: `forced`, or chosen — the workgroup path wherever
 /// it can step the cloth. Forcing the workgroup path where it cannot is
 /// the error that says why (naming the limit).
 pub(super) fn choose(i: &PathInputs<'_>, forced: Option<StepPath>) -> Result<PathChoice> {
-    let refusal = workgroup_refusal(i);
+    let refused = workgroup_refusal(i);
     let choice = |path, reason: String| Ok(PathChoice { path, reason });
-    match (forced, refusal) {
+    match (forced, refused) {
         (Some(StepPath::MultiDispatch), _) => {
             choice(StepPath::MultiDispatch, "chosen by the host".into())
         }
-        (Some(StepPath::Workgroup), Err(e)) => Err(e),
+        (Some(StepPath::Workgroup), Err(r)) => Err(r.error),
         (Some(StepPath::Workgroup), Ok(())) => {
             choice(StepPath::Workgroup, "chosen by the host".into())
         }
@@ -130,7 +162,7 @@ pub(super) fn choose(i: &PathInputs<'_>, forced: Option<StepPath>) -> Result<Pat
                 i.particles
             ),
         ),
-        (None, Err(e)) => choice(StepPath::MultiDispatch, e.to_string()),
+        (None, Err(r)) => choice(StepPath::MultiDispatch, r.reason),
     }
 }
 

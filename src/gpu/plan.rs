@@ -223,8 +223,8 @@ fn workgroup_kernel(i: &PlanInputs) -> Option<Kernel> {
     }
     match i.integrator {
         Integrator::Explicit => Some(Kernel::ClothExplicit),
+        Integrator::SemiImplicit => Some(Kernel::ClothSemiImplicit),
         Integrator::Implicit => Some(Kernel::ClothImplicit),
-        Integrator::SemiImplicit => None,
     }
 }
 

@@ -10,7 +10,7 @@
 //! [`crate::kernel_config`] (see [`kernel_config::wgsl`]), and
 //! `generated/grid_block.wgsl`, the block gather of the grid kernels for
 //! the solver's [`GridBlock`] (see [`GridBlock::wgsl`]). One file stands in
-//! for another ([`STANDS_IN`]): `common/cloth_bindings.wgsl`, the
+//! for another (`STANDS_IN`): `common/cloth_bindings.wgsl`, the
 //! workgroup kernels' bind group, for `common/bindings.wgsl`, so the
 //! common files that include the latter serve both kinds of kernel. Everything is
 //! embedded with `include_str!`, so the crate needs no files at run time,
@@ -49,6 +49,7 @@ pub const COMMON: &[(&str, &str)] = &[
     wgsl!("common/step"),
     wgsl!("common/fixup"),
     wgsl!("common/cloth_step"),
+    wgsl!("common/semi"),
     wgsl!("common/physics"),
     wgsl!("common/cg"),
     wgsl!("common/coarse"),

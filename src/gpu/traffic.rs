@@ -232,6 +232,26 @@ impl Kernel {
                     ]
                 }
             }
+            // The whole semi-implicit step with the dense filter in one
+            // dispatch: spring_forces, semi_rhs, filter_dense,
+            // semi_integrate and finish_step's rows added up (x, v of the
+            // springs' ends; x, v, the clock, then x, v, Δv, then
+            // finish_step's reads; the right-hand side and Δv, the
+            // predicted x and new v, then x, v and the clock; each spring's
+            // data and force, gathered with its data again). The torque
+            // passes (a pin-free cloth) and the fix-up passes, which the
+            // cloth decides, are not counted; each moves its kernel's row.
+            Kernel::ClothSemiImplicit => {
+                const {
+                    &[
+                        term(Particle, 13 * VEC4, 7 * VEC4),
+                        term(AdjacencyRow, OFFSET, 0),
+                        term(Spring, 2 * SPRING + VEC4 + ADJACENCY, VEC4),
+                        term(FilterRow, VEC4 + 4, VEC4),
+                        term(FilterEntry, 4, 0),
+                    ]
+                }
+            }
             // x, v, Δv, the right-hand side; the filter, z, the
             // preconditioner's blocks, the right-hand side; the spring
             // blocks.
