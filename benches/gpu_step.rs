@@ -332,13 +332,17 @@ fn grid_table(ctx: &GpuContext) {
     }
 }
 
-/// The integrators with a workgroup kernel (the implicit one joins when
-/// its kernel lands: add `Integrator::Implicit` here).
-const WORKGROUP_INTEGRATORS: [Integrator; 2] = [Integrator::Explicit, Integrator::SemiImplicit];
+/// The integrators with a workgroup kernel.
+const WORKGROUP_INTEGRATORS: [Integrator; 3] = [
+    Integrator::Explicit,
+    Integrator::Implicit,
+    Integrator::SemiImplicit,
+];
 
 /// The workgroup path against the multi-dispatch path and the `f32` CPU,
 /// at the sizes the workgroup path takes: explicit with 10 fix-up passes
-/// (the target), semi-implicit with the dense filter; median ms
+/// (the target), implicit (coarse levels, CG tolerance 1e-3),
+/// semi-implicit with the dense filter; median ms
 /// per step, each path's ratio to the CPU, dispatches per step.
 fn workgroup_table(ctx: &GpuContext) {
     let sizes: Vec<usize> = sizes()

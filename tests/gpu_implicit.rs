@@ -4,7 +4,7 @@
 mod gpu_common;
 
 use gpu_common::*;
-use wgcloth::gpu::GpuSolver;
+use wgcloth::gpu::{GpuSolver, StepPath};
 use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
 
@@ -95,9 +95,20 @@ fn both_backends_report_the_same_step_stats() {
 fn adaptive_cg_budget_shrinks_without_changing_the_result() {
     let (model, params) = scene();
     let ctx = gpu();
-    let mut adaptive =
-        GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
-    let mut exact = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
+    // The budget is the multi-dispatch path's (the workgroup path's loop
+    // stops when CG does), which this small cloth would not take by itself.
+    let multi = || {
+        GpuSolver::with_step_path(
+            ctx.kernels(),
+            &ctx.queue,
+            &model,
+            &params,
+            StepPath::MultiDispatch,
+        )
+        .expect("GPU solver")
+    };
+    let mut adaptive = multi();
+    let mut exact = multi();
     exact.tuning_mut().set_adaptive_cg_budget(false);
     let mut hits = 0;
     for _ in 0..40 {

@@ -294,3 +294,25 @@ fn a_blow_up_is_reported_at_the_mirror_step() {
         }
     }
 }
+
+#[test]
+fn an_implicit_cloth_within_the_limit_takes_the_workgroup_path() {
+    let params = busy();
+    let ctx = gpu();
+    let small = grid(17, 17, corners(), &params);
+    let g = GpuSolver::new(&ctx.device, &ctx.queue, &small, &params).expect("GPU solver");
+    assert_eq!(g.tuning().step_path(), StepPath::Workgroup);
+    // 65² = 4225 particles, past WORKGROUP_STEP_MAX_PARTICLES = 4096:
+    // forcing the workgroup path is refused, naming the limit.
+    let large = grid(65, 65, corners(), &params);
+    match GpuSolver::with_step_path(kernels(), &ctx.queue, &large, &params, StepPath::Workgroup) {
+        Err(e @ Error::InvalidParameter { .. }) => {
+            let message = e.to_string();
+            assert!(
+                message.contains("WORKGROUP_STEP_MAX_PARTICLES"),
+                "{message}"
+            );
+        }
+        other => panic!("the workgroup path beyond its limit must be refused: {other:?}"),
+    }
+}
