@@ -691,3 +691,80 @@ fn bad_batch_values_are_refused_before_anything_is_written() {
         assert!(dir.files().is_empty(), "{args:?} wrote {:?}", dir.files());
     }
 }
+
+/// `--step-path` forces a path: both write the same positions byte for
+/// byte, `--verbose` names the forced path and its passes, and the
+/// workgroup path for a cloth beyond its limit — or `--step-path` where it
+/// means nothing — is refused before anything is written.
+#[test]
+fn step_path_forces_a_path_with_the_same_results() {
+    let dir = TempDir::new("step-path");
+    let run = |path: &str| {
+        let positions = dir.join(&format!("positions-{path}.txt"));
+        let out = wgcloth(&[
+            "run",
+            "hanging",
+            "--backend",
+            "gpu",
+            "--steps",
+            "25",
+            "--step-path",
+            path,
+            "--positions-out",
+            path_str(&positions),
+            "--verbose",
+        ]);
+        assert_status(&out, 0);
+        (stdout(&out), fs::read(&positions).expect("positions file"))
+    };
+    let (multi_text, multi) = run("multi-dispatch");
+    let (wg_text, wg) = run("workgroup");
+    let (_, auto) = run("auto");
+    assert!(
+        multi_text.contains("step path: multi-dispatch"),
+        "{multi_text}"
+    );
+    assert!(multi_text.contains("fixup_jacobi"), "{multi_text}");
+    assert!(
+        wg_text.contains("step path: one workgroup per cloth"),
+        "{wg_text}"
+    );
+    assert!(wg_text.contains("cloth_explicit"), "{wg_text}");
+    assert!(
+        multi == wg && wg == auto,
+        "the paths wrote different positions"
+    );
+
+    // 65² = 4225 particles: beyond the workgroup path's 4096.
+    let big = dir.write("big.toml", "[cloth]\nresolution = [65, 65]\n");
+    let out_file = dir.join("big.txt");
+    let out = wgcloth(&[
+        "run",
+        path_str(&big),
+        "--backend",
+        "gpu",
+        "--steps",
+        "1",
+        "--step-path",
+        "workgroup",
+        "--positions-out",
+        path_str(&out_file),
+    ]);
+    assert_status(&out, 2);
+    assert!(
+        stderr(&out).contains("WORKGROUP_STEP_MAX_PARTICLES") && stderr(&out).contains("4225"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!out_file.exists(), "nothing is written");
+    for extra in [
+        &["--backend", "cpu"][..],
+        &["--backend", "gpu", "--batch", "2"],
+    ] {
+        let mut args = vec!["run", "hanging", "--steps", "1", "--step-path", "workgroup"];
+        args.extend_from_slice(extra);
+        let out = wgcloth(&args);
+        assert_status(&out, 2);
+        assert!(stderr(&out).contains("--step-path"), "{}", stderr(&out));
+    }
+}

@@ -8,7 +8,7 @@
 use std::borrow::Cow;
 
 use wgcloth::diagnostics::Divergence;
-use wgcloth::gpu::{Profile, Profiler, Timestamps};
+use wgcloth::gpu::{Profile, Profiler, StepPath, Timestamps};
 use wgcloth::real::Vec3;
 use wgcloth::{CpuSolver, GpuContext, GpuSolver, Integrator, Model, Params, Real, StepStats};
 
@@ -216,12 +216,14 @@ impl Gpu {
     /// builds the solver on it; refuses invalid parameters, what the GPU
     /// solver does not support, and a cloth beyond the device's limits.
     /// With `profile`, asks the device for timestamp queries and times
-    /// every step, at best by `profile`'s timing.
+    /// every step, at best by `profile`'s timing. `path`: the step path
+    /// forced (`None`: the solver's choice).
     pub fn new(
         adapter: Option<&str>,
         model: &Model,
         params: &Params,
         profile: Option<Timestamps>,
+        path: Option<StepPath>,
     ) -> wgcloth::Result<Self> {
         let features = if profile.is_some() {
             Timestamps::FEATURES
@@ -231,7 +233,12 @@ impl Gpu {
         let context = open_device(adapter, features)?;
         let profiler = profile
             .map(|most| Profiler::new(Timestamps::best(context.device.features()).min(most)));
-        let solver = GpuSolver::with_kernels(context.kernels(), &context.queue, model, params)?;
+        let solver = match path {
+            Some(path) => {
+                GpuSolver::with_step_path(context.kernels(), &context.queue, model, params, path)?
+            }
+            None => GpuSolver::with_kernels(context.kernels(), &context.queue, model, params)?,
+        };
         keep_pipelines(&context);
         Ok(Gpu {
             context,

@@ -337,6 +337,36 @@ struct RunArgs {
     /// per second and the batch's dispatches per step.
     #[arg(long, value_name = "N", value_parser = parse_copies, allow_negative_numbers = true)]
     batch: Option<u32>,
+
+    /// With `--backend gpu`: how a step is recorded — the solver's own
+    /// choice (`auto`), one workgroup per cloth (`workgroup`: refused for a
+    /// cloth it cannot step, naming the limit) or a dispatch per phase
+    /// (`multi-dispatch`: what `--profile` breaks down kernel by kernel).
+    /// The results are the same bits.
+    #[arg(long, value_enum, default_value_t = StepPathArg::Auto)]
+    step_path: StepPathArg,
+}
+
+/// `--step-path`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum StepPathArg {
+    /// The solver's automatic choice.
+    Auto,
+    /// One workgroup per cloth.
+    Workgroup,
+    /// A dispatch per phase of the step.
+    MultiDispatch,
+}
+
+impl StepPathArg {
+    /// The path forced, `None` for the automatic choice.
+    fn forced(self) -> Option<wgcloth::gpu::StepPath> {
+        match self {
+            StepPathArg::Auto => None,
+            StepPathArg::Workgroup => Some(wgcloth::gpu::StepPath::Workgroup),
+            StepPathArg::MultiDispatch => Some(wgcloth::gpu::StepPath::MultiDispatch),
+        }
+    }
 }
 
 /// `--profile-timestamps`: the profiler's timing, best first.

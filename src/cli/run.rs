@@ -15,7 +15,7 @@ use super::interrupt;
 use super::output::{commit_all, same_file, write_positions, AtomicFile, Trace};
 use super::profile;
 use super::summary::{Outcome, Summary};
-use super::{Backend, Precision, RunArgs, UsageError};
+use super::{Backend, Precision, RunArgs, StepPathArg, UsageError};
 use wgcloth::gpu::Timestamps;
 
 /// Most steps one run may take: far beyond any useful run, and small enough
@@ -81,7 +81,13 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
                 args.profile_timestamps
                     .map_or(Timestamps::InsidePasses, Timestamps::from)
             });
-            run.simulate(Gpu::new(args.adapter.as_deref(), model, params, profile)?)?
+            run.simulate(Gpu::new(
+                args.adapter.as_deref(),
+                model,
+                params,
+                profile,
+                args.step_path.forced(),
+            )?)?
         }
     };
     let summary = Summary {
@@ -122,7 +128,8 @@ fn print_passes(passes: &[(&str, u32, u32)], backend: &str) {
 /// the GPU, which refuses an explicit `--precision f64` rather than run
 /// something other than what was asked for. Also refuses `--adapter` and
 /// `--profile` with the CPU backend, where they would mean nothing, and
-/// `--batch` there too (and with `--profile`).
+/// `--batch` and `--step-path` there too (and `--batch` with `--profile`
+/// or `--step-path`).
 fn precision_for_backend(args: &RunArgs) -> Result<Precision, UsageError> {
     match (args.backend, args.precision) {
         (Backend::Cpu, _) if args.adapter.is_some() => Err(UsageError(
@@ -135,6 +142,17 @@ fn precision_for_backend(args: &RunArgs) -> Result<Precision, UsageError> {
             "--batch only applies to --backend gpu: it steps copies of the cloth in one GPU batch"
                 .to_string(),
         )),
+        (Backend::Cpu, _) if args.step_path != StepPathArg::Auto => Err(UsageError(
+            "--step-path only applies to --backend gpu: it chooses how GPU steps are recorded"
+                .to_string(),
+        )),
+        (Backend::Gpu, _) if args.batch.is_some() && args.step_path != StepPathArg::Auto => {
+            Err(UsageError(
+                "--step-path applies to one cloth: a batch steps each cloth on the path it can \
+                 share (leave out --batch or --step-path)"
+                    .to_string(),
+            ))
+        }
         (Backend::Gpu, _) if args.batch.is_some() && args.profile => Err(UsageError(
             "--profile times one cloth's kernels: leave out --batch to profile".to_string(),
         )),
