@@ -30,7 +30,7 @@ pub use frames::{
 pub use png_writer::{existing_frames, frame_name, is_frame_name, remove_frames, write_png, Frame};
 
 use crate::error::{Error, Result};
-use crate::gpu::{guarded, GpuSolver};
+use crate::gpu::{guarded, DrawRange, GpuSolver};
 use crate::kernel_config::{MAX_CAPSULES, MAX_SPHERES};
 use crate::model::Model;
 use crate::params::{Capsule, Params, Sphere};
@@ -493,12 +493,39 @@ impl Renderer {
         if let Some(strain) = &self.strain {
             strain.draw(pass);
         } else {
-            pass.set_pipeline(&self.cloth);
-            pass.set_vertex_buffer(0, solver.positions_buffer().slice(..));
-            pass.set_vertex_buffer(1, solver.normals_buffer().slice(..));
-            pass.set_index_buffer(solver.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
-            pass.draw_indexed(0..solver.index_count(), 0, 0..1);
+            self.draw_mesh(
+                pass,
+                [solver.positions_buffer(), solver.normals_buffer()],
+                solver.index_buffer(),
+                0..solver.index_count(),
+                0,
+            );
         }
+        self.draw_colliders(pass);
+    }
+
+    /// Records one cloth of a [`GpuBatch`](crate::gpu::GpuBatch) into
+    /// `pass`, straight from the batch's buffers (its
+    /// [`draw_range`](crate::gpu::GpuBatch::draw_range)); shaded, not by
+    /// strain. The batch's normals must have been recorded
+    /// ([`GpuBatch::encode_normals`](crate::gpu::GpuBatch::encode_normals))
+    /// since its last step. Draws no collider: see
+    /// [`Renderer::draw_colliders`], once per pass.
+    pub fn draw_batch_cloth(&self, pass: &mut wgpu::RenderPass<'_>, range: &DrawRange<'_>) {
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        self.draw_mesh(
+            pass,
+            [range.positions, range.normals],
+            range.index_buffer,
+            range.indices.clone(),
+            range.base_vertex,
+        );
+    }
+
+    /// Records the ground, the spheres and the capsules into `pass` (what
+    /// [`Renderer::draw`] adds to the cloth).
+    pub fn draw_colliders(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_pipeline(&self.collider);
         for c in self.ground.iter().chain([&self.round]) {
             let instances = c.instance_count.load(Ordering::Relaxed);
@@ -510,6 +537,23 @@ impl Renderer {
             pass.set_index_buffer(c.indices.slice(..), wgpu::IndexFormat::Uint32);
             pass.draw_indexed(0..c.index_count, 0, 0..instances);
         }
+    }
+
+    /// A shaded cloth from its position and normal vertex buffers, its
+    /// `indices` of `index_buffer` relative to `base_vertex`.
+    fn draw_mesh(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        [positions, normals]: [&wgpu::Buffer; 2],
+        index_buffer: &wgpu::Buffer,
+        indices: std::ops::Range<u32>,
+        base_vertex: i32,
+    ) {
+        pass.set_pipeline(&self.cloth);
+        pass.set_vertex_buffer(0, positions.slice(..));
+        pass.set_vertex_buffer(1, normals.slice(..));
+        pass.set_index_buffer(index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(indices, base_vertex, 0..1);
     }
 
     /// Records a render pass that clears `target` to [`BACKGROUND`] and
