@@ -127,7 +127,10 @@ impl GpuBatch {
     /// [`StepPath`](super::StepPath)) goes into the shared buffers (which
     /// grow, copied on the device, when it does not fit where a removed
     /// cloth was); any other is held as a [`GpuSolver`] of its own,
-    /// recorded into the same encoder.
+    /// recorded into the same encoder. The shared buffers hold at most the
+    /// device's `max_compute_workgroups_per_dimension` slots (65 535 on
+    /// every WebGPU device): a cloth for a slot beyond is refused, naming
+    /// the limit.
     pub fn add(&mut self, model: &Model, params: &Params) -> Result<ClothId> {
         let free = self.slots.iter().position(|s| s.member.is_none());
         let slot = free.unwrap_or(self.slots.len());
@@ -136,7 +139,18 @@ impl GpuBatch {
             allowed: format!("at most {} cloths", u32::MAX),
             got: slot.to_string(),
         })?;
-        let member = match table_cloth::path(&self.kernels, model, params)? {
+        let path = table_cloth::path(&self.kernels, model, params)?;
+        if path == super::StepPath::Workgroup {
+            // The table's cloths are one workgroup each of one dispatch.
+            let limits = self.kernels.device().limits();
+            super::solver::limit(
+                "max_compute_workgroups_per_dimension",
+                "the cloths of a batch stepped in one dispatch (a workgroup each)",
+                limits.max_compute_workgroups_per_dimension.into(),
+                u64::from(slot32) + 1,
+            )?;
+        }
+        let member = match path {
             super::StepPath::Workgroup => Member::Table(Box::new(TableCloth::add(
                 &mut self.table,
                 slot32,
