@@ -17,7 +17,6 @@ mod common;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
-use wgcloth::cpu::CpuSolver;
 use wgcloth::gpu::{GpuBatch, GpuContext};
 use wgcloth::{Model, Params, Scene};
 
@@ -49,31 +48,12 @@ fn batch(ctx: &GpuContext, model: &Model, params: &Params, n: usize) -> GpuBatch
 /// Median seconds per cloth-step over `samples` submits.
 fn gpu_median(b: &mut GpuBatch, samples: usize) -> f64 {
     let cloths = b.cloth_count() as f64;
-    let mut times: Vec<f64> = (0..samples)
-        .map(|_| {
-            let t = Instant::now();
-            b.step(STEPS_PER_SUBMIT)
-                .unwrap_or_else(|e| panic!("GPU step: {e}"));
-            t.elapsed().as_secs_f64() / (f64::from(STEPS_PER_SUBMIT) * cloths)
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
-}
-
-/// Median seconds per step of one cloth on the CPU in f32.
-fn cpu_median(model: &Model, params: &Params, samples: usize) -> f64 {
-    let mut c = CpuSolver::<f32>::new(model, params).unwrap_or_else(|e| panic!("{e}"));
-    let _ = c.step_n(5);
-    let mut times: Vec<f64> = (0..samples)
-        .map(|_| {
-            let t = Instant::now();
-            let _ = c.step();
-            t.elapsed().as_secs_f64()
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
+    common::median(samples, || {
+        let t = Instant::now();
+        b.step(STEPS_PER_SUBMIT)
+            .unwrap_or_else(|e| panic!("GPU step: {e}"));
+        t.elapsed().as_secs_f64() / (f64::from(STEPS_PER_SUBMIT) * cloths)
+    })
 }
 
 fn table(ctx: &GpuContext) {
@@ -85,7 +65,7 @@ fn table(ctx: &GpuContext) {
         params.fixup.iterations,
         ctx.describe()
     );
-    let cpu = cpu_median(&model, &params, samples * 10);
+    let cpu = common::cpu_f32_median(&model, &params, samples * 10);
     println!(
         "{:>7} {:>14} {:>14} {:>9} {:>20}",
         "cloths", "GPU ms/cloth", "CPU f32 ms", "GPU/CPU", "dispatches per step"

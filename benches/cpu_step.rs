@@ -79,15 +79,11 @@ fn step_time(c: &mut Criterion) {
 
 /// Median seconds per step over `samples` timed batches.
 fn median_step(s: &mut CpuSolver<f64>, samples: usize) -> f64 {
-    let mut times: Vec<f64> = (0..samples)
-        .map(|_| {
-            let t = Instant::now();
-            let _ = black_box(s.step());
-            t.elapsed().as_secs_f64()
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
+    common::median(samples, || {
+        let t = Instant::now();
+        let _ = black_box(s.step());
+        t.elapsed().as_secs_f64()
+    })
 }
 
 fn article_table() {

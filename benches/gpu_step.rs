@@ -24,7 +24,6 @@ mod common;
 use std::time::Instant;
 
 use criterion::{criterion_group, Criterion};
-use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::DVec3;
 use wgcloth::gpu::{GpuContext, GpuSolver, StepPath};
 use wgcloth::kernel_config::WORKGROUP_STEP_MAX_PARTICLES;
@@ -89,34 +88,13 @@ fn warmed(mut g: GpuSolver, specialised: bool) -> GpuSolver {
 
 /// Median seconds per step over `samples` batches of `batch` steps.
 fn gpu_median(g: &mut GpuSolver, batch: u32, samples: usize) -> f64 {
-    let mut times: Vec<f64> = (0..samples)
-        .map(|_| {
-            let t = Instant::now();
-            if let Err(e) = g.step(batch) {
-                panic!("GPU step: {e}");
-            }
-            t.elapsed().as_secs_f64() / f64::from(batch)
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
-}
-
-fn cpu_median(model: &Model, params: &Params, samples: usize) -> f64 {
-    let mut c = match CpuSolver::<f32>::new(model, params) {
-        Ok(c) => c,
-        Err(e) => panic!("CPU solver: {e}"),
-    };
-    let _ = c.step_n(5);
-    let mut times: Vec<f64> = (0..samples)
-        .map(|_| {
-            let t = Instant::now();
-            let _ = c.step();
-            t.elapsed().as_secs_f64()
-        })
-        .collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
+    common::median(samples, || {
+        let t = Instant::now();
+        if let Err(e) = g.step(batch) {
+            panic!("GPU step: {e}");
+        }
+        t.elapsed().as_secs_f64() / f64::from(batch)
+    })
 }
 
 fn table(ctx: &GpuContext) {
@@ -140,7 +118,7 @@ fn table(ctx: &GpuContext) {
             };
             let samples = if common::quick() || big { 3 } else { 7 };
             let gpu = gpu_median(&mut g, batch, samples);
-            let cpu = cpu_median(&model, &params, samples);
+            let cpu = common::cpu_f32_median(&model, &params, samples);
             println!(
                 "{:>6} {:>14} {:>11.3} {:>11.3} {:>8.2}× {:>11.0} {:>8.2}",
                 format!("{n}²"),
@@ -376,7 +354,7 @@ One workgroup per cloth against multi-dispatch and the CPU (f32), ms per step"
             let t_multi = gpu_median(&mut multi, batch, samples);
             let mut wg = gpu_solver_on(ctx, &model, &params, StepPath::Workgroup);
             let t_wg = gpu_median(&mut wg, batch, samples);
-            let cpu = cpu_median(&model, &params, samples);
+            let cpu = common::cpu_f32_median(&model, &params, samples);
             println!(
                 "{:>6} {:>14} {:>9.3} {:>9.3} {:>9.3} {:>8.2}× {:>8.2}× {:>5.0}/{:<5.0}",
                 format!("{n}²"),

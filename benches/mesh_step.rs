@@ -24,7 +24,6 @@ use std::path::Path;
 use std::time::Instant;
 
 use criterion::{criterion_group, Criterion};
-use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::DVec3;
 use wgcloth::gpu::{GpuContext, GpuSolver};
 use wgcloth::mesh::{Mesh, Placement};
@@ -78,14 +77,6 @@ fn grid_and_mesh(integrator: Integrator, n: usize) -> (Model, Model, Params) {
     (grid, model, scene.params)
 }
 
-/// The median of `samples` calls of `time` (each returning seconds per
-/// step).
-fn median(samples: usize, mut time: impl FnMut() -> f64) -> f64 {
-    let mut times: Vec<f64> = (0..samples).map(|_| time()).collect();
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
-}
-
 /// A GPU solver past its warm-up (kernels compiled, CG budget adapted).
 fn gpu_solver(ctx: &GpuContext, model: &Model, params: &Params) -> GpuSolver {
     let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, params)
@@ -97,7 +88,7 @@ fn gpu_solver(ctx: &GpuContext, model: &Model, params: &Params) -> GpuSolver {
 /// Seconds per GPU step, median of batches of `batch` steps.
 fn gpu_time(ctx: &GpuContext, model: &Model, params: &Params, batch: u32) -> f64 {
     let mut g = gpu_solver(ctx, model, params);
-    median(if common::quick() { 3 } else { 7 }, || {
+    common::median(if common::quick() { 3 } else { 7 }, || {
         let t = Instant::now();
         g.step(batch).unwrap_or_else(|e| panic!("GPU step: {e}"));
         t.elapsed().as_secs_f64() / f64::from(batch)
@@ -106,13 +97,7 @@ fn gpu_time(ctx: &GpuContext, model: &Model, params: &Params, batch: u32) -> f64
 
 /// Seconds per CPU `f32` step, median of single steps.
 fn cpu_time(model: &Model, params: &Params) -> f64 {
-    let mut c = CpuSolver::<f32>::new(model, params).unwrap_or_else(|e| panic!("CPU solver: {e}"));
-    c.step_n(5).unwrap_or_else(|e| panic!("CPU warm-up: {e}"));
-    median(if common::quick() { 3 } else { 9 }, || {
-        let t = Instant::now();
-        c.step().unwrap_or_else(|e| panic!("CPU step: {e}"));
-        t.elapsed().as_secs_f64()
-    })
+    common::cpu_f32_median(model, params, if common::quick() { 3 } else { 9 })
 }
 
 fn table(ctx: &GpuContext) {

@@ -2,10 +2,11 @@
 
 use std::time::{Duration, Instant};
 
+use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::DVec3;
 use wgcloth::gpu::{GpuContext, GpuSolver};
 use wgcloth::params::Integrator;
-use wgcloth::Scene;
+use wgcloth::{Model, Params, Scene};
 
 /// The `hanging` scene grown to `n × n` particles at constant particle
 /// spacing and mass — every size has the same local dynamics and stays
@@ -84,4 +85,24 @@ pub fn gpu_step_group(
         }
     }
     group.finish();
+}
+
+/// The median of `samples` calls of `time` (each returning seconds).
+pub fn median(samples: usize, mut time: impl FnMut() -> f64) -> f64 {
+    let mut times: Vec<f64> = (0..samples).map(|_| time()).collect();
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+/// Median seconds per step of the CPU reference in `f32` (the GPU's
+/// arithmetic) over `samples` single steps, after five warm-up steps.
+#[allow(dead_code, reason = "cpu_step times f64")]
+pub fn cpu_f32_median(model: &Model, params: &Params, samples: usize) -> f64 {
+    let mut c = CpuSolver::<f32>::new(model, params).unwrap_or_else(|e| panic!("CPU solver: {e}"));
+    c.step_n(5).unwrap_or_else(|e| panic!("CPU warm-up: {e}"));
+    median(samples, || {
+        let t = Instant::now();
+        c.step().unwrap_or_else(|e| panic!("CPU step: {e}"));
+        t.elapsed().as_secs_f64()
+    })
 }
