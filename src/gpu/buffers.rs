@@ -193,25 +193,14 @@ impl ClothBuffers {
             &normals,
             &dense,
         ];
-        let entries: Vec<wgpu::BindGroupEntry> = group0
-            .iter()
-            .zip(0u32..)
-            .map(|(b, binding)| wgpu::BindGroupEntry {
-                binding,
-                resource: b.as_entire_binding(),
-            })
-            .collect();
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("wgcloth.bindings"),
-            layout: kernels.group0(),
-            entries: &entries,
-        });
+        let bind_group = buffers_group(device, "wgcloth.bindings", kernels.group0(), &group0);
         let cloth_group = up.workgroup.then(|| {
-            device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("wgcloth.cloth_bindings"),
-                layout: kernels.cloth_group0(),
-                entries: &entries,
-            })
+            buffers_group(
+                device,
+                "wgcloth.cloth_bindings",
+                kernels.cloth_group0(),
+                &group0,
+            )
         });
         let (cg_args, alpha_slots, beta_slots) = indirect_args(device, up.cg_max_iterations);
         let args_groups = ArgsGroup::ALL.map(|g| {
@@ -360,4 +349,27 @@ fn indirect_args(
         usage,
     );
     (cg_args, alpha, beta)
+}
+
+/// A bind group of `buffers` at bindings 0, 1, … of `layout` (group 0 of
+/// a solver's kernels, and of a batch's).
+pub(super) fn buffers_group(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .zip(0u32..)
+        .map(|(b, binding)| wgpu::BindGroupEntry {
+            binding,
+            resource: b.as_entire_binding(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
 }

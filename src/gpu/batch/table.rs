@@ -14,6 +14,7 @@
 use super::ranges::{grown, Extents, Layout, Region, REGIONS};
 use crate::budget;
 use crate::error::{Error, Result};
+use crate::gpu::buffers::buffers_group;
 use crate::gpu::build::ClothArrays;
 use crate::gpu::guarded;
 use crate::gpu::kernel::Dispatch;
@@ -502,7 +503,12 @@ impl Table {
     pub(super) fn uniform_group(&self, params: &wgpu::Buffer) -> wgpu::BindGroup {
         let mut entries = vec![params];
         entries.extend(group_buffers(&self.buffers, &self.v, &self.normals));
-        entries_group(self.kernels.device(), self.kernels.group0(), &entries)
+        buffers_group(
+            self.kernels.device(),
+            "wgcloth.batch.normals_bindings",
+            self.kernels.group0(),
+            &entries,
+        )
     }
 
     /// Reads back `(buffer, region, start, elements)` parts of the shared buffers,
@@ -571,26 +577,10 @@ fn bind_group(
 ) -> wgpu::BindGroup {
     let mut entries = vec![cloths];
     entries.extend(group_buffers(buffers, v, normals));
-    entries_group(kernels.device(), kernels.cloth_group0(), &entries)
-}
-
-/// A bind group of `buffers` at bindings 0, 1, … of `layout`.
-fn entries_group(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    buffers: &[&wgpu::Buffer],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = buffers
-        .iter()
-        .zip(0u32..)
-        .map(|(b, binding)| wgpu::BindGroupEntry {
-            binding,
-            resource: b.as_entire_binding(),
-        })
-        .collect();
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("wgcloth.batch.bindings"),
-        layout,
-        entries: &entries,
-    })
+    buffers_group(
+        kernels.device(),
+        "wgcloth.batch.bindings",
+        kernels.cloth_group0(),
+        &entries,
+    )
 }
