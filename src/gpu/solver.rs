@@ -74,6 +74,24 @@ pub struct GpuState {
     pub v: Vec<Vec3>,
 }
 
+impl GpuState {
+    /// The state from the bytes of `x` and `v` as read back (`vec4<f32>`
+    /// per particle, w dropped); copied out, so the bytes need not be
+    /// aligned for `f32`.
+    pub(super) fn from_bytes(x: &[u8], v: &[u8]) -> GpuState {
+        let unpack = |b: &[u8]| -> Vec<Vec3> {
+            bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(b)
+                .iter()
+                .map(|q| Vec3::new(q[0], q[1], q[2]))
+                .collect()
+        };
+        GpuState {
+            x: unpack(x),
+            v: unpack(v),
+        }
+    }
+}
+
 /// A cloth simulated on a wgpu device the host owns.
 ///
 /// Made from the same [`Model`] and [`Params`] as the CPU solver. It keeps
@@ -619,16 +637,7 @@ impl GpuSolver {
             ],
         )?;
         self.decode_status(&parts[2])?;
-        let unpack = |b: &[u8]| -> Vec<Vec3> {
-            bytemuck::cast_slice::<u8, [f32; 4]>(b)
-                .iter()
-                .map(|p| Vec3::new(p[0], p[1], p[2]))
-                .collect()
-        };
-        Ok(GpuState {
-            x: unpack(&parts[0]),
-            v: unpack(&parts[1]),
-        })
+        Ok(GpuState::from_bytes(&parts[0], &parts[1]))
     }
 
     /// The position buffer: `particles` entries of `vec4<f32>` (xyz in m,

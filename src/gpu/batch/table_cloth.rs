@@ -212,16 +212,7 @@ impl TableCloth {
         // Copied out of the bytes: a read-back need not be aligned for u32.
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&parts[2]);
         self.decode_words(&words)?;
-        let unpack = |b: &[u8]| -> Vec<Vec3> {
-            bytemuck::pod_collect_to_vec::<u8, [f32; 4]>(b)
-                .iter()
-                .map(|q| Vec3::new(q[0], q[1], q[2]))
-                .collect()
-        };
-        Ok(GpuState {
-            x: unpack(&parts[0]),
-            v: unpack(&parts[1]),
-        })
+        Ok(GpuState::from_bytes(&parts[0], &parts[1]))
     }
 
     /// Records its vertex-normal pass.
