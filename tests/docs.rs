@@ -231,3 +231,170 @@ fn the_anchor_rule_matches_githubs() {
         HashSet::from(["a".to_string(), "a-1".to_string()])
     });
 }
+
+/// The examples cargo builds: `examples/NAME.rs` and `examples/NAME/main.rs`
+/// (`examples/common/` is a module the examples share, not one of them).
+fn example_names() -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(repo().join("examples"))
+        .expect("examples/ is readable")
+        .map(|entry| entry.expect("examples/ entry").path())
+        .filter_map(|p| {
+            let is_example = if p.is_dir() {
+                p.join("main.rs").is_file()
+            } else {
+                p.extension().is_some_and(|e| e == "rs")
+            };
+            let stem = p.file_stem()?.to_str()?.to_string();
+            is_example.then_some(stem)
+        })
+        .collect();
+    names.sort();
+    names
+}
+
+/// The names `text` runs as `--example NAME`, in order of appearance.
+fn examples_named(text: &str) -> Vec<String> {
+    text.split("--example ")
+        .skip(1)
+        .filter_map(|rest| {
+            let name: String = rest
+                .chars()
+                .take_while(|c| c.is_alphanumeric() || *c == '_')
+                .collect();
+            (!name.is_empty()).then_some(name)
+        })
+        .collect()
+}
+
+/// The names in the first column of `page`'s table rows that start with a
+/// code span (`` | `name` | … ``), in order.
+fn table_names(page: &str) -> Vec<String> {
+    page.lines()
+        .filter_map(|line| {
+            let cell = line.trim().strip_prefix("| `")?;
+            let end = cell.find("` |")?;
+            Some(cell[..end].to_string())
+        })
+        .collect()
+}
+
+#[test]
+fn every_built_in_scene_is_listed_where_the_docs_list_them() {
+    let builtin: Vec<String> = Scene::builtin_names()
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    for (page, first) in [("README.md", "hanging"), ("docs/scene-format.md", "hanging")] {
+        let text = std::fs::read_to_string(repo().join(page)).expect("readable");
+        // The scenes table is the one whose first row names the first scene.
+        let names = table_names(&text);
+        let start = names
+            .iter()
+            .position(|n| n == first)
+            .unwrap_or_else(|| panic!("{page}: no table row for `{first}`"));
+        let listed: Vec<String> = names[start..]
+            .iter()
+            .take_while(|n| builtin.contains(n))
+            .cloned()
+            .collect();
+        assert_eq!(
+            listed, builtin,
+            "{page}'s scene table must list every built-in scene, in `wgcloth scenes` order"
+        );
+    }
+    // docs/cli.md names them in prose where it says which names are built in.
+    let cli = std::fs::read_to_string(repo().join("docs/cli.md")).expect("readable");
+    for name in &builtin {
+        assert!(
+            cli.contains(&format!("`{name}`")),
+            "docs/cli.md does not name the built-in scene `{name}`"
+        );
+    }
+}
+
+#[test]
+fn every_example_is_listed_in_the_readme_and_no_page_names_a_missing_one() {
+    let examples = example_names();
+    assert!(
+        examples.len() >= 5,
+        "found only {examples:?} under examples/"
+    );
+    let readme = std::fs::read_to_string(repo().join("README.md")).expect("readable");
+    let in_readme = examples_named(&readme);
+    for name in &examples {
+        assert!(
+            in_readme.contains(name),
+            "README.md does not show `cargo run --release --example {name}`"
+        );
+    }
+    for (path, text) in pages() {
+        for name in examples_named(&text) {
+            assert!(
+                examples.contains(&name),
+                "{} runs `--example {name}`, which is not under examples/ (have {examples:?})",
+                path.display()
+            );
+        }
+    }
+}
+
+/// A line of Rust without its trailing `//` comment and surrounding space
+/// (a comment in the README may say more, or less, than the example's).
+fn code_of(line: &str) -> &str {
+    let code = match line.find("//") {
+        Some(at) => &line[..at],
+        None => line,
+    };
+    code.trim()
+}
+
+#[test]
+fn the_readme_embedding_snippet_is_lines_of_the_embed_example() {
+    let readme = std::fs::read_to_string(repo().join("README.md")).expect("readable");
+    let example = std::fs::read_to_string(repo().join("examples/embed.rs")).expect("readable");
+    let blocks = blocks(&readme, "rust");
+    assert_eq!(blocks.len(), 1, "README.md should have one ```rust block");
+    let (start, snippet) = &blocks[0];
+    // Every line of code in the snippet is a line of the example, in the
+    // same order: the README abridges the example (drops lines, shortens
+    // comments) but never shows code the example does not run. A line the
+    // example wraps differently counts when its tokens match the joined
+    // lines, so rustfmt's wrapping does not matter.
+    let example_lines: Vec<String> = example
+        .lines()
+        .map(code_of)
+        .filter(|l| !l.is_empty())
+        .map(str::to_string)
+        .collect();
+    let squash = |s: &str| s.split_whitespace().collect::<String>();
+    let mut from = 0;
+    for (n, line) in snippet.lines().enumerate() {
+        let code = code_of(line);
+        if code.is_empty() {
+            continue;
+        }
+        let want = squash(code);
+        // The example's lines from `from` on, joined until they cover `want`.
+        let found = (from..example_lines.len()).find_map(|i| {
+            let mut joined = String::new();
+            for (j, l) in example_lines[i..].iter().enumerate() {
+                joined.push_str(&squash(l));
+                if joined == want {
+                    return Some(i + j + 1);
+                }
+                if !want.starts_with(&joined) {
+                    return None;
+                }
+            }
+            None
+        });
+        match found {
+            Some(next) => from = next,
+            None => panic!(
+                "README.md:{}: `{code}` is not a line of examples/embed.rs after the \
+                 previous snippet line (the snippet must be the example, abridged)",
+                start + n
+            ),
+        }
+    }
+}
