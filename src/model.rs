@@ -21,7 +21,7 @@ use glam::DVec3;
 
 use crate::budget::{self, try_collect, try_vec, try_with_capacity};
 use crate::error::{Error, Result};
-use crate::params::{check, check_finite, SpringKind, SpringParams};
+use crate::params::{check, check_finite, format_number, SpringKind, SpringParams};
 
 /// What a model's allocations are named in a memory error.
 const MODEL: &str = "the cloth's model";
@@ -30,6 +30,44 @@ const MODEL: &str = "the cloth's model";
 /// storage buffer binding on common devices; the GPU solver checks the
 /// device's real limits separately.
 pub const MAX_PARTICLES: usize = 1 << 24;
+
+/// Largest rest coordinate a cloth's particle, and a character's key, may
+/// have \[m\]. The GPU and the `f32` mirror hold positions as `f32` and
+/// take a spring's length from the squared difference of its ends: within
+/// ±1e18 m that square (at most 12e36 m²) is a finite `f32` (up to
+/// 3.4e38), with room for the cloth to move.
+pub const MAX_COORDINATE: f64 = 1e18;
+
+/// Shortest rest side (spring between neighbours) a cloth may have \[m\]:
+/// its square, 1e-36 m², is still a normal `f32` (from 1.2e-38).
+pub const MIN_SIDE: f64 = 1e-18;
+
+/// Smallest rest triangle area a cloth may have \[m²\]: the smallest
+/// normal `f32`, below which the wind's and the masses' areas lose their
+/// precision or vanish.
+pub const MIN_AREA: f64 = f32::MIN_POSITIVE as f64;
+
+/// The distance between neighbouring `f32` numbers at magnitude `reach`
+/// \[m\]: two particles closer than this are the same `f32` point.
+pub(crate) fn f32_spacing(reach: f64) -> f64 {
+    let x = reach.abs() as f32;
+    let next = f32::from_bits(x.to_bits() + 1);
+    f64::from(next) - f64::from(x)
+}
+
+/// Refuses a position with a coordinate beyond ±[`MAX_COORDINATE`],
+/// naming `key[c]`.
+pub(crate) fn check_position(key: &str, p: DVec3) -> Result<()> {
+    for (c, x) in p.to_array().into_iter().enumerate() {
+        check(
+            &format!("{key}[{c}]"),
+            x,
+            x.abs() <= MAX_COORDINATE,
+            "within ±1e18 m (the GPU holds positions as f32)",
+        )?;
+    }
+    Ok(())
+}
 
 /// Cloth orientation at rest.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -85,22 +123,32 @@ pub enum Pin {
 impl Pin {
     /// Parses the scene-file names `top-left`, `top`, … .
     pub fn parse(name: &str) -> Option<Pin> {
-        Some(match name {
-            "top-left" => Pin::Corner(Corner::TopLeft),
-            "top-right" => Pin::Corner(Corner::TopRight),
-            "bottom-left" => Pin::Corner(Corner::BottomLeft),
-            "bottom-right" => Pin::Corner(Corner::BottomRight),
-            "top" => Pin::Edge(Edge::Top),
-            "bottom" => Pin::Edge(Edge::Bottom),
-            "left" => Pin::Edge(Edge::Left),
-            "right" => Pin::Edge(Edge::Right),
-            _ => return None,
-        })
+        use {Corner::*, Edge::*};
+        [TopLeft, TopRight, BottomLeft, BottomRight]
+            .map(Pin::Corner)
+            .into_iter()
+            .chain([Top, Bottom, Left, Right].map(Pin::Edge))
+            .find(|pin| pin.name() == Some(name))
     }
 
     /// The names [`Pin::parse`] accepts.
     pub const NAMES: &'static str =
         "top-left, top-right, bottom-left, bottom-right, top, bottom, left, right";
+
+    /// The scene-file name of a corner or edge pin (`top-left`, `top`).
+    pub fn name(&self) -> Option<&'static str> {
+        Some(match self {
+            Pin::Corner(Corner::TopLeft) => "top-left",
+            Pin::Corner(Corner::TopRight) => "top-right",
+            Pin::Corner(Corner::BottomLeft) => "bottom-left",
+            Pin::Corner(Corner::BottomRight) => "bottom-right",
+            Pin::Edge(Edge::Top) => "top",
+            Pin::Edge(Edge::Bottom) => "bottom",
+            Pin::Edge(Edge::Left) => "left",
+            Pin::Edge(Edge::Right) => "right",
+            Pin::Index(_) | Pin::Region(_) => return None,
+        })
+    }
 
     /// Whether `p` lies in a [`Pin::Region`]'s box (`false` for other pins).
     pub fn contains(&self, p: DVec3) -> bool {
@@ -123,7 +171,7 @@ impl Pin {
                 return Err(invalid(
                     &format!("{key}.box"),
                     "[[x0, y0, z0], [x1, y1, z1]] with x0 ≤ x1, y0 ≤ y1 and z0 ≤ z1 (m)",
-                    format!("{:?} to {:?}", lo.to_array(), hi.to_array()),
+                    format!("[{}, {}]", point(*lo), point(*hi)),
                 ));
             }
         }
@@ -135,16 +183,27 @@ impl Pin {
         invalid(
             key,
             "a box holding at least one particle's rest position (world coordinates, m)",
-            match self {
-                Pin::Region([lo, hi]) => format!(
-                    "Region([{:?}, {:?}]), which holds none",
-                    lo.to_array(),
-                    hi.to_array()
-                ),
-                _ => format!("{self:?}, which holds none"),
-            },
+            format!("{self}, which holds none"),
         )
     }
+}
+
+/// A pin as the scene file writes it: `"top-left"`, `5`,
+/// `{ box = [[0, 1, 0], [0.1, 1, 0.1]] }`.
+impl std::fmt::Display for Pin {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Pin::Index(i) => write!(f, "{i}"),
+            Pin::Region([lo, hi]) => write!(f, "{{ box = [{}, {}] }}", point(*lo), point(*hi)),
+            named => write!(f, "\"{}\"", named.name().unwrap_or_default()),
+        }
+    }
+}
+
+/// `[x, y, z]`, each number as messages write it.
+pub(crate) fn point(p: DVec3) -> String {
+    let [x, y, z] = p.to_array().map(format_number);
+    format!("[{x}, {y}, {z}]")
 }
 
 /// The geometry and mass of a rectangular cloth.
@@ -216,9 +275,8 @@ impl ClothSpec {
         ] {
             check(key, s, s > 0.0, "> 0 (m)")?;
         }
-        for (c, v) in self.origin.to_array().iter().enumerate() {
-            check_finite(&format!("cloth.origin[{c}]"), *v, "m")?;
-        }
+        check_position("cloth.origin", self.origin)?;
+        self.check_scale()?;
         check("cloth.mass", self.mass, self.mass > 0.0, "> 0 (kg, total)")?;
         for (k, pin) in self.pins.iter().enumerate() {
             let key = format!("cloth.pins[{k}]");
@@ -239,6 +297,63 @@ impl ClothSpec {
                 _ => {}
             }
         }
+        Ok(())
+    }
+
+    /// Refuses a size whose rest geometry the solvers cannot hold (the
+    /// size and origin themselves already checked): a particle beyond
+    /// ±[`MAX_COORDINATE`], a cell side below [`MIN_SIDE`] or below the
+    /// `f32` spacing at the cloth's coordinates (neighbours would be one
+    /// point on the GPU).
+    fn check_scale(&self) -> Result<()> {
+        let size = format!(
+            "[{}, {}]",
+            format_number(self.size[0]),
+            format_number(self.size[1])
+        );
+        let (nx, ny) = (self.nx, self.ny);
+        // Positions are affine in the row and column, so the corners
+        // reach farthest.
+        let reach = [0, nx - 1, (ny - 1) * nx, ny * nx - 1]
+            .map(|p| self.rest_position(p).abs().max_element())
+            .into_iter()
+            .fold(0.0, f64::max);
+        // Written so that a NaN reach (an overflow times a zero axis) fails.
+        let within = reach <= MAX_COORDINATE;
+        if !within {
+            return Err(invalid(
+                "cloth.size",
+                &format!(
+                    "a size that keeps the cloth within ±1e18 m of the world's origin (from \
+                     `cloth.origin` = {}; the GPU holds positions as f32)",
+                    point(self.origin)
+                ),
+                size,
+            ));
+        }
+        let cell = [
+            self.size[0] / (nx - 1) as f64,
+            self.size[1] / (ny - 1) as f64,
+        ];
+        let shortest = f32_spacing(reach).max(MIN_SIDE);
+        if cell[0].min(cell[1]) < shortest {
+            return Err(invalid(
+                "cloth.size",
+                &format!(
+                    "a size whose cells (size / (resolution − 1), here {} × {} m) are at least \
+                     {:.2e} m: the f32 spacing at the cloth's coordinates (up to {} m), below \
+                     which neighbouring particles are one point on the GPU, and at least \
+                     1e-18 m, below which a length squared is no normal f32",
+                    format_number(cell[0]),
+                    format_number(cell[1]),
+                    shortest,
+                    format_number(reach)
+                ),
+                size,
+            ));
+        }
+        // A grid's triangles are half cells, so sides of at least
+        // MIN_SIDE give them at least MIN_SIDE² / 2 = 5e-37 m² > MIN_AREA.
         Ok(())
     }
 
@@ -651,6 +766,54 @@ mod tests {
         let m = Model::new(&ClothSpec::default(), &materials).expect("valid spec");
         assert!(m.kind_ranges[SpringKind::Bend.index()].is_empty());
         assert!(m.springs.iter().all(|s| s.kind != SpringKind::Bend));
+    }
+
+    #[test]
+    fn pins_are_shown_as_the_scene_file_writes_them() {
+        for name in Pin::NAMES.split(", ") {
+            let pin = Pin::parse(name).expect("a documented name");
+            assert_eq!(pin.to_string(), format!("\"{name}\""));
+        }
+        assert_eq!(Pin::Index(7).to_string(), "7");
+        let region = Pin::Region([DVec3::new(-1.0, 0.5, 0.0), DVec3::new(1e300, 2.0, 1e-5)]);
+        assert_eq!(
+            region.to_string(),
+            "{ box = [[-1, 0.5, 0], [1e300, 2, 1e-5]] }"
+        );
+    }
+
+    #[test]
+    fn grid_sizes_the_solvers_cannot_hold_are_refused_naming_the_size() {
+        let error = |size: [f64; 2], origin: DVec3| {
+            let spec = ClothSpec {
+                nx: 5,
+                ny: 5,
+                size,
+                origin,
+                ..ClothSpec::default()
+            };
+            spec.validate().err().map(|e| e.to_string())
+        };
+        // The bounds themselves are allowed: 1e18 m from the origin, cells
+        // of 1e-18 m where f32 numbers are that close (near 0).
+        assert_eq!(error([1e18, 1e18], DVec3::ZERO), None);
+        assert_eq!(error([4e-18, 4e-18], DVec3::ZERO), None);
+        for (size, origin, says) in [
+            ([2e18, 1.0], DVec3::ZERO, "within ±1e18 m"),
+            ([1.0, 1e3], DVec3::new(0.0, 0.0, 1e18), "within ±1e18 m"),
+            ([1e308, 1e308], DVec3::ZERO, "within ±1e18 m"),
+            ([3.9e-18, 3.9e-18], DVec3::ZERO, "at least 1.00e-18 m"),
+            // 1 m from the origin, f32 numbers are 1.2e-7 m apart.
+            ([1e-7, 1.0], DVec3::new(1.0, 0.0, 0.0), "f32 spacing"),
+        ] {
+            let e = error(size, origin).unwrap_or_default();
+            assert!(
+                e.contains("`cloth.size`") && e.contains(says),
+                "{size:?}: {e}"
+            );
+        }
+        let e = error([1.0, 1.0], DVec3::new(1e300, 0.0, 0.0)).unwrap_or_default();
+        assert!(e.contains("`cloth.origin[0]`"), "{e}");
     }
 
     #[test]

@@ -775,8 +775,7 @@ const BAD_SCENES: &[Row] = &[
         &[
             "`cloth.pins[0]`",
             "at least one particle",
-            "[[5.0, 5.0, 5.0], [6.0, 6.0, 6.0]]",
-            "holds none",
+            "{ box = [[5, 5, 5], [6, 6, 6]] }, which holds none",
         ],
     ),
     row(
@@ -790,7 +789,7 @@ const BAD_SCENES: &[Row] = &[
         &[
             "`cloth.pins[0].box`",
             "x0 ≤ x1",
-            "[1.0, 1.0, 1.0] to [0.0, 2.0, 2.0]",
+            "got [[1, 1, 1], [0, 2, 2]]",
         ],
     ),
     row(

@@ -2,9 +2,10 @@
 //! triangle primitive's positions and indices.
 //!
 //! The `gltf` crate parses and validates the JSON (its errors name the JSON
-//! path); the accessors are read here with every offset and length checked
-//! against the buffer, so a file that lies about its sizes is an error,
-//! never a panic. Only the chosen primitive's `POSITION` accessor and its
+//! path; `extras` of any JSON type are accepted and ignored); a GLB's
+//! chunks are split here and the accessors read here, with every offset
+//! and length checked against the file or the buffer, so a file that lies
+//! about its sizes is an error that names the length, never a panic. Only the chosen primitive's `POSITION` accessor and its
 //! indices are read: materials, textures, images, normals and every other
 //! attribute, skins, animations, cameras, node transforms and the other
 //! meshes and primitives are ignored.
@@ -25,7 +26,17 @@ pub(super) fn parse(
     mesh_name: Option<&str>,
     external: &dyn Fn(&str) -> Result<Vec<u8>, String>,
 ) -> Result<Mesh, String> {
-    let file = gltf::Gltf::from_slice(bytes).map_err(describe)?;
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        split_glb(bytes)?
+    } else {
+        (bytes, None)
+    };
+    let root =
+        gltf::json::Root::from_slice(json).map_err(|e| describe(gltf::Error::Deserialize(e)))?;
+    let file = gltf::Gltf {
+        document: gltf::Document::from_json(root).map_err(describe)?,
+        blob: blob.map(<[u8]>::to_vec),
+    };
     let mesh = match mesh_name {
         Some(name) => file
             .meshes()
@@ -129,14 +140,91 @@ pub(super) fn parse(
     })
 }
 
+/// A GLB file's JSON chunk and its binary chunk, if it has one, every
+/// length checked against the file (glTF 2.0 §4.4: a 12-byte header —
+/// `glTF`, version 2, the file's length — then chunks, each its length,
+/// its type and its data; the first is `JSON`, a `BIN\0` may follow, and
+/// chunks of other types are skipped, as the format asks).
+fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
+    let word = |data: &[u8], at: usize| {
+        data.get(at..at.checked_add(4)?)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    };
+    let (Some(version), Some(length)) = (word(bytes, 4), word(bytes, 8)) else {
+        return Err(format!(
+            "is truncated: a GLB file starts with a 12-byte header (`glTF`, version, length), \
+             but this one has {} bytes",
+            bytes.len()
+        ));
+    };
+    if version != 2 {
+        return Err(format!(
+            "is GLB version {version}: only version 2 (glTF 2.0) is read"
+        ));
+    }
+    if length < 20 {
+        return Err(format!(
+            "its GLB header says the file has {length} bytes, too few for the 12-byte header \
+             and a JSON chunk's 8-byte header"
+        ));
+    }
+    if length > bytes.len() {
+        return Err(format!(
+            "is truncated: its GLB header says the file has {length} bytes, but it has {}",
+            bytes.len()
+        ));
+    }
+    let data = &bytes[..length];
+    let (mut json, mut bin) = (None, None);
+    let mut at = 12;
+    while at < data.len() {
+        let (Some(size), Some(kind)) = (word(data, at), data.get(at + 4..at + 8)) else {
+            return Err(format!(
+                "is truncated: a GLB chunk header (length and type, 8 bytes) starts at byte \
+                 {at}, but the file (by its header) ends at byte {length}"
+            ));
+        };
+        let name = match kind {
+            b"JSON" => "JSON".to_string(),
+            b"BIN\0" => "BIN".to_string(),
+            other => format!("{:?}", String::from_utf8_lossy(other)),
+        };
+        let start = at + 8;
+        let end = start.saturating_add(size);
+        if end > data.len() {
+            return Err(format!(
+                "is truncated: its {name} chunk at byte {at} says it holds {size} bytes, but only \
+                 {} follow its header",
+                data.len() - start
+            ));
+        }
+        let chunk = &data[start..end];
+        match kind {
+            b"JSON" if json.is_none() => json = Some(chunk),
+            _ if json.is_none() => {
+                return Err(format!(
+                    "its first GLB chunk (at byte {at}) is {name}; it must be the JSON chunk"
+                ))
+            }
+            b"BIN\0" if bin.is_none() => bin = Some(chunk),
+            _ => {}
+        }
+        at = end;
+    }
+    let json = json.ok_or("is a GLB file without a JSON chunk")?;
+    Ok((json, bin))
+}
+
 /// A `gltf` error as a message: JSON syntax with its line and column,
-/// validation with the JSON path.
+/// validation with the JSON path. serde's words for a JSON value of the
+/// wrong kind (`expected struct Mesh`) become JSON's.
 fn describe(e: gltf::Error) -> String {
     match e {
         gltf::Error::Deserialize(e) => format!(
-            "line {}, column {}: not valid glTF JSON: {e}",
+            "line {}, column {}: not valid glTF JSON: {}",
             e.line(),
-            e.column()
+            e.column(),
+            json_words(&e.to_string())
         ),
         gltf::Error::Validation(errors) => {
             let all: Vec<String> = errors
@@ -145,9 +233,52 @@ fn describe(e: gltf::Error) -> String {
                 .collect();
             format!("not valid glTF: {}", all.join("; "))
         }
-        gltf::Error::Binary(e) => format!("not a valid GLB file: {e}"),
         other => format!("not a valid glTF file: {other}"),
     }
+}
+
+/// serde_json's message in JSON's words: its position (given before it)
+/// dropped, and each Rust type it names (`expected struct Mesh`,
+/// `expected u32`) replaced by the JSON value that was wanted.
+fn json_words(message: &str) -> String {
+    let message = message
+        .rfind(" at line ")
+        .map_or(message, |i| &message[..i]);
+    let mut out = message
+        .replace("invalid type: map", "invalid type: an object")
+        .replace("invalid type: sequence", "invalid type: an array")
+        .replace("expected a sequence", "expected an array");
+    const RUST_TYPES: &[(&str, &str)] = &[
+        ("expected struct ", "expected a JSON object"),
+        ("expected usize", "expected a whole number ≥ 0"),
+        ("expected u64", "expected a whole number ≥ 0"),
+        ("expected u32", "expected a whole number ≥ 0"),
+        ("expected u16", "expected a whole number ≥ 0"),
+        ("expected u8", "expected a whole number ≥ 0"),
+        ("expected f32", "expected a number"),
+        ("expected f64", "expected a number"),
+        ("expected unit", "expected null"),
+    ];
+    for (rust, json) in RUST_TYPES {
+        let mut from = 0;
+        while let Some(i) = out[from..].find(rust).map(|i| i + from) {
+            // The type name runs to the next character that cannot be in
+            // one (`struct Mesh` takes its name along).
+            let tail = &out[i + rust.len()..];
+            let name = if rust.ends_with(' ') {
+                tail.find(|c: char| !(c.is_alphanumeric() || c == '_'))
+                    .unwrap_or(tail.len())
+            } else if tail.starts_with(|c: char| c.is_alphanumeric()) {
+                from = i + rust.len();
+                continue;
+            } else {
+                0
+            };
+            out.replace_range(i..i + rust.len() + name, json);
+            from = i + json.len();
+        }
+    }
+    out
 }
 
 /// Every buffer's bytes: the GLB's binary chunk, a `data:` URI's base64, or
@@ -248,4 +379,93 @@ fn read(
         }
     }
     Ok(words)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A GLB of `json` and, if given, a binary chunk.
+    fn glb(json: &[u8], bin: Option<&[u8]>) -> Vec<u8> {
+        let chunk = |kind: &[u8], data: &[u8]| {
+            let mut c = (data.len() as u32).to_le_bytes().to_vec();
+            c.extend(kind);
+            c.extend(data);
+            c
+        };
+        let mut body = chunk(b"JSON", json);
+        if let Some(bin) = bin {
+            body.extend(chunk(b"BIN\0", bin));
+        }
+        let mut out = b"glTF".to_vec();
+        out.extend(2u32.to_le_bytes());
+        out.extend(((12 + body.len()) as u32).to_le_bytes());
+        out.extend(body);
+        out
+    }
+
+    #[test]
+    fn a_glb_splits_into_its_chunks_and_skips_unknown_ones() {
+        let file = glb(b"{}  ", Some(b"abcd"));
+        assert_eq!(split_glb(&file), Ok((&b"{}  "[..], Some(&b"abcd"[..]))));
+        // An unknown chunk before BIN is skipped, as glTF 2.0 asks.
+        let mut odd = glb(b"{}  ", None);
+        odd.extend(4u32.to_le_bytes());
+        odd.extend(b"XTRA1234");
+        odd.extend(4u32.to_le_bytes());
+        odd.extend(b"BIN\0wxyz");
+        let length = (odd.len() as u32).to_le_bytes();
+        odd[8..12].copy_from_slice(&length);
+        assert_eq!(split_glb(&odd), Ok((&b"{}  "[..], Some(&b"wxyz"[..]))));
+    }
+
+    #[test]
+    fn a_glb_that_lies_about_a_length_is_refused_naming_it() {
+        let file = glb(b"{}  ", Some(b"abcd"));
+        let error = |bytes: &[u8]| split_glb(bytes).err().unwrap_or_default();
+        assert!(
+            error(&file[..8]).contains("12-byte header"),
+            "{}",
+            error(&file[..8])
+        );
+        let cut = error(&file[..30]);
+        assert!(
+            cut.contains("is truncated") && cut.contains("header says"),
+            "{cut}"
+        );
+        let mut long_bin = file.clone();
+        long_bin[24..28].copy_from_slice(&9u32.to_le_bytes());
+        let e = error(&long_bin);
+        assert!(
+            e.contains("BIN chunk at byte 24 says it holds 9 bytes"),
+            "{e}"
+        );
+        let mut bin_first = file.clone();
+        bin_first[16..20].copy_from_slice(b"BIN\0");
+        let e = error(&bin_first);
+        assert!(e.contains("first GLB chunk (at byte 12) is BIN"), "{e}");
+        let mut version = file;
+        version[4] = 1;
+        assert!(error(&version).contains("version 1"), "{}", error(&version));
+    }
+
+    #[test]
+    fn json_errors_name_json_values_not_rust_types() {
+        for (serde, json) in [
+            (
+                "invalid type: integer `5`, expected struct Mesh at line 1 column 9",
+                "invalid type: integer `5`, expected a JSON object",
+            ),
+            (
+                "invalid type: map, expected u32",
+                "invalid type: an object, expected a whole number ≥ 0",
+            ),
+            (
+                "invalid type: string \"x\", expected f32 or u8 here",
+                "invalid type: string \"x\", expected a number or u8 here",
+            ),
+        ] {
+            assert_eq!(json_words(serde), json);
+        }
+    }
 }

@@ -27,6 +27,7 @@
 mod gltf;
 mod obj;
 mod topology;
+mod uri;
 
 use std::io::Read as _;
 use std::path::{Path, PathBuf};
@@ -99,7 +100,10 @@ pub struct Mesh {
 impl Mesh {
     /// Reads, parses and checks a mesh file: `.obj`, `.gltf` or `.glb`;
     /// `mesh_name` picks a glTF mesh by name (the first one without).
-    /// External glTF buffers are read relative to the file's folder.
+    /// External glTF buffers are read relative to the file's folder and
+    /// only from it: an absolute `uri`, a `..` that climbs out of it and a
+    /// symbolic link that points out of it are refused (a mesh reads only
+    /// its own files).
     pub fn load(path: &Path, mesh_name: Option<&str>) -> Result<Mesh> {
         let fail = |message: String| Error::Mesh {
             path: path.to_path_buf(),
@@ -108,7 +112,7 @@ impl Mesh {
         let bytes = read_mesh_bytes(path).map_err(fail)?;
         let folder = path.parent().unwrap_or(Path::new("")).to_path_buf();
         Mesh::parse(&bytes, path, mesh_name, &|uri| {
-            read_mesh_bytes(&folder.join(uri))
+            read_mesh_bytes(&uri::resolve(&folder, uri)?)
         })
     }
 
@@ -232,10 +236,17 @@ impl Mesh {
             }
         }
         f.triangles().find_map(|t| {
-            let [a, b, c] = t.map(|p| self.positions[p as usize].to_array());
+            let [a, b, c] = t.map(|p| self.positions[p as usize]);
+            // Measured on the triangle shrunk by its largest coordinate, so
+            // that the test is the same at any scale: at 1e200 the area
+            // itself overflows, at 1e-200 it underflows.
+            let unit = a.abs().max(b.abs()).max(c.abs()).max_element();
+            let [a, b, c] = [a, b, c].map(|p| (p / unit).to_array());
             let (area, longest) = (area(a, b, c), longest_side(a, b, c));
-            (area <= DEGENERATE_AREA * longest * longest)
-                .then(|| format!("triangle {t:?} has zero area (its corners are in a line)"))
+            // Written so that NaN (all three corners at the origin, where
+            // unit = 0) is degenerate too.
+            let has_area = area > DEGENERATE_AREA * longest * longest;
+            (!has_area).then(|| format!("triangle {t:?} has zero area (its corners are in a line)"))
         })
     }
 }
@@ -320,3 +331,53 @@ pub struct MeshCloth {
 }
 
 pub use topology::Placement;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The OBJ text as a mesh, or its error message.
+    fn obj(text: &str) -> std::result::Result<Mesh, String> {
+        Mesh::parse(text.as_bytes(), Path::new("m.obj"), None, &|_| {
+            Err("no buffers".to_string())
+        })
+        .map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn a_triangle_is_degenerate_or_not_whatever_its_scale() {
+        for s in ["1e-200", "1e-5", "1", "1e200", "1e307"] {
+            let right = format!("v 0 0 0\nv {s} 0 0\nv 0 {s} 0\nf 1 2 3\n");
+            assert!(
+                obj(&right).is_ok(),
+                "right triangle at {s}: {:?}",
+                obj(&right)
+            );
+            let line = format!("v 0 0 0\nv {s} 0 0\nv -{s} 0 0\nf 1 2 3\n");
+            let e = obj(&line).err().unwrap_or_default();
+            assert!(e.contains("zero area"), "line at {s}: {e}");
+        }
+        // Far from the origin the difference of the corners overflows
+        // unless the triangle is shrunk first.
+        let far = "v -1e308 -1e308 0\nv 1e308 -1e308 0\nv -1e308 1e308 0\nf 1 2 3\n";
+        assert!(obj(far).is_ok(), "{:?}", obj(far));
+    }
+
+    #[test]
+    fn a_face_index_too_long_for_any_integer_is_out_of_range() {
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -99999999999999999999/1\n")
+            .err()
+            .unwrap_or_default();
+        assert!(
+            e.contains("line 4: face corner -99999999999999999999 is out of range"),
+            "{e}"
+        );
+        let e = obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x3\n")
+            .err()
+            .unwrap_or_default();
+        assert!(
+            e.contains("`x3` does not start with a vertex number"),
+            "{e}"
+        );
+    }
+}

@@ -97,16 +97,26 @@ fn face(words: &[&str], vertices: usize, line: usize) -> Result<Face, String> {
     let mut corners = [0u32; 4];
     for (slot, word) in corners.iter_mut().zip(words) {
         let index = word.split('/').next().unwrap_or("");
-        let i: i64 = index
-            .parse()
-            .map_err(|_| format!("face corner `{word}` does not start with a vertex number"))?;
+        let out_of_range = || {
+            format!(
+                "face corner {index} is out of range: {vertices} vertices are defined above \
+                 this line, so a corner must be 1..={vertices} or -{vertices}..=-1"
+            )
+        };
+        let i: i64 = index.parse().map_err(|_| {
+            // A whole number too long for i64 is a vertex number far out
+            // of range, not a word that is no number.
+            let digits = index.strip_prefix(['-', '+']).unwrap_or(index);
+            if !digits.is_empty() && digits.bytes().all(|b| b.is_ascii_digit()) {
+                out_of_range()
+            } else {
+                format!("face corner `{word}` does not start with a vertex number")
+            }
+        })?;
         // 1-based from the start, or negative from the last vertex so far.
         let resolved = if i > 0 { i - 1 } else { vertices as i64 + i };
         if i == 0 || resolved < 0 || resolved >= vertices as i64 {
-            return Err(format!(
-                "face corner {i} is out of range: {vertices} vertices are defined above this \
-                 line, so a corner must be 1..={vertices} or -{vertices}..=-1"
-            ));
+            return Err(out_of_range());
         }
         *slot = resolved as u32;
     }

@@ -7,8 +7,10 @@ use glam::DVec3;
 use super::{area, Mesh, MeshCloth};
 use crate::budget;
 use crate::error::{Error, Result};
-use crate::model::{ClothSpec, Model, Pin, Spring};
-use crate::params::{check, check_finite, SpringKind, SpringParams};
+use crate::model::{
+    check_position, point, ClothSpec, Model, Pin, Spring, MAX_COORDINATE, MIN_AREA, MIN_SIDE,
+};
+use crate::params::{check, format_number, SpringKind, SpringParams};
 
 /// One side of a face, with what lies across the face from it.
 #[derive(Clone, Copy)]
@@ -240,10 +242,7 @@ fn pinned(pins: &[Pin], rest: &[DVec3]) -> Result<Vec<bool>> {
                          vertex order) or {{ box = [[x0, y0, z0], [x1, y1, z1]] }}; corner \
                          and edge names are for grid cloths"
                     ),
-                    got: match pin {
-                        Pin::Index(i) => i.to_string(),
-                        other => format!("{other:?}"),
-                    },
+                    got: pin.to_string(),
                 })
             }
         }
@@ -261,9 +260,7 @@ impl MeshCloth {
             self.scale > 0.0,
             "> 0 (a factor)",
         )?;
-        for (c, v) in spec.origin.to_array().iter().enumerate() {
-            check_finite(&format!("cloth.origin[{c}]"), *v, "m")?;
-        }
+        check_position("cloth.origin", spec.origin)?;
         check("cloth.mass", spec.mass, spec.mass > 0.0, "> 0 (kg, total)")?;
         let placement = self.placement(spec);
         let rest: Vec<DVec3> = self
@@ -272,14 +269,62 @@ impl MeshCloth {
             .iter()
             .map(|&p| placement.apply(p))
             .collect();
-        if let Some(p) = rest.iter().position(|x| !x.is_finite()) {
-            return Err(Error::InvalidParameter {
-                key: "cloth.scale".to_string(),
-                allowed: "a factor that keeps every vertex finite".to_string(),
-                got: format!("{} (vertex {p} is {:?})", self.scale, rest[p].to_array()),
-            });
-        }
+        self.check_scale(&rest)?;
         pinned(&spec.pins, &rest).map(|_| ())
+    }
+
+    /// Refuses a scale whose placed mesh (`rest`) the solvers cannot
+    /// hold: a vertex beyond ±[`MAX_COORDINATE`], a face side below
+    /// [`MIN_SIDE`] or whose ends are one `f32` point (one point on the
+    /// GPU), a triangle below [`MIN_AREA`].
+    fn check_scale(&self, rest: &[DVec3]) -> Result<()> {
+        let refuse = |allowed: String| Error::InvalidParameter {
+            key: "cloth.scale".to_string(),
+            allowed,
+            got: format_number(self.scale),
+        };
+        let far = |x: &DVec3| !x.is_finite() || x.abs().max_element() > MAX_COORDINATE;
+        if let Some(v) = rest.iter().position(far) {
+            return Err(refuse(format!(
+                "a factor that keeps every vertex within ±1e18 m of the world's origin (the \
+                 GPU holds positions as f32; vertex {v} would be at {})",
+                point(rest[v])
+            )));
+        }
+        for face in &self.mesh.faces {
+            let c = face.corners();
+            for k in 0..c.len() {
+                let (i, j) = (c[k], c[(k + 1) % c.len()]);
+                let (a, b) = (rest[i as usize], rest[j as usize]);
+                let side = a.distance(b);
+                if side < MIN_SIDE || a.as_vec3() == b.as_vec3() {
+                    return Err(refuse(format!(
+                        "a factor that makes every face side at least 1e-18 m long (below, \
+                         a length squared is no normal f32) and its ends distinct f32 points \
+                         (else they are one point on the GPU); {}: vertices {i} and {j} would \
+                         be {} m apart, at {} and {}",
+                        self.mesh.where_face(face),
+                        format_number(side),
+                        point(a),
+                        point(b)
+                    )));
+                }
+            }
+            for t in face.triangles() {
+                let [a, b, c] = t.map(|p| rest[p as usize].to_array());
+                let area = area(a, b, c);
+                if area < MIN_AREA {
+                    return Err(refuse(format!(
+                        "a factor that gives every triangle at least {} m², the smallest \
+                         normal f32; {}: triangle {t:?} would have {} m²",
+                        format_number(MIN_AREA),
+                        self.mesh.where_face(face),
+                        format_number(area)
+                    )));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// Where `spec` (its `origin`) and this cloth's `scale` put the mesh.

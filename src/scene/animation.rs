@@ -19,8 +19,8 @@ use glam::{DQuat, DVec3};
 use crate::cpu::CpuSolver;
 use crate::error::Result;
 use crate::gpu::GpuSolver;
-use crate::model::Model;
-use crate::params::{check, check_finite, check_vec, Capsule, PinTarget};
+use crate::model::{check_position, Model};
+use crate::params::{check, check_finite, Capsule, PinTarget};
 use crate::real::Real;
 
 /// One keyed pose of the character.
@@ -95,13 +95,13 @@ impl Character {
                 )?,
             }
             previous = Some(k.time);
-            check_vec(&format!("character.key[{n}].position"), k.position, "m")?;
+            check_position(&format!("character.key[{n}].position"), k.position)?;
             check_finite(&format!("character.key[{n}].yaw"), k.yaw, "degrees")?;
         }
         for (n, c) in self.capsules.iter().enumerate() {
             let key = |k: &str| format!("character.capsule[{n}].{k}");
-            check_vec(&key("a"), c.a, "m")?;
-            check_vec(&key("b"), c.b, "m")?;
+            check_position(&key("a"), c.a)?;
+            check_position(&key("b"), c.b)?;
             check(&key("radius"), c.radius, c.radius > 0.0, "radius > 0 (m)")?;
             check(
                 &key("friction"),
@@ -275,6 +275,14 @@ mod tests {
         }
     }
 
+    /// Why `validate` refuses `c` (empty if it does not).
+    fn refusal(c: &Character) -> String {
+        c.validate()
+            .err()
+            .map(|e| e.to_string())
+            .unwrap_or_default()
+    }
+
     #[test]
     fn poses_interpolate_between_keys_and_hold_outside() {
         let c = walker();
@@ -296,13 +304,23 @@ mod tests {
     fn keys_out_of_order_are_refused_naming_the_key() {
         let mut c = walker();
         c.keys[1].time = 0.0;
-        let e = c
-            .validate()
-            .err()
-            .map(|e| e.to_string())
-            .unwrap_or_default();
+        let e = refusal(&c);
         assert!(e.contains("character.key[1].time"), "{e}");
         c.keys.clear();
         assert!(c.validate().is_err());
+    }
+
+    #[test]
+    fn a_key_beyond_what_the_gpu_holds_is_refused_naming_it() {
+        let mut c = walker();
+        c.keys[1].position.y = -1e300;
+        let e = refusal(&c);
+        assert!(e.contains("`character.key[1].position[1]`"), "{e}");
+        assert!(
+            e.contains("within ±1e18 m") && e.contains("got -1e300"),
+            "{e}"
+        );
+        c.keys[1].position.y = -1e18;
+        assert!(c.validate().is_ok());
     }
 }

@@ -19,7 +19,7 @@ use serde::Deserialize;
 use super::animation::{Character, Key};
 use super::shape::{Exactly, Form, List, Number, Table, Whole};
 use super::CameraSpec;
-use crate::model::{ClothSpec, Orientation, Pin};
+use crate::model::{ClothSpec, Orientation, Pin, MAX_PARTICLES};
 use crate::params::{
     Capsule, FilterMethod, FixupMethod, Ground, Integrator, Params, Sphere, SpringKind, Wind,
 };
@@ -176,9 +176,20 @@ struct SphereTable {
 #[serde(deny_unknown_fields)]
 struct CharacterTable {
     #[serde(default)]
-    capsule: List<Table<CapsuleTable>>,
+    capsule: List<Table<CharacterCapsuleTable>>,
     #[serde(default)]
     key: List<Table<KeyTable>>,
+}
+
+/// A `[[character.capsule]]`: a `[[capsule]]` without `velocity`, which
+/// the character's keys give.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CharacterCapsuleTable {
+    a: Vec3,
+    b: Vec3,
+    radius: Number,
+    friction: Option<Number>,
 }
 
 #[derive(Deserialize)]
@@ -263,6 +274,13 @@ impl Form for CapsuleTable {
     const ONE: &'static str = "a table: a `[[capsule]]` line with its keys on the lines below";
     const MANY: &'static str =
         "tables, each a `[[capsule]]` line (double brackets) with its keys on the lines below";
+}
+
+impl Form for CharacterCapsuleTable {
+    const ONE: &'static str =
+        "a table: a `[[character.capsule]]` line with its keys on the lines below";
+    const MANY: &'static str = "tables, each a `[[character.capsule]]` line (double brackets) \
+                                with its keys on the lines below";
 }
 
 impl Form for PinEntry {
@@ -443,25 +461,38 @@ impl SceneFile {
     }
 }
 
-/// The capsules of a `[[capsule]]` or `[[character.capsule]]` list.
+/// The capsules of a `[[capsule]]` list.
 fn capsules(list: List<Table<CapsuleTable>>) -> Vec<Capsule> {
     list.0
         .into_iter()
         .map(|Table(c)| Capsule {
-            a: c.a.into(),
-            b: c.b.into(),
-            radius: c.radius.0,
-            friction: c.friction.map_or(DEFAULT_FRICTION, f64::from),
             velocity: c.velocity.map_or(DVec3::ZERO, DVec3::from),
+            ..capsule(c.a, c.b, c.radius, c.friction)
         })
         .collect()
+}
+
+/// A capsule at rest from its keys, `friction` defaulted.
+fn capsule(a: Vec3, b: Vec3, radius: Number, friction: Option<Number>) -> Capsule {
+    Capsule {
+        a: a.into(),
+        b: b.into(),
+        radius: radius.0,
+        friction: friction.map_or(DEFAULT_FRICTION, f64::from),
+        velocity: DVec3::ZERO,
+    }
 }
 
 impl SceneFile {
     /// The file's `[character]`, taken out (not yet validated).
     pub(super) fn take_character(&mut self) -> Option<Character> {
         self.character.take().map(|Table(c)| Character {
-            capsules: capsules(c.capsule),
+            capsules: c
+                .capsule
+                .0
+                .into_iter()
+                .map(|Table(c)| capsule(c.a, c.b, c.radius, c.friction))
+                .collect(),
             keys: c
                 .key
                 .0
@@ -590,8 +621,21 @@ impl<'de> Deserialize<'de> for PinEntry {
                 )))
             }
             fn visit_i64<E: de::Error>(self, i: i64) -> Result<PinEntry, E> {
+                self.visit_i128(i128::from(i))
+            }
+            // TOML integers beyond 64 bits, which the toml crate reads.
+            fn visit_u128<E: de::Error>(self, i: u128) -> Result<PinEntry, E> {
                 match u64::try_from(i) {
                     Ok(i) => self.visit_u64(i),
+                    Err(_) => Err(E::custom(format!(
+                        "pin index {i} is too large, expected a particle index below {}",
+                        MAX_PARTICLES
+                    ))),
+                }
+            }
+            fn visit_i128<E: de::Error>(self, i: i128) -> Result<PinEntry, E> {
+                match u128::try_from(i) {
+                    Ok(i) => self.visit_u128(i),
                     Err(_) => Err(E::custom(format!(
                         "pin index {i} is negative, expected a particle index ≥ 0"
                     ))),

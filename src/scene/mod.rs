@@ -409,7 +409,15 @@ fn describe(text: &str, err: &serde_path_to_error::Error<toml::de::Error>) -> St
         .replace("unknown field", "unknown key")
         .replace("missing field", "missing key")
         .replace("invalid type: map,", "invalid type: a table,")
-        .replace("invalid type: sequence,", "invalid type: an array,");
+        .replace("invalid type: sequence,", "invalid type: an array,")
+        // An integer beyond 64 bits, where no visitor takes one (a
+        // boolean, a string): serde adds the Rust type it was read as.
+        .replace("` as i128,", "`,")
+        .replace("` as u128,", "`,")
+        .replace(
+            "integer number overflowed",
+            "an integer too large to read (beyond 128 bits; a float such as 1e40 is read)",
+        );
     out.push_str(&message);
     if let Some(shape) = expected_shape(&key) {
         let _ = write!(out, "; write {shape}");
@@ -472,6 +480,13 @@ fn expected_shape(key: &str) -> Option<&'static str> {
         "camera.target" => "[x, y, z], three numbers in m",
         "camera.distance" => "a number in m",
         "camera.elevation" | "camera.azimuth" | "camera.fov" => "a number of degrees",
+        "character.capsule.a" | "character.capsule.b" | "character.key.position" => {
+            "[x, y, z], three numbers in m"
+        }
+        "character.capsule.radius" => "a number in m",
+        "character.capsule.friction" => "a number (friction coefficient)",
+        "character.key.time" => "a number of seconds",
+        "character.key.yaw" => "a number of degrees",
         _ => return None,
     })
 }

@@ -52,6 +52,13 @@ impl<'de> Deserialize<'de> for Number {
             fn visit_u64<E: de::Error>(self, i: u64) -> Result<Number, E> {
                 Ok(Number(i as f64))
             }
+            // TOML integers beyond 64 bits, which the toml crate reads.
+            fn visit_i128<E: de::Error>(self, i: i128) -> Result<Number, E> {
+                Ok(Number(i as f64))
+            }
+            fn visit_u128<E: de::Error>(self, i: u128) -> Result<Number, E> {
+                Ok(Number(i as f64))
+            }
         }
         d.deserialize_any(NumberVisitor)
     }
@@ -103,6 +110,22 @@ impl<'de, T: Count> Deserialize<'de> for Whole<T> {
                 match u64::try_from(i) {
                     Ok(i) => self.visit_u64(i),
                     Err(_) => Err(E::invalid_value(de::Unexpected::Signed(i), &self)),
+                }
+            }
+            // Beyond 64 bits: too large, or negative.
+            fn visit_u128<E: de::Error>(self, i: u128) -> Result<Whole<T>, E> {
+                Err(E::custom(format!(
+                    "{i} is too large: expected a whole number ≤ {}",
+                    T::MAX
+                )))
+            }
+            fn visit_i128<E: de::Error>(self, i: i128) -> Result<Whole<T>, E> {
+                match u128::try_from(i) {
+                    Ok(i) => self.visit_u128(i),
+                    Err(_) => Err(E::custom(format!(
+                        "invalid value: integer `{i}`, expected {}",
+                        Whole::<T>::ONE
+                    ))),
                 }
             }
         }

@@ -10,6 +10,7 @@ use std::process::{Command, Output};
 use wgcloth::scene::MAX_SCENE_BYTES;
 
 use crate::cli_common::{assert_status, stderr, stdout, TempDir, BIN, EXIT_INVALID};
+use crate::refusal_faults;
 
 /// What `scene.toml` in the row's directory is.
 enum Scene {
@@ -298,41 +299,13 @@ fn bad_command_lines_and_scene_files_are_refused_clearly_and_write_nothing() {
         make_scene(&dir.0, &row.scene);
         let before = dir.files();
         let out = wgcloth_in(&dir.0, row.args);
-        let err = stderr(&out);
-        let mut wrong = Vec::new();
-        if out.status.code() != Some(EXIT_INVALID) {
-            wrong.push(format!("exit status {:?}", out.status.code()));
-        }
-        let lacks: Vec<&str> = row
-            .expect
-            .iter()
-            .copied()
-            .filter(|s| !err.contains(s))
-            .collect();
-        if !lacks.is_empty() {
-            wrong.push(format!("lacks {lacks:?}"));
-        }
-        let has: Vec<&str> = row
-            .absent
-            .iter()
-            .chain(&["panicked"])
-            .copied()
-            .filter(|s| err.contains(s))
-            .collect();
-        if !has.is_empty() {
-            wrong.push(format!("has {has:?}"));
-        }
-        if !stdout(&out).is_empty() {
-            wrong.push(format!("printed {}", stdout(&out)));
-        }
-        if dir.files() != before {
-            wrong.push(format!("left {:?} (before: {before:?})", dir.files()));
-        }
+        let wrong = refusal_faults(&out, row.expect, row.absent, &before, &dir.files());
         if !wrong.is_empty() {
             failures.push(format!(
-                "{}: {}\n    stderr: {err}",
+                "{}: {}\n    stderr: {}",
                 row.what,
-                wrong.join("; ")
+                wrong.join("; "),
+                stderr(&out)
             ));
         }
     }
