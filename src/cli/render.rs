@@ -46,7 +46,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         dir: args.out.clone(),
         strain: args.strain,
     };
-    eprintln!(
+    note!(
         "rendering `{}` on {}: {} frames of {width}×{height}, {steps_per_frame} steps each",
         scene.name,
         context.describe(),
@@ -64,9 +64,9 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
                 ControlFlow::Continue(())
             }
         });
-    eprintln!();
+    note!("");
     if let Err(e) = context.save_pipelines() {
-        eprintln!("note: compiled pipelines not kept for the next run: {e}");
+        note!("note: compiled pipelines not kept for the next run: {e}");
     }
     let written = match written.and_then(|n| context.check().map(|()| n)) {
         Err(wgcloth::Error::Interrupted) => {
@@ -80,15 +80,14 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         }
         written => written?,
     };
-    println!(
+    outln!(
         "wrote {written} frames to {} ({}…{}), {:.1} s simulated in {:.2} s",
         args.out.display(),
         render::frame_name(0),
         render::frame_name(written.saturating_sub(1)),
         f64::from(written.saturating_sub(1)) * f64::from(steps_per_frame) * scene.params.dt,
         started.elapsed().as_secs_f64(),
-    );
-    Ok(())
+    )
 }
 
 /// Creates `dir` if needed. Frames of an earlier run are never mixed with
@@ -108,8 +107,9 @@ fn prepare_dir(dir: &Path, overwrite: bool) -> anyhow::Result<()> {
             .into());
         }
         atomic_file::probe_dir(dir)?;
-        let removed = render::remove_frames(dir)?;
-        eprintln!(
+        let removed = render::remove_frames(dir)
+            .context("--overwrite removes only regular files, and removed none")?;
+        note!(
             "--overwrite: removed {removed} old frame file(s) from {}",
             dir.display()
         );
@@ -128,7 +128,7 @@ fn progress(done: u32, total: u32, started: Instant) {
     let filled = (done as usize * width)
         .checked_div(total as usize)
         .unwrap_or(width);
-    eprint!(
+    note_part!(
         "\r[{}{}] {done}/{total} frames, {rate:.1} frames/s",
         "#".repeat(filled),
         " ".repeat(width - filled)
