@@ -333,7 +333,7 @@ struct RunArgs {
     /// With a scene's `[character]`: its pose is set every
     /// ceil((1/F) / dt) steps, as `wgcloth render --fps F` sets it each
     /// frame, so both commands move the cloth alike (F ≤ 1/dt; default 30,
-    /// render's). Refused for a scene without a character.
+    /// render's, or 1/dt if less). Refused for a scene without a character.
     #[arg(
         long,
         value_name = "F",

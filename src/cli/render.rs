@@ -13,7 +13,9 @@ use wgcloth::gpu::{pipeline_cache, GpuContext};
 use wgcloth::render::{self, FrameOptions};
 use wgcloth::Scene;
 
+use super::run::WHOLE_STEPS_TOLERANCE;
 use super::{interrupt, RenderArgs, UsageError};
+use wgcloth::params::format_number;
 
 /// Runs `wgcloth render`.
 pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
@@ -27,8 +29,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         .params
         .validate()
         .context("the command-line options make the scene invalid")?;
-    let steps_per_frame = render::steps_per_frame(args.fps, scene.params.dt)
-        .map_err(|e| UsageError(format!("--fps: {e}")))?;
+    let steps_per_frame = frame_steps(args.fps, scene.params.dt)?;
     let mut context = GpuContext::new(args.adapter.as_deref())?;
     if let Some(dir) = pipeline_cache::default_dir() {
         context.keep_pipelines(&dir);
@@ -163,6 +164,23 @@ pub fn parse_fps(s: &str) -> Result<f64, String> {
     }
 }
 
+/// Steps per frame for `--fps fps` at time step `dt` \[s\] (`render`'s
+/// frames, `run`'s character poses): [`render::steps_per_frame`], but an
+/// `fps` above `1/dt` is refused, naming both, rather than its frames
+/// drawn a step apart instead of `1/fps` apart.
+pub fn frame_steps(fps: f64, dt: f64) -> Result<u32, UsageError> {
+    if 1.0 / fps / dt < 1.0 - WHOLE_STEPS_TOLERANCE {
+        return Err(UsageError(format!(
+            "--fps: must be at most 1/dt = {} frames per second (dt = {} s: a frame is at \
+             least one step), got {}",
+            format_number(1.0 / dt),
+            format_number(dt),
+            format_number(fps)
+        )));
+    }
+    render::steps_per_frame(fps, dt).map_err(|e| UsageError(format!("--fps: {e}")))
+}
+
 /// The default `--out`.
 pub fn default_out() -> PathBuf {
     PathBuf::from("out")
@@ -179,6 +197,19 @@ mod tests {
         for bad in ["640", "0x10", "ax3", "-1x2"] {
             assert!(parse_size(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn a_frame_is_at_least_a_step() {
+        assert_eq!(frame_steps(100.0, 0.01).ok(), Some(1));
+        assert_eq!(frame_steps(30.0, 0.001).ok(), Some(34));
+        let e = frame_steps(1000.0, 0.01).expect_err("a frame shorter than a step");
+        assert!(
+            e.0.contains("at most 1/dt = 100 frames per second"),
+            "{}",
+            e.0
+        );
+        assert!(e.0.contains("got 1000"), "{}", e.0);
     }
 
     #[test]

@@ -25,8 +25,9 @@ pub(super) const MAX_STEPS: u64 = 1_000_000_000_000;
 
 /// A quotient `T / dt` within this relative distance of a whole number
 /// counts as that number, so a duration that is a whole number of steps
-/// does not gain one from rounding (1 s / 0.01 s is 100 steps, not 101).
-const WHOLE_STEPS_TOLERANCE: f64 = 1e-9;
+/// does not gain one from rounding (1 s / 0.01 s is 100 steps, not 101);
+/// `--fps` holds a frame of one step to it too.
+pub(super) const WHOLE_STEPS_TOLERANCE: f64 = 1e-9;
 
 /// Runs `wgcloth run`.
 pub fn run(args: &RunArgs) -> anyhow::Result<()> {
@@ -70,9 +71,11 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
             ))
             .into())
         }
+        // By default render's frames, or a pose every step where a step is
+        // longer than one of them.
         (Some(animation), fps) => Some(Character::new(
             animation,
-            fps.unwrap_or(DEFAULT_FPS),
+            fps.unwrap_or(DEFAULT_FPS.min(1.0 / scene.params.dt)),
             scene.params.dt,
         )?),
     };
@@ -219,10 +222,9 @@ struct Character<'a> {
 
 impl<'a> Character<'a> {
     /// Poses `fps` times a second of simulated time at time step `dt`
-    /// \[s\]; an `fps` `render` would refuse is a [`UsageError`].
+    /// \[s\]; an `fps` `render` would refuse is refused.
     fn new(animation: &'a Animation, fps: f64, dt: f64) -> Result<Self, UsageError> {
-        let steps = wgcloth::render::steps_per_frame(fps, dt)
-            .map_err(|e| UsageError(format!("--fps: {e}")))?;
+        let steps = super::render::frame_steps(fps, dt)?;
         Ok(Character {
             animation,
             steps: u64::from(steps),
