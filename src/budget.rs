@@ -163,6 +163,34 @@ pub fn host_need(device: &wgpu::Device, host: u64, device_bytes: u64) -> u64 {
     }
 }
 
+/// Refuses a GPU workload of `host` host bytes and `device_bytes` device
+/// bytes on `device` when its host cannot give [`host_need`]'s bytes (see
+/// [`check_host`]). On a CPU adapter the message says which part is the
+/// workload's own and which [`CPU_ADAPTER_RESERVE`] the driver's kernel
+/// compiler is kept: the reserve is not the cloth's need.
+pub fn check_gpu_host(
+    device: &wgpu::Device,
+    host: u64,
+    device_bytes: u64,
+    what: impl FnOnce() -> String,
+) -> Result<()> {
+    let needed = host_need(device, host, device_bytes);
+    let own = total(&[host, device_bytes]);
+    check_host(needed, || {
+        let what = what();
+        if needed > own {
+            format!(
+                "{what} ({} of its own, plus the driver's reserve of {} that a CPU \
+                 adapter keeps free for compiling kernels)",
+                Bytes(own),
+                Bytes(needed - own)
+            )
+        } else {
+            what
+        }
+    })
+}
+
 /// The error of an allocation the allocator refused.
 fn refused<T>(len: usize, what: &str) -> Error {
     Error::OutOfMemory {

@@ -62,6 +62,17 @@ pub enum Error {
         message: String,
     },
 
+    /// A GPU adapter was found but its device could not be opened (the
+    /// driver out of memory, or failing): unlike [`Error::NoAdapter`], no
+    /// driver is missing.
+    #[error("the GPU adapter {adapter} was found but could not be opened: {message}")]
+    DeviceUnavailable {
+        /// The adapter's name.
+        adapter: String,
+        /// Why (`out of memory …`).
+        message: String,
+    },
+
     /// The device cannot hold this cloth or image, or lacks a needed
     /// capability.
     #[error("the GPU device's limit `{limit}` is {available}, but {what} needs {needed}")]

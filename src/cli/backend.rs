@@ -10,6 +10,7 @@ use std::borrow::Cow;
 use wgcloth::diagnostics::Divergence;
 use wgcloth::gpu::{Profile, Profiler, StepPath, Timestamps};
 use wgcloth::real::Vec3;
+use wgcloth::scene::animation::Animation;
 use wgcloth::{CpuSolver, GpuContext, GpuSolver, Integrator, Model, Params, Real, StepStats};
 
 use super::summary::{BatchSummary, CgDetail, CgSummary, FixupSummary, SolverStats};
@@ -52,6 +53,11 @@ pub trait Solver {
         let s = self.state()?;
         Ok(Divergence::new(model, params, time, &s.x, &s.v))
     }
+    /// Sets the colliders and pin targets of `animation` (a scene's
+    /// character) for the frame of `frame_seconds` \[s\] from `t` \[s\]
+    /// ([`Animation::apply`]).
+    fn animate(&mut self, animation: &Animation, t: f64, frame_seconds: f64)
+        -> wgcloth::Result<()>;
     /// The solver's statistics of the run so far, given its parameters.
     fn stats(&self, params: &Params) -> SolverStats;
     /// The passes one step records: (kernel, dispatches, invocations each);
@@ -121,6 +127,15 @@ impl<R: Real> Solver for Cpu<R> {
             x: Cow::Borrowed(&self.solver.state().x),
             v: Cow::Borrowed(&self.solver.state().v),
         })
+    }
+
+    fn animate(
+        &mut self,
+        animation: &Animation,
+        t: f64,
+        frame_seconds: f64,
+    ) -> wgcloth::Result<()> {
+        animation.apply(&mut self.solver, t, frame_seconds)
     }
 
     fn stats(&self, params: &Params) -> SolverStats {
@@ -265,7 +280,7 @@ pub fn open_device(adapter: Option<&str>, features: wgpu::Features) -> wgcloth::
 /// only a note: the next run compiles them again).
 pub fn keep_pipelines(context: &GpuContext) {
     if let Err(e) = context.save_pipelines() {
-        eprintln!("note: compiled pipelines not kept for the next run: {e}");
+        note!("note: compiled pipelines not kept for the next run: {e}");
     }
 }
 
@@ -325,6 +340,15 @@ impl Solver for Gpu {
             x: state.x.into_iter().map(Vec3::from).collect(),
             v: state.v.into_iter().map(Vec3::from).collect(),
         })
+    }
+
+    fn animate(
+        &mut self,
+        animation: &Animation,
+        t: f64,
+        frame_seconds: f64,
+    ) -> wgcloth::Result<()> {
+        animation.apply(&mut self.solver, t, frame_seconds)
     }
 
     fn stats(&self, params: &Params) -> SolverStats {

@@ -5,7 +5,9 @@
 use std::borrow::Cow;
 
 use wgcloth::gpu::{ClothId, GpuBatch, StepPath};
+use wgcloth::params::{Capsule, PinTarget};
 use wgcloth::real::Vec3;
+use wgcloth::scene::animation::{Animated, Animation};
 use wgcloth::{GpuContext, Model, Params, StepStats};
 
 use super::backend::{gpu_stats, keep_pipelines, open_device, Solver, State, MAX_BATCH};
@@ -109,6 +111,25 @@ impl Solver for GpuCopies {
         })
     }
 
+    fn animate(
+        &mut self,
+        animation: &Animation,
+        t: f64,
+        frame_seconds: f64,
+    ) -> wgcloth::Result<()> {
+        for id in self.batch.cloths() {
+            animation.apply(
+                &mut BatchCloth {
+                    batch: &mut self.batch,
+                    id,
+                },
+                t,
+                frame_seconds,
+            )?;
+        }
+        Ok(())
+    }
+
     fn stats(&self, params: &Params) -> SolverStats {
         gpu_stats(params, self.cg_max, self.status)
     }
@@ -118,5 +139,26 @@ impl Solver for GpuCopies {
             cloths: self.batch.cloth_count() as u64,
             dispatches_per_step: self.batch.dispatches_per_step(),
         })
+    }
+}
+
+/// One cloth of a batch, for [`Animation::apply`]: every copy is animated
+/// as copy 0 is.
+struct BatchCloth<'a> {
+    batch: &'a mut GpuBatch,
+    id: ClothId,
+}
+
+impl Animated for BatchCloth<'_> {
+    fn set_capsules(&mut self, capsules: &[Capsule]) -> wgcloth::Result<()> {
+        self.batch.set_capsules(self.id, capsules)
+    }
+
+    fn set_pin_targets(
+        &mut self,
+        targets: &[PinTarget],
+        frame_seconds: f64,
+    ) -> wgcloth::Result<()> {
+        self.batch.set_pin_targets(self.id, targets, frame_seconds)
     }
 }

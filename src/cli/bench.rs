@@ -16,7 +16,7 @@ use wgcloth::evidence::{
 use wgcloth::gpu::GpuContext;
 use wgcloth::Scene;
 
-use super::{chart, BenchAccuracyArgs, BenchCantileverArgs, BenchStabilityArgs};
+use super::{chart, BenchAccuracyArgs, BenchCantileverArgs, BenchStabilityArgs, UsageError};
 
 /// Stiffness range [N/m] the article reached with its semi-implicit
 /// integrator (see `docs/integrators.md`): 10⁵.
@@ -24,18 +24,64 @@ const ARTICLE_STIFFNESS: f64 = 1e5;
 /// Stiffness range Desbrun et al. claimed: 10⁶.
 const DESBRUN_STIFFNESS: f64 = 1e6;
 
-/// Writes `text` to `dir/name`, creating `dir`.
-fn write(dir: &Path, name: &str, text: &str) -> anyhow::Result<()> {
+/// Refuses an `--out` that cannot be a folder: the path itself, or the
+/// nearest of its ancestors that exists, is something other than a folder
+/// (a file, a FIFO…). Checked before a sweep runs, so that minutes of
+/// measuring are not lost to the destination.
+fn check_out_dir(dir: &Path) -> Result<(), UsageError> {
+    let Some((existing, meta)) = dir
+        .ancestors()
+        .filter(|a| !a.as_os_str().is_empty())
+        .find_map(|a| fs::metadata(a).ok().map(|m| (a, m)))
+    else {
+        return Ok(());
+    };
+    if meta.is_dir() {
+        return Ok(());
+    }
+    let what = if existing == dir {
+        "is".to_string()
+    } else {
+        format!("is inside {}, which is", existing.display())
+    };
+    Err(UsageError(format!(
+        "--out {}: {what} a file, not a folder; --out names the folder the CSV and SVG \
+         are written into (created if missing): choose a folder",
+        dir.display()
+    )))
+}
+
+/// Writes each `(name, text)` into `dir` (created if missing), all or
+/// none ([`commit_all`]), then says which files were written.
+fn write_files(dir: &Path, files: &[(&str, String)]) -> anyhow::Result<()> {
+    check_out_dir(dir)?;
     fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let path = dir.join(name);
-    fs::write(&path, text).with_context(|| format!("writing {}", path.display()))?;
-    println!("wrote {}", path.display());
+    let mut written = Vec::new();
+    for (name, text) in files {
+        let mut file = AtomicFile::create(&dir.join(name))?;
+        file.write_with(|out| out.write_all(text.as_bytes()))?;
+        written.push(file);
+    }
+    let paths: Vec<String> = written
+        .iter()
+        .map(|f| f.path().display().to_string())
+        .collect();
+    commit_all(written)?;
+    say_written(&paths)
+}
+
+/// `wrote PATH`, a line each.
+fn say_written(paths: &[String]) -> anyhow::Result<()> {
+    for p in paths {
+        outln!("wrote {p}")?;
+    }
     Ok(())
 }
 
 /// `wgcloth bench accuracy`.
 pub fn accuracy(args: &BenchAccuracyArgs) -> anyhow::Result<()> {
     let scene = Scene::resolve(&args.scene)?;
+    check_out_dir(&args.out)?;
     let options = if args.quick {
         AccuracyOptions::quick()
     } else {
@@ -48,7 +94,7 @@ pub fn accuracy(args: &BenchAccuracyArgs) -> anyhow::Result<()> {
         match GpuContext::new(args.adapter.as_deref()) {
             Ok(c) => Some(c),
             Err(e) => {
-                eprintln!("note: no GPU rows ({e})");
+                note!("note: no GPU rows ({e})");
                 None
             }
         }
@@ -58,13 +104,17 @@ pub fn accuracy(args: &BenchAccuracyArgs) -> anyhow::Result<()> {
         queue: &c.queue,
     });
     if let Some(c) = &context {
-        println!("GPU adapter: {}", c.adapter.get_info().name);
+        outln!("GPU adapter: {}", c.adapter.get_info().name)?;
     }
     let report = evidence::accuracy(&scene, &options, gpu)?;
-    write(&args.out, "accuracy.csv", &accuracy_csv(&report))?;
-    write(&args.out, "accuracy.svg", &chart::accuracy_svg(&report))?;
-    print!("{}", accuracy_table(&report));
-    Ok(())
+    write_files(
+        &args.out,
+        &[
+            ("accuracy.csv", accuracy_csv(&report)),
+            ("accuracy.svg", chart::accuracy_svg(&report)),
+        ],
+    )?;
+    out!("{}", accuracy_table(&report))
 }
 
 /// The accuracy CSV: `#` comment lines, then
@@ -154,6 +204,7 @@ fn accuracy_table(r: &AccuracyReport) -> String {
 
 /// `wgcloth bench stability`.
 pub fn stability(args: &BenchStabilityArgs) -> anyhow::Result<()> {
+    check_out_dir(&args.out)?;
     let options = if args.quick {
         StabilityOptions::quick()
     } else {
@@ -171,7 +222,7 @@ pub fn stability(args: &BenchStabilityArgs) -> anyhow::Result<()> {
         }
         super::Backend::Gpu => {
             let context = GpuContext::new(args.adapter.as_deref())?;
-            println!("GPU adapter: {}", context.describe());
+            outln!("GPU adapter: {}", context.describe())?;
             let gpu = GpuHandles {
                 device: &context.device,
                 queue: &context.queue,
@@ -179,10 +230,14 @@ pub fn stability(args: &BenchStabilityArgs) -> anyhow::Result<()> {
             evidence::stability_gpu(&options, gpu, GpuGrouping::Batches)?
         }
     };
-    write(&args.out, "stability.csv", &stability_csv(&report))?;
-    write(&args.out, "stability.svg", &chart::stability_svg(&report))?;
-    print!("{}", stability_table(&report));
-    Ok(())
+    write_files(
+        &args.out,
+        &[
+            ("stability.csv", stability_csv(&report)),
+            ("stability.svg", chart::stability_svg(&report)),
+        ],
+    )?;
+    out!("{}", stability_table(&report))
 }
 
 /// The stability CSV: `#` comment lines, then
@@ -281,11 +336,8 @@ pub fn cantilever(args: &BenchCantileverArgs) -> anyhow::Result<()> {
         .map(|f| f.path().display().to_string())
         .collect();
     commit_all(files)?;
-    for p in paths {
-        println!("wrote {p}");
-    }
-    print!("{}", cantilever_table(&report));
-    Ok(())
+    say_written(&paths)?;
+    out!("{}", cantilever_table(&report))
 }
 
 /// The cantilever CSV: `#` comment lines, then

@@ -17,10 +17,10 @@ pub fn install() {
         if REQUESTED.swap(true, Ordering::SeqCst) {
             std::process::exit(EXIT_INTERRUPTED.into());
         }
-        eprintln!("\ninterrupted: stopping and removing temporaries (again to stop at once)");
+        note!("\ninterrupted: stopping and removing temporaries (again to stop at once)");
     });
     if let Err(e) = installed {
-        eprintln!("warning: Ctrl-C will end wgcloth at once: {e}");
+        note!("warning: Ctrl-C will end wgcloth at once: {e}");
     }
 }
 

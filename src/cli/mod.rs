@@ -3,6 +3,40 @@
 //! The options and exit statuses are a stable contract (documented in
 //! `docs/cli.md`): scripts run parameter sweeps through them.
 
+/// `print!` that hands a failed write back (`?`) instead of panicking: a
+/// reader that stopped reading (`wgcloth scenes | head -1`) ends the
+/// command quietly with [`EXIT_CLOSED_PIPE`] (see [`stdout_closed`]).
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli::say(format_args!($($arg)*))
+    };
+}
+
+/// `println!` as [`out!`] writes.
+macro_rules! outln {
+    () => {
+        $crate::cli::say(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::cli::say(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `eprintln!` that never panics: a note to a closed stderr is lost, and
+/// the exit status still tells the outcome.
+macro_rules! note {
+    ($($arg:tt)*) => {
+        $crate::cli::tell(format_args!($($arg)*), true)
+    };
+}
+
+/// `eprint!` as [`note!`] writes.
+macro_rules! note_part {
+    ($($arg:tt)*) => {
+        $crate::cli::tell(format_args!($($arg)*), false)
+    };
+}
+
 mod backend;
 mod batch;
 mod bench;
@@ -24,6 +58,10 @@ use wgcloth::gpu::Timestamps;
 use wgcloth::params::format_number;
 use wgcloth::Integrator;
 
+/// Frames per second of `render` (and of a character's poses in `run`)
+/// unless `--fps` says otherwise.
+const DEFAULT_FPS: f64 = 30.0;
+
 /// Exit status of a run that succeeded.
 const EXIT_OK: u8 = 0;
 /// An output file could not be created or written, or another failure that
@@ -43,6 +81,12 @@ const EXIT_NO_ADAPTER: u8 = 4;
 /// Ctrl-C or SIGTERM stopped `run` or `render` (128 + SIGINT, the shell's
 /// convention): no partial file was left, no output of `run` was written.
 const EXIT_INTERRUPTED: u8 = 130;
+/// Standard output was a pipe its reader had closed (`| head -1`): the
+/// command stopped quietly at its first line that could not be written,
+/// with the status a tool killed by SIGPIPE reports (128 + 13), so that
+/// `set -o pipefail` still sees an output that was not all read. Files
+/// already committed are kept whole; none is left half written.
+const EXIT_CLOSED_PIPE: u8 = 141;
 
 #[derive(Parser, Debug)]
 #[command(
@@ -170,11 +214,11 @@ struct RenderArgs {
     frames: u32,
 
     /// Frames per second of simulated time: each frame advances
-    /// ceil((1/FPS) / dt) steps.
+    /// ceil((1/FPS) / dt) steps (FPS ≤ 1/dt: a frame is at least a step).
     #[arg(
         long,
         value_name = "F",
-        default_value_t = 30.0,
+        default_value_t = DEFAULT_FPS,
         value_parser = render::parse_fps,
         allow_hyphen_values = true
     )]
@@ -225,7 +269,7 @@ impl RenderArgs {
         RenderArgs {
             scene: "hanging".to_string(),
             frames: 60,
-            fps: 30.0,
+            fps: DEFAULT_FPS,
             size: (640, 480),
             out: render::default_out(),
             overwrite: true,
@@ -285,6 +329,18 @@ struct RunArgs {
     /// Time step in seconds, overriding the scene's `[simulation] dt` (0 < DT ≤ 1).
     #[arg(long, value_name = "DT", value_parser = parse_dt, allow_hyphen_values = true)]
     dt: Option<f64>,
+
+    /// With a scene's `[character]`: its pose is set every
+    /// ceil((1/F) / dt) steps, as `wgcloth render --fps F` sets it each
+    /// frame, so both commands move the cloth alike (F ≤ 1/dt; default 30,
+    /// render's, or 1/dt if less). Refused for a scene without a character.
+    #[arg(
+        long,
+        value_name = "F",
+        value_parser = render::parse_fps,
+        allow_hyphen_values = true
+    )]
+    fps: Option<f64>,
 
     /// Write the final positions (metres) to FILE: one line `x y z` per particle,
     /// in particle order, every number exact as an f64.
@@ -504,6 +560,37 @@ fn parse_frames(s: &str) -> Result<u32, String> {
 #[error("{0}")]
 struct UsageError(String);
 
+/// Standard output could not take a line because its reader is gone (a
+/// closed pipe): the command ends quietly with [`EXIT_CLOSED_PIPE`].
+#[derive(Debug, thiserror::Error)]
+#[error("standard output was closed by its reader")]
+struct StdoutClosed;
+
+/// Writes to standard output (what [`out!`] and [`outln!`] expand to). A
+/// closed pipe is [`StdoutClosed`]; any other failure (a full disk behind
+/// a redirection) an error naming standard output.
+fn say(args: std::fmt::Arguments<'_>) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    match stdout.write_fmt(args).and_then(|()| stdout.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Err(StdoutClosed.into()),
+        Err(e) => Err(anyhow::Error::new(e).context("writing to standard output")),
+    }
+}
+
+/// Writes to standard error (what [`note!`] and [`note_part!`] expand to),
+/// then a newline if `line`; a failure is ignored.
+fn tell(args: std::fmt::Arguments<'_>, line: bool) {
+    use std::io::Write as _;
+    let mut stderr = std::io::stderr().lock();
+    let _ = stderr.write_fmt(args);
+    if line {
+        let _ = stderr.write_all(b"\n");
+    }
+    let _ = stderr.flush();
+}
+
 /// Parses the command line, runs it and maps the outcome to an exit status.
 pub fn main() -> ExitCode {
     // Usage errors exit with status 2 here, `--help` and `--version` with 0.
@@ -519,8 +606,9 @@ pub fn main() -> ExitCode {
     };
     match outcome {
         Ok(()) => ExitCode::from(EXIT_OK),
+        Err(err) if err.chain().any(|c| c.is::<StdoutClosed>()) => ExitCode::from(EXIT_CLOSED_PIPE),
         Err(err) => {
-            eprintln!("error: {err:#}");
+            note!("error: {err:#}");
             ExitCode::from(exit_status(&err))
         }
     }
@@ -533,26 +621,33 @@ fn exit_status(err: &anyhow::Error) -> u8 {
             return EXIT_INVALID;
         }
         if let Some(e) = cause.downcast_ref::<wgcloth::Error>() {
-            return match e {
-                // The cloth's own error follows in the chain.
-                wgcloth::Error::InBatch { .. } => continue,
-                wgcloth::Error::NonFinite { .. } | wgcloth::Error::Diverged { .. } => EXIT_BLEW_UP,
-                wgcloth::Error::NoAdapter { .. } => EXIT_NO_ADAPTER,
-                wgcloth::Error::Interrupted => EXIT_INTERRUPTED,
-                // A cloth or image too big for the device or the host's
-                // memory is the input's fault.
-                wgcloth::Error::InvalidParameter { .. }
-                | wgcloth::Error::Scene { .. }
-                | wgcloth::Error::Mesh { .. }
-                | wgcloth::Error::UnknownScene { .. }
-                | wgcloth::Error::DeviceLimit { .. }
-                | wgcloth::Error::NotAFile { .. }
-                | wgcloth::Error::OutOfMemory { .. } => EXIT_INVALID,
-                _ => EXIT_FAILURE,
-            };
+            return library_status(e);
         }
     }
     EXIT_FAILURE
+}
+
+/// The documented exit status for a library error.
+fn library_status(e: &wgcloth::Error) -> u8 {
+    match e {
+        // A cloth of a batch fails as a lone cloth would.
+        wgcloth::Error::InBatch { source, .. } => library_status(source),
+        wgcloth::Error::NonFinite { .. } | wgcloth::Error::Diverged { .. } => EXIT_BLEW_UP,
+        wgcloth::Error::NoAdapter { .. } | wgcloth::Error::DeviceUnavailable { .. } => {
+            EXIT_NO_ADAPTER
+        }
+        wgcloth::Error::Interrupted => EXIT_INTERRUPTED,
+        // A cloth or image too big for the device or the host's memory is
+        // the input's fault.
+        wgcloth::Error::InvalidParameter { .. }
+        | wgcloth::Error::Scene { .. }
+        | wgcloth::Error::Mesh { .. }
+        | wgcloth::Error::UnknownScene { .. }
+        | wgcloth::Error::DeviceLimit { .. }
+        | wgcloth::Error::NotAFile { .. }
+        | wgcloth::Error::OutOfMemory { .. } => EXIT_INVALID,
+        _ => EXIT_FAILURE,
+    }
 }
 
 #[cfg(test)]

@@ -13,7 +13,9 @@ use wgcloth::gpu::{pipeline_cache, GpuContext};
 use wgcloth::render::{self, FrameOptions};
 use wgcloth::Scene;
 
+use super::run::WHOLE_STEPS_TOLERANCE;
 use super::{interrupt, RenderArgs, UsageError};
+use wgcloth::params::format_number;
 
 /// Runs `wgcloth render`.
 pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
@@ -27,8 +29,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         .params
         .validate()
         .context("the command-line options make the scene invalid")?;
-    let steps_per_frame = render::steps_per_frame(args.fps, scene.params.dt)
-        .map_err(|e| UsageError(format!("--fps: {e}")))?;
+    let steps_per_frame = frame_steps(args.fps, scene.params.dt)?;
     let mut context = GpuContext::new(args.adapter.as_deref())?;
     if let Some(dir) = pipeline_cache::default_dir() {
         context.keep_pipelines(&dir);
@@ -46,7 +47,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         dir: args.out.clone(),
         strain: args.strain,
     };
-    eprintln!(
+    note!(
         "rendering `{}` on {}: {} frames of {width}×{height}, {steps_per_frame} steps each",
         scene.name,
         context.describe(),
@@ -64,9 +65,9 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
                 ControlFlow::Continue(())
             }
         });
-    eprintln!();
+    note!("");
     if let Err(e) = context.save_pipelines() {
-        eprintln!("note: compiled pipelines not kept for the next run: {e}");
+        note!("note: compiled pipelines not kept for the next run: {e}");
     }
     let written = match written.and_then(|n| context.check().map(|()| n)) {
         Err(wgcloth::Error::Interrupted) => {
@@ -80,15 +81,14 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         }
         written => written?,
     };
-    println!(
+    outln!(
         "wrote {written} frames to {} ({}…{}), {:.1} s simulated in {:.2} s",
         args.out.display(),
         render::frame_name(0),
         render::frame_name(written.saturating_sub(1)),
         f64::from(written.saturating_sub(1)) * f64::from(steps_per_frame) * scene.params.dt,
         started.elapsed().as_secs_f64(),
-    );
-    Ok(())
+    )
 }
 
 /// Creates `dir` if needed. Frames of an earlier run are never mixed with
@@ -108,8 +108,9 @@ fn prepare_dir(dir: &Path, overwrite: bool) -> anyhow::Result<()> {
             .into());
         }
         atomic_file::probe_dir(dir)?;
-        let removed = render::remove_frames(dir)?;
-        eprintln!(
+        let removed = render::remove_frames(dir)
+            .context("--overwrite removes only regular files, and removed none")?;
+        note!(
             "--overwrite: removed {removed} old frame file(s) from {}",
             dir.display()
         );
@@ -128,7 +129,7 @@ fn progress(done: u32, total: u32, started: Instant) {
     let filled = (done as usize * width)
         .checked_div(total as usize)
         .unwrap_or(width);
-    eprint!(
+    note_part!(
         "\r[{}{}] {done}/{total} frames, {rate:.1} frames/s",
         "#".repeat(filled),
         " ".repeat(width - filled)
@@ -163,6 +164,23 @@ pub fn parse_fps(s: &str) -> Result<f64, String> {
     }
 }
 
+/// Steps per frame for `--fps fps` at time step `dt` \[s\] (`render`'s
+/// frames, `run`'s character poses): [`render::steps_per_frame`], but an
+/// `fps` above `1/dt` is refused, naming both, rather than its frames
+/// drawn a step apart instead of `1/fps` apart.
+pub fn frame_steps(fps: f64, dt: f64) -> Result<u32, UsageError> {
+    if 1.0 / fps / dt < 1.0 - WHOLE_STEPS_TOLERANCE {
+        return Err(UsageError(format!(
+            "--fps: must be at most 1/dt = {} frames per second (dt = {} s: a frame is at \
+             least one step), got {}",
+            format_number(1.0 / dt),
+            format_number(dt),
+            format_number(fps)
+        )));
+    }
+    render::steps_per_frame(fps, dt).map_err(|e| UsageError(format!("--fps: {e}")))
+}
+
 /// The default `--out`.
 pub fn default_out() -> PathBuf {
     PathBuf::from("out")
@@ -179,6 +197,19 @@ mod tests {
         for bad in ["640", "0x10", "ax3", "-1x2"] {
             assert!(parse_size(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn a_frame_is_at_least_a_step() {
+        assert_eq!(frame_steps(100.0, 0.01).ok(), Some(1));
+        assert_eq!(frame_steps(30.0, 0.001).ok(), Some(34));
+        let e = frame_steps(1000.0, 0.01).expect_err("a frame shorter than a step");
+        assert!(
+            e.0.contains("at most 1/dt = 100 frames per second"),
+            "{}",
+            e.0
+        );
+        assert!(e.0.contains("got 1000"), "{}", e.0);
     }
 
     #[test]

@@ -15,8 +15,9 @@ use super::interrupt;
 use super::output::{commit_all, same_file, write_positions, AtomicFile, Trace};
 use super::profile;
 use super::summary::{Outcome, Summary};
-use super::{Backend, Precision, RunArgs, StepPathArg, UsageError};
+use super::{Backend, Precision, RunArgs, StepPathArg, UsageError, DEFAULT_FPS};
 use wgcloth::gpu::Timestamps;
+use wgcloth::scene::animation::Animation;
 
 /// Most steps one run may take: far beyond any useful run, and small enough
 /// that the count is exact in an `f64` (the `--seconds` conversion).
@@ -24,8 +25,9 @@ pub(super) const MAX_STEPS: u64 = 1_000_000_000_000;
 
 /// A quotient `T / dt` within this relative distance of a whole number
 /// counts as that number, so a duration that is a whole number of steps
-/// does not gain one from rounding (1 s / 0.01 s is 100 steps, not 101).
-const WHOLE_STEPS_TOLERANCE: f64 = 1e-9;
+/// does not gain one from rounding (1 s / 0.01 s is 100 steps, not 101);
+/// `--fps` holds a frame of one step to it too.
+pub(super) const WHOLE_STEPS_TOLERANCE: f64 = 1e-9;
 
 /// Runs `wgcloth run`.
 pub fn run(args: &RunArgs) -> anyhow::Result<()> {
@@ -58,8 +60,28 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         }
     }
     let model = scene.model()?;
+    let animation = scene.animation(&model);
+    let character = match (&animation, args.fps) {
+        (None, None) => None,
+        (None, Some(_)) => {
+            return Err(UsageError(format!(
+                "--fps only applies to a scene with a [character] (it sets how often the \
+                 character's pose is updated); `{}` has none",
+                scene.name
+            ))
+            .into())
+        }
+        // By default render's frames, or a pose every step where a step is
+        // longer than one of them.
+        (Some(animation), fps) => Some(Character::new(
+            animation,
+            fps.unwrap_or(DEFAULT_FPS.min(1.0 / scene.params.dt)),
+            scene.params.dt,
+        )?),
+    };
     let (model, params) = (&model, &scene.params);
     let run = Run {
+        character,
         model,
         params,
         steps,
@@ -98,30 +120,30 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         wall: started.elapsed(),
         outcome,
     };
-    print!("{summary}");
+    out!("{summary}")?;
     if args.verbose {
         if let Some(path) = &summary.outcome.step_path {
-            println!("step path: {path}");
+            outln!("step path: {path}")?;
         }
-        print_passes(&summary.outcome.passes, summary.outcome.backend);
+        print_passes(&summary.outcome.passes, summary.outcome.backend)?;
     }
     if let Some(profile) = &summary.outcome.profile {
-        print!("{}", profile::Table(profile));
+        out!("{}", profile::Table(profile))?;
     }
     Ok(())
 }
 
 /// `--verbose`: the passes of one step, then `dispatches per step: N`.
-fn print_passes(passes: &[(&str, u32, u32)], backend: &str) {
+fn print_passes(passes: &[(&str, u32, u32)], backend: &str) -> anyhow::Result<()> {
     if passes.is_empty() {
-        println!("passes per step       none: the {backend} backend dispatches no GPU work");
+        outln!("passes per step       none: the {backend} backend dispatches no GPU work")?;
     }
     for (k, (kernel, count, items)) in passes.iter().enumerate() {
         let head = if k == 0 { "passes per step" } else { "" };
-        println!("{head:<21} {kernel:<20} {count:>4} × {items} invocations");
+        outln!("{head:<21} {kernel:<20} {count:>4} × {items} invocations")?;
     }
     let total: u32 = passes.iter().map(|p| p.1).sum();
-    println!("dispatches per step: {total}");
+    outln!("dispatches per step: {total}")
 }
 
 /// The solver's precision: `--precision` on the CPU (default f64); f32 on
@@ -186,8 +208,35 @@ fn steps_for(seconds: f64, dt: f64, what: &str) -> Result<u64, UsageError> {
     Ok(n as u64)
 }
 
+/// A scene's character as `run` plays it: posed every `steps` steps, as
+/// `render` poses it before each frame's steps (the same
+/// [`wgcloth::render::steps_per_frame`] for the same frames per second),
+/// so both commands move the cloth alike.
+struct Character<'a> {
+    animation: &'a Animation,
+    /// Steps between two poses.
+    steps: u64,
+    /// Their simulated time \[s\].
+    seconds: f64,
+}
+
+impl<'a> Character<'a> {
+    /// Poses `fps` times a second of simulated time at time step `dt`
+    /// \[s\]; an `fps` `render` would refuse is refused.
+    fn new(animation: &'a Animation, fps: f64, dt: f64) -> Result<Self, UsageError> {
+        let steps = super::render::frame_steps(fps, dt)?;
+        Ok(Character {
+            animation,
+            steps: u64::from(steps),
+            seconds: f64::from(steps) * dt,
+        })
+    }
+}
+
 /// One run: what to simulate and where its files go.
 struct Run<'a> {
+    /// The scene's character, if it has one.
+    character: Option<Character<'a>>,
     model: &'a Model,
     params: &'a Params,
     steps: u64,
@@ -236,6 +285,15 @@ impl Run<'_> {
             let mut n = (self.steps - done).min(CHECK_EVERY - done % CHECK_EVERY);
             if trace.is_some() {
                 n = n.min(self.trace_every - done % self.trace_every);
+            }
+            // Up to the character's next pose, set at the start of each of
+            // its frames as `render` sets it.
+            if let Some(c) = &self.character {
+                if done.is_multiple_of(c.steps) {
+                    let frame = (done / c.steps) as f64;
+                    solver.animate(c.animation, frame * c.seconds, c.seconds)?;
+                }
+                n = n.min(c.steps - done % c.steps);
             }
             interrupt::check()?;
             let t0 = Instant::now();

@@ -12,13 +12,13 @@ pub fn list() -> anyhow::Result<()> {
         // A built-in that does not load is a bug in the crate, not the
         // user's input: say which one.
         let scene = Scene::builtin(name).with_context(|| format!("built-in scene `{name}`"))?;
-        println!(
+        outln!(
             "{name:<width$}  {}, {}, dt = {} s, {} s",
             scene.cloth_summary(),
             scene.params.integrator,
             scene.params.dt,
             scene.duration
-        );
+        )?;
     }
     Ok(())
 }

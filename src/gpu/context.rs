@@ -66,6 +66,64 @@ pub fn backends_from_env() -> Result<Option<wgpu::Backends>> {
     Ok(Some(backends))
 }
 
+/// The first adapter whose name contains `want` (case-insensitive).
+fn find_adapter(instance: &wgpu::Instance, want: &str) -> Result<wgpu::Adapter> {
+    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+    let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
+    let lower = want.to_lowercase();
+    adapters
+        .into_iter()
+        .find(|a| a.get_info().name.to_lowercase().contains(&lower))
+        .ok_or_else(|| Error::NoAdapter {
+            message: format!(
+                "none matches `{want}` (available: {})",
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                }
+            ),
+        })
+}
+
+/// Runs `call`, turning a panic inside it (wgpu's or the driver's) into
+/// `failed(its message)`. Whatever `call` touched is dropped or not used
+/// again, so a half-done call leaves nothing behind to observe.
+fn unwound<T>(call: impl FnOnce() -> Result<T>, failed: impl FnOnce(String) -> Error) -> Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(call)).unwrap_or_else(|payload| {
+        let message = payload
+            .downcast_ref::<&str>()
+            .map(|s| (*s).to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic without a message".to_string());
+        Err(failed(one_line_text(&message)))
+    })
+}
+
+/// `text` on one line, without the full stop a driver's message may end in
+/// (the message goes inside a sentence).
+fn one_line_text(text: &str) -> String {
+    text.split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+        .trim_end_matches('.')
+        .to_string()
+}
+
+/// Why a device could not be opened, as a user can act on it: a driver
+/// out of memory says so, and what to do.
+fn opening_failure(message: &str) -> String {
+    let text = one_line_text(message);
+    if text.to_lowercase().contains("memory") {
+        format!(
+            "out of memory ({text}); free memory, or raise the process's limit \
+             (ulimit -v) if one is set"
+        )
+    } else {
+        text
+    }
+}
+
 impl GpuContext {
     /// Opens an adapter: the first whose name contains `name`
     /// (case-insensitive) if given, else the one named by the
@@ -102,51 +160,50 @@ impl GpuContext {
         let wanted = name
             .map(str::to_owned)
             .or_else(|| std::env::var("WGPU_ADAPTER_NAME").ok());
-        let adapter = match wanted {
-            Some(want) => {
-                let adapters =
-                    pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
-                let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
-                let lower = want.to_lowercase();
-                adapters
-                    .into_iter()
-                    .find(|a| a.get_info().name.to_lowercase().contains(&lower))
-                    .ok_or_else(|| Error::NoAdapter {
-                        message: format!(
-                            "none matches `{want}` (available: {})",
-                            if names.is_empty() {
-                                "none".to_string()
-                            } else {
-                                names.join(", ")
-                            }
-                        ),
-                    })?
-            }
-            None => pollster::block_on(
-                instance.request_adapter(&wgpu::RequestAdapterOptions {
-                    power_preference: wgpu::PowerPreference::from_env()
-                        .unwrap_or(wgpu::PowerPreference::HighPerformance),
-                    force_fallback_adapter: false,
-                    compatible_surface: None,
-                    apply_limit_buckets: false,
+        // The driver is called through wgpu, which panics on some of its
+        // failures (out of memory under `ulimit -v`, among them): each call
+        // here is caught, so that no panic reaches the host.
+        let adapter = unwound(
+            || match wanted {
+                Some(want) => find_adapter(&instance, &want),
+                None => pollster::block_on(
+                    instance.request_adapter(&wgpu::RequestAdapterOptions {
+                        power_preference: wgpu::PowerPreference::from_env()
+                            .unwrap_or(wgpu::PowerPreference::HighPerformance),
+                        force_fallback_adapter: false,
+                        compatible_surface: None,
+                        apply_limit_buckets: false,
+                    }),
+                )
+                .map_err(|e| Error::NoAdapter {
+                    message: e.to_string(),
                 }),
-            )
-            .map_err(|e| Error::NoAdapter {
-                message: e.to_string(),
-            })?,
+            },
+            |message| Error::NoAdapter {
+                message: format!("the graphics driver failed while looking for one ({message})"),
+            },
+        )?;
+        let adapter_name = adapter.get_info().name;
+        let unavailable = |message: String| Error::DeviceUnavailable {
+            adapter: adapter_name.clone(),
+            message: opening_failure(&message),
         };
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("wgcloth.device"),
-            // Compiled pipelines can then be kept between runs (Vulkan).
-            required_features: adapter.features() & (wgpu::Features::PIPELINE_CACHE | features),
-            required_limits: adapter.limits(),
-            experimental_features: wgpu::ExperimentalFeatures::disabled(),
-            memory_hints: wgpu::MemoryHints::Performance,
-            trace: wgpu::Trace::Off,
-        }))
-        .map_err(|e| Error::NoAdapter {
-            message: format!("{}: {e}", adapter.get_info().name),
-        })?;
+        let (device, queue) = unwound(
+            || {
+                pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+                    label: Some("wgcloth.device"),
+                    // Compiled pipelines can then be kept between runs (Vulkan).
+                    required_features: adapter.features()
+                        & (wgpu::Features::PIPELINE_CACHE | features),
+                    required_limits: adapter.limits(),
+                    experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                    memory_hints: wgpu::MemoryHints::Performance,
+                    trace: wgpu::Trace::Off,
+                }))
+                .map_err(|e| unavailable(e.to_string()))
+            },
+            unavailable,
+        )?;
         // wgpu's default handlers panic; this context records the first
         // error instead, for `check` to report.
         let fault = Arc::new(Mutex::new(None));
@@ -163,10 +220,11 @@ impl GpuContext {
                 format!("the GPU device was lost ({reason:?}): {message}"),
             );
         });
+        let kernels = unwound(|| Ok(GpuKernels::new(&device)), unavailable)?;
         Ok(GpuContext {
             adapter,
             queue,
-            kernels: GpuKernels::new(&device),
+            kernels,
             device,
             fault,
             kept: None,

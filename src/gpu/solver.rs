@@ -438,9 +438,7 @@ impl GpuSolver {
         } else {
             format!("the GPU solver for {n} particles")
         };
-        budget::check_host(budget::host_need(device, need.host, need.device), || {
-            what.clone()
-        })?;
+        budget::check_gpu_host(device, need.host, need.device, || what.clone())?;
 
         let filter = if params.integrator == Integrator::SemiImplicit {
             Some(SemiFilter::new(model, params)?)

@@ -237,10 +237,9 @@ pub fn check_image(device: &wgpu::Device, width: u32, height: u32) -> Result<u64
     let device_bytes =
         pixels * (texel(COLOR_FORMAT) + texel(DEPTH_FORMAT)) + STAGING_BUFFERS as u64 * staging;
     let frames_on_host = (png_writer::QUEUE + 2) as u64;
-    budget::check_host(
-        budget::host_need(device, frames_on_host * pixels * 4, device_bytes),
-        || image(width, height),
-    )?;
+    budget::check_gpu_host(device, frames_on_host * pixels * 4, device_bytes, || {
+        image(width, height)
+    })?;
     Ok(device_bytes)
 }
 

@@ -59,9 +59,16 @@ pub fn existing_frames(dir: &Path) -> Result<Vec<PathBuf>> {
     Ok(frames)
 }
 
-/// Removes the frame files (`frame_*.png`) in `dir`, nothing else.
+/// Removes the frame files (`frame_*.png`) in `dir`, nothing else. Every
+/// one is checked to be a regular file first: a folder, link or other
+/// special file by a frame's name is [`Error::NotAFile`] and nothing is
+/// removed, so that the old frames are never lost to a removal that
+/// cannot finish.
 pub fn remove_frames(dir: &Path) -> Result<usize> {
     let frames = existing_frames(dir)?;
+    for f in &frames {
+        crate::atomic_file::existing_permissions(f)?;
+    }
     for f in &frames {
         fs::remove_file(f).map_err(|e| io_error(f, e))?;
     }

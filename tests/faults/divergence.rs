@@ -240,6 +240,29 @@ fn a_stiff_blow_up_is_caught_finite_in_f64_and_at_its_overflow_in_f32() {
     assert_eq!(gpu_step, f32_step, "{gpu_err}");
 }
 
+/// A cloth of a `--batch` that blows up is a blow-up (status 3), caught
+/// at the step a lone cloth's is, the message naming the cloth.
+#[test]
+fn a_blow_up_in_a_batch_exits_as_a_lone_cloths_does() {
+    let dir = TempDir::new("batch-blow-up");
+    let scene = dir.write("stiff.toml", STIFF);
+    let steps = STIFF_STEPS.to_string();
+    let lone = [
+        "--steps",
+        steps.as_str(),
+        "--backend",
+        "gpu",
+        "--adapter",
+        LAVAPIPE,
+    ];
+    let (lone_step, _) = blow_up(&dir, &scene, &lone);
+    let mut batch = lone.to_vec();
+    batch.extend(["--batch", "2"]);
+    let (step, err) = blow_up(&dir, &scene, &batch);
+    assert!(err.contains("cloth 0 of the batch"), "{err}");
+    assert_eq!(step, lone_step, "{err}");
+}
+
 /// The value after `label` on the summary line that starts with it.
 fn summary_value(out: &Output, label: &str) -> f64 {
     let text = stdout(out);

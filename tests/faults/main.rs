@@ -3,6 +3,7 @@
 //! per class of fault; each row asserts the exit status, the message and
 //! what is on disk afterwards.
 
+mod character;
 #[path = "../cli_common/mod.rs"]
 mod cli_common;
 mod divergence;

@@ -56,6 +56,47 @@ const RUST_WORDS: [&str; 4] = ["sequence", "struct", "map,", "Table"];
 
 const ROWS: &[Row] = &[
     Row {
+        what: "--fps above 1/dt in render (a frame shorter than a step)",
+        scene: Scene::None,
+        args: &["render", "hanging", "--fps", "2000", "--out", "frames"],
+        expect: &["--fps", "at most 1/dt = 1000 frames per second", "got 2000"],
+        absent: &[],
+    },
+    Row {
+        what: "--fps above 1/dt in run, for a character",
+        scene: Scene::None,
+        args: &["run", "cape", "--fps", "500"],
+        expect: &["--fps", "at most 1/dt = 240 frames per second", "got 500"],
+        absent: &[],
+    },
+    Row {
+        what: "--fps for a scene without a character",
+        scene: Scene::None,
+        args: &["run", "hanging", "--fps", "30"],
+        expect: &[
+            "--fps only applies to a scene with a [character]",
+            "`hanging`",
+        ],
+        absent: &[],
+    },
+    Row {
+        what: "bench --out naming a file",
+        scene: Scene::Text("[simulation]\n"),
+        args: &["bench", "stability", "--quick", "--out", "scene.toml"],
+        expect: &[
+            "--out scene.toml: is a file, not a folder",
+            "choose a folder",
+        ],
+        absent: &["File exists"],
+    },
+    Row {
+        what: "bench --out inside a file",
+        scene: Scene::Text("[simulation]\n"),
+        args: &["bench", "accuracy", "--quick", "--out", "scene.toml/bench"],
+        expect: &["--out scene.toml/bench: is inside scene.toml, which is a file, not a folder"],
+        absent: &["Not a directory"],
+    },
+    Row {
         what: "negative --steps",
         scene: Scene::None,
         args: &["run", "hanging", "--steps", "-5"],

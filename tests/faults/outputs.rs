@@ -307,6 +307,28 @@ fn render_on_a_full_disk_names_the_frame_and_leaves_no_temporary() {
     assert_eq!(hidden(&frames), Vec::<String>::new());
 }
 
+/// The frames of an earlier render that `--overwrite` rows plant.
+const OLD_FRAMES: [&str; 2] = ["frame_00000.png", "frame_00001.png"];
+
+/// Creates `frames` holding [`OLD_FRAMES`], each `old frame`.
+fn plant_old_frames(frames: &Path) {
+    fs::create_dir(frames).expect("create the frame folder");
+    for name in OLD_FRAMES {
+        fs::write(frames.join(name), "old frame").expect("write an old frame");
+    }
+}
+
+/// Every one of [`OLD_FRAMES`] is still in `frames`, unchanged.
+#[track_caller]
+fn assert_old_frames_kept(frames: &Path) {
+    for name in OLD_FRAMES {
+        assert_eq!(
+            fs::read_to_string(frames.join(name)).expect(name),
+            "old frame"
+        );
+    }
+}
+
 /// `--overwrite` where not one byte can be written: the probe fails before
 /// the old frames are removed.
 #[test]
@@ -314,11 +336,7 @@ fn overwrite_keeps_the_old_frames_where_nothing_can_be_written() {
     let dir = TempDir::new("overwrite-full");
     dir.write("small.toml", &cloth_scene(SMALL_SIDE));
     let frames = dir.join("frames");
-    fs::create_dir(&frames).expect("create the frame folder");
-    let old = ["frame_00000.png", "frame_00001.png"];
-    for name in old {
-        fs::write(frames.join(name), "old frame").expect("write an old frame");
-    }
+    plant_old_frames(&frames);
     let out = bash(
         &dir,
         "ulimit -f 0 && exec \"$BIN\" render small.toml --out frames --overwrite \
@@ -326,13 +344,8 @@ fn overwrite_keeps_the_old_frames_where_nothing_can_be_written() {
     );
     assert_status(&out, EXIT_FAILURE);
     assert_mentions(&out, &["frames", "File too large"]);
-    assert_eq!(names_in(&frames), old);
-    for name in old {
-        assert_eq!(
-            fs::read_to_string(frames.join(name)).expect(name),
-            "old frame"
-        );
-    }
+    assert_eq!(names_in(&frames), OLD_FRAMES);
+    assert_old_frames_kept(&frames);
 }
 
 /// Spawns `args` in `dir`, stderr to `dir/stderr.txt`.
@@ -444,4 +457,107 @@ fn an_interrupted_run_writes_nothing() {
     assert_eq!(code, EXIT_INTERRUPTED, "{err}");
     assert!(err.contains("interrupted"), "{err}");
     assert_eq!(dir.files(), ["stderr.txt"]);
+}
+
+/// Exit status of a command whose standard output's reader had gone:
+/// 128 + SIGPIPE, as a tool the signal ended reports.
+const EXIT_CLOSED_PIPE: i32 = 141;
+
+/// Runs `wgcloth args…` in `dir` with standard output a pipe whose reader
+/// is closed before the command starts (as `| head -1` closes it once it
+/// has its line).
+fn wgcloth_into_closed_pipe(dir: &TempDir, args: &[&str]) -> Output {
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    Command::new(BIN)
+        .args(args)
+        .current_dir(&dir.0)
+        .stdout(writer)
+        .stderr(Stdio::piped())
+        .output()
+        .expect("run the wgcloth binary")
+}
+
+/// A closed pipe on standard output ends every printing command quietly
+/// (no panic, no message) with 141, after the outputs were committed
+/// whole; nothing half written is left.
+#[test]
+fn a_closed_stdout_ends_quietly_and_keeps_whole_outputs() {
+    let dir = TempDir::new("closed-pipe");
+    dir.write("small.toml", &cloth_scene(SMALL_SIDE));
+    let out = wgcloth_into_closed_pipe(
+        &dir,
+        &[
+            "run",
+            "small.toml",
+            "--positions-out",
+            "pos.txt",
+            "--trace-out",
+            "trace.csv",
+        ],
+    );
+    assert_status(&out, EXIT_CLOSED_PIPE);
+    assert_eq!(stderr(&out), "", "said something");
+    let positions = fs::read_to_string(dir.join("pos.txt")).expect("the positions");
+    assert_eq!(positions.lines().count(), SMALL_PARTICLES);
+    let trace = fs::read_to_string(dir.join("trace.csv")).expect("the trace");
+    assert!(trace.ends_with('\n'), "a trace cut short");
+
+    let out = wgcloth_into_closed_pipe(&dir, &["scenes"]);
+    assert_status(&out, EXIT_CLOSED_PIPE);
+    assert_eq!(stderr(&out), "", "said something");
+
+    let out = wgcloth_into_closed_pipe(
+        &dir,
+        &[
+            "render",
+            "small.toml",
+            "--out",
+            "frames",
+            "--frames",
+            "2",
+            "--size",
+            "16x12",
+        ],
+    );
+    assert_status(&out, EXIT_CLOSED_PIPE);
+    assert!(!stderr(&out).contains("error"), "{}", stderr(&out));
+    assert_eq!(decoded_frames(&dir.join("frames"), 16, 12).len(), 2);
+    assert_eq!(hidden(&dir.0), Vec::<String>::new());
+    assert_eq!(hidden(&dir.join("frames")), Vec::<String>::new());
+}
+
+/// `--overwrite` over a folder named like a frame: refused before any old
+/// frame is removed (status 2, naming the folder), every old frame kept.
+#[test]
+fn overwrite_removes_nothing_when_one_old_frame_cannot_go() {
+    let dir = TempDir::new("overwrite-folder");
+    dir.write("small.toml", &cloth_scene(SMALL_SIDE));
+    let frames = dir.join("frames");
+    plant_old_frames(&frames);
+    fs::create_dir(frames.join("frame_00002.png")).expect("a folder named like a frame");
+    let out = wgcloth(&[
+        "render",
+        path_str(&dir.join("small.toml")),
+        "--out",
+        path_str(&frames),
+        "--overwrite",
+        "--frames",
+        "1",
+        "--size",
+        "16x12",
+    ]);
+    assert_status(&out, EXIT_INVALID);
+    assert_mentions(
+        &out,
+        &[
+            "--overwrite removes only regular files, and removed none",
+            "frame_00002.png: is a directory",
+        ],
+    );
+    assert_eq!(
+        names_in(&frames),
+        ["frame_00000.png", "frame_00001.png", "frame_00002.png"]
+    );
+    assert_old_frames_kept(&frames);
 }

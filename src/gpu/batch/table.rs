@@ -318,7 +318,7 @@ impl Table {
         if new_bytes == 0 {
             return Ok(());
         }
-        budget::check_host(budget::host_need(&device, 0, new_bytes), || {
+        budget::check_gpu_host(&device, 0, new_bytes, || {
             "the batch's larger buffers".to_string()
         })?;
         guarded(
