@@ -59,7 +59,8 @@ use wgcloth::params::format_number;
 use wgcloth::Integrator;
 
 /// Frames per second of `render` (and of a character's poses in `run`)
-/// unless `--fps` says otherwise.
+/// unless `--fps` says otherwise or a step is longer than a frame (then
+/// one step a frame).
 const DEFAULT_FPS: f64 = 30.0;
 
 /// Exit status of a run that succeeded.
@@ -214,15 +215,15 @@ struct RenderArgs {
     frames: u32,
 
     /// Frames per second of simulated time: each frame advances
-    /// ceil((1/FPS) / dt) steps (FPS ≤ 1/dt: a frame is at least a step).
+    /// ceil((1/F) / dt) steps (F ≤ 1/dt: a frame is at least a step).
+    /// Default: 30, or 1/dt if less.
     #[arg(
         long,
         value_name = "F",
-        default_value_t = DEFAULT_FPS,
         value_parser = render::parse_fps,
         allow_hyphen_values = true
     )]
-    fps: f64,
+    fps: Option<f64>,
 
     /// Image size in pixels.
     // Hyphen values reach the parser, so `-640x480` is told what is allowed
@@ -269,7 +270,7 @@ impl RenderArgs {
         RenderArgs {
             scene: "hanging".to_string(),
             frames: 60,
-            fps: DEFAULT_FPS,
+            fps: None,
             size: (640, 480),
             out: render::default_out(),
             overwrite: true,

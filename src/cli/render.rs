@@ -14,7 +14,7 @@ use wgcloth::render::{self, FrameOptions};
 use wgcloth::Scene;
 
 use super::run::WHOLE_STEPS_TOLERANCE;
-use super::{interrupt, RenderArgs, UsageError};
+use super::{interrupt, RenderArgs, UsageError, DEFAULT_FPS};
 use wgcloth::params::format_number;
 
 /// Runs `wgcloth render`.
@@ -167,8 +167,10 @@ pub fn parse_fps(s: &str) -> Result<f64, String> {
 /// Steps per frame for `--fps fps` at time step `dt` \[s\] (`render`'s
 /// frames, `run`'s character poses): [`render::steps_per_frame`], but an
 /// `fps` above `1/dt` is refused, naming both, rather than its frames
-/// drawn a step apart instead of `1/fps` apart.
-pub fn frame_steps(fps: f64, dt: f64) -> Result<u32, UsageError> {
+/// drawn a step apart instead of `1/fps` apart. Without `--fps`:
+/// [`DEFAULT_FPS`], or `1/dt` (a frame a step) for a longer step.
+pub fn frame_steps(fps: Option<f64>, dt: f64) -> Result<u32, UsageError> {
+    let fps = fps.unwrap_or(DEFAULT_FPS.min(1.0 / dt));
     if 1.0 / fps / dt < 1.0 - WHOLE_STEPS_TOLERANCE {
         return Err(UsageError(format!(
             "--fps: must be at most 1/dt = {} frames per second (dt = {} s: a frame is at \
@@ -201,9 +203,15 @@ mod tests {
 
     #[test]
     fn a_frame_is_at_least_a_step() {
-        assert_eq!(frame_steps(100.0, 0.01).ok(), Some(1));
-        assert_eq!(frame_steps(30.0, 0.001).ok(), Some(34));
-        let e = frame_steps(1000.0, 0.01).expect_err("a frame shorter than a step");
+        assert_eq!(frame_steps(Some(100.0), 0.01).ok(), Some(1));
+        assert_eq!(frame_steps(Some(30.0), 0.001).ok(), Some(34));
+        assert_eq!(frame_steps(None, 0.001).ok(), Some(34));
+        assert_eq!(
+            frame_steps(None, 0.1).ok(),
+            Some(1),
+            "a step longer than a frame"
+        );
+        let e = frame_steps(Some(1000.0), 0.01).expect_err("a frame shorter than a step");
         assert!(
             e.0.contains("at most 1/dt = 100 frames per second"),
             "{}",

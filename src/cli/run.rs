@@ -15,7 +15,7 @@ use super::interrupt;
 use super::output::{commit_all, same_file, write_positions, AtomicFile, Trace};
 use super::profile;
 use super::summary::{Outcome, Summary};
-use super::{Backend, Precision, RunArgs, StepPathArg, UsageError, DEFAULT_FPS};
+use super::{Backend, Precision, RunArgs, StepPathArg, UsageError};
 use wgcloth::gpu::Timestamps;
 use wgcloth::scene::animation::Animation;
 
@@ -71,13 +71,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
             ))
             .into())
         }
-        // By default render's frames, or a pose every step where a step is
-        // longer than one of them.
-        (Some(animation), fps) => Some(Character::new(
-            animation,
-            fps.unwrap_or(DEFAULT_FPS.min(1.0 / scene.params.dt)),
-            scene.params.dt,
-        )?),
+        (Some(animation), fps) => Some(Character::new(animation, fps, scene.params.dt)?),
     };
     let (model, params) = (&model, &scene.params);
     let run = Run {
@@ -221,9 +215,10 @@ struct Character<'a> {
 }
 
 impl<'a> Character<'a> {
-    /// Poses `fps` times a second of simulated time at time step `dt`
-    /// \[s\]; an `fps` `render` would refuse is refused.
-    fn new(animation: &'a Animation, fps: f64, dt: f64) -> Result<Self, UsageError> {
+    /// Poses `fps` (`render`'s default without it) times a second of
+    /// simulated time at time step `dt` \[s\]; an `fps` `render` would
+    /// refuse is refused.
+    fn new(animation: &'a Animation, fps: Option<f64>, dt: f64) -> Result<Self, UsageError> {
         let steps = super::render::frame_steps(fps, dt)?;
         Ok(Character {
             animation,
