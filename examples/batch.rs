@@ -37,8 +37,9 @@ fn main() -> anyhow::Result<()> {
     }
     let context = GpuContext::new(None)?;
     let dispatches = run(&context, &out, SECONDS)?;
+    let plural = if dispatches == 1.0 { "" } else { "es" };
     println!(
-        "wrote {} ({} flags, {dispatches} dispatches per step, on {})",
+        "wrote {} ({} flags, {dispatches} dispatch{plural} per step, on {})",
         out.display(),
         BEND.len() * WIND.len(),
         context.describe()

@@ -98,10 +98,14 @@ pub fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Re
     // every few frames; it is one small read-back.) The same `StepStats`
     // the CPU solver's steps return.
     let stats = solver.check()?;
-    println!(
-        "{} steps, {} CG iterations in the last",
-        stats.steps, stats.cg_iterations
-    );
+    // CG iterations only mean something for the implicit integrator.
+    match scene.params.integrator {
+        wgcloth::Integrator::Implicit => println!(
+            "{} steps, {} CG iterations in the last",
+            stats.steps, stats.cg_iterations
+        ),
+        _ => println!("{} steps", stats.steps),
+    }
     // Read the last frame back and write it as a PNG.
     let rgba = render::read_rgba(device, queue, &target.color)?;
     render::write_png(&render::Frame {

@@ -539,8 +539,9 @@ fn render_refuses_a_bad_size() {
     assert!(stderr(&out).contains("WIDTHxHEIGHT"), "{}", stderr(&out));
 }
 
-/// `wgcloth` with no arguments renders `hanging` to `./out` (the README's
-/// quick start, `cargo run --release`), quickly.
+/// `wgcloth` with no arguments renders `hanging` to `./out/hanging` (the
+/// README's quick start, `cargo run --release`): the scene's duration at
+/// 30 frames/s, frame 0 at the start and the last at or after its end.
 #[test]
 fn no_arguments_render_the_default_job_to_out() {
     let dir = TempDir::new("default-job");
@@ -549,12 +550,73 @@ fn no_arguments_render_the_default_job_to_out() {
         .output()
         .expect("run the wgcloth binary");
     assert_status(&run, 0);
-    assert!(
-        stdout(&run).contains("wrote 60 frames to out"),
-        "{}",
-        stdout(&run)
+    let scene = Scene::builtin("hanging").expect("built in");
+    let steps = wgcloth::render::steps_per_frame(30.0, scene.params.dt).expect("steps");
+    let frame_seconds = f64::from(steps) * scene.params.dt;
+    let frames = (scene.duration / frame_seconds).ceil() as u32 + 1;
+    let wrote = format!("wrote {frames} frames to out/hanging");
+    assert!(stdout(&run).contains(&wrote), "{wrote}?\n{}", stdout(&run));
+    assert_eq!(
+        frames_in(&dir.join("out").join("hanging")),
+        expected_frames(frames, (640, 480))
     );
-    assert_eq!(frames_in(&dir.join("out")), expected_frames(60, (640, 480)));
+}
+
+/// Without `--out`, each scene renders into `out/<scene>`: a second scene
+/// after the first is not refused for the first one's frames. `--seconds`
+/// sets the frames (frame 0 and the first at or after T), and both step
+/// paths draw the same pictures byte for byte.
+#[test]
+fn render_defaults_to_a_folder_per_scene_and_covers_the_seconds_asked() {
+    let dir = TempDir::new("render-per-scene");
+    let small = dir.write("small.toml", SMALL_SCENE);
+    let other = dir.write("other.toml", &small_jacobi_scene());
+    let render = |scene: &Path, extra: &[&str]| {
+        let mut args = vec!["render", path_str(scene), "--size", "64x48", "--fps", "100"];
+        args.extend_from_slice(extra);
+        Command::new(BIN)
+            .args(&args)
+            .current_dir(&dir.0)
+            .output()
+            .expect("run the wgcloth binary")
+    };
+    // 0.025 s at 0.01 s a frame (5 steps of 0.002 s): frames at 0, 0.01,
+    // 0.02 and 0.03 s.
+    let first = render(&small, &["--seconds", "0.025", "--step-path", "workgroup"]);
+    assert_status(&first, 0);
+    let frames = dir.join("out").join("small");
+    assert_eq!(frames_in(&frames), expected_frames(4, (64, 48)));
+    let second = render(&other, &["--step-path", "multi-dispatch"]);
+    assert_status(&second, 0);
+    // The scene's duration, 0.01 s: frames at 0 and 0.01 s.
+    assert_eq!(
+        frames_in(&dir.join("out").join("other")),
+        expected_frames(2, (64, 48))
+    );
+    // The same scene on the other path, over the first run's frames.
+    let again = render(
+        &small,
+        &[
+            "--seconds",
+            "0.025",
+            "--step-path",
+            "multi-dispatch",
+            "--out",
+            "again",
+        ],
+    );
+    assert_status(&again, 0);
+    for (name, _) in expected_frames(4, (64, 48)) {
+        let a = fs::read(frames.join(&name)).expect("frame");
+        let b = fs::read(dir.join("again").join(&name)).expect("frame");
+        assert!(a == b, "{name} differs between the step paths");
+    }
+    // `--frames` and `--seconds` are one choice.
+    let both = render(
+        &small,
+        &["--seconds", "1", "--frames", "2", "--out", "both"],
+    );
+    assert_status(&both, EXIT_INVALID);
 }
 
 /// `--verbose` names the step path and why, and lists the passes of one
@@ -571,13 +633,15 @@ fn verbose_shows_the_step_path_and_the_passes() {
             "gpu",
             "--steps",
             "3",
+            "--step-path",
+            "workgroup",
             "--verbose",
         ]);
         assert_status(&out, 0);
         let text = stdout(&out);
         assert!(text.contains("passes per step"), "{text}");
         assert!(
-            text.contains("step path: one workgroup per cloth (1089 particles, at most 4096"),
+            text.contains("step path: one workgroup per cloth (chosen by the host)"),
             "{text}"
         );
         assert!(text.contains("cloth_explicit"), "{text}");
@@ -649,7 +713,7 @@ fn batch_copy_zero_writes_what_batch_one_writes() {
     assert!(positions_one == positions_three, "positions differ");
     assert!(trace_one == trace_three, "traces differ");
     assert!(three.contains("3 cloths, dispatches per step: "), "{three}");
-    assert!(one.contains("1 cloths, dispatches per step: "), "{one}");
+    assert!(one.contains("1 cloth, dispatches per step: "), "{one}");
     assert!(three.contains(" cloth-steps per second"), "{three}");
 }
 
@@ -719,7 +783,15 @@ fn step_path_forces_a_path_with_the_same_results() {
     };
     let (multi_text, multi) = run("multi-dispatch");
     let (wg_text, wg) = run("workgroup");
-    let (_, auto) = run("auto");
+    let (auto_text, auto) = run("auto");
+    // The automatic choice says what the cost model estimated.
+    assert!(
+        auto_text.lines().any(|l| l.starts_with("step path: ")
+            && l.contains("(est. ")
+            && l.contains(" µs vs ")
+            && l.contains(" µs per step: ")),
+        "{auto_text}"
+    );
     assert!(
         multi_text.contains("step path: multi-dispatch"),
         "{multi_text}"

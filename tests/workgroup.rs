@@ -235,6 +235,10 @@ fn a_grid_cloth_takes_the_general_layout_on_the_workgroup_path() {
     assert_eq!(kernels, [Kernel::ClothExplicit]);
 }
 
+/// The workgroup path steps a cloth up to its limit (forced there: the
+/// automatic choice between the two paths is the cost model's, see
+/// `src/gpu/path.rs`'s tests); beyond it the automatic choice is the
+/// multi-dispatch path and forcing the workgroup path is refused.
 #[test]
 fn the_workgroup_path_is_chosen_up_to_its_limit() {
     let p = busy(2);
@@ -249,7 +253,7 @@ fn the_workgroup_path_is_chosen_up_to_its_limit() {
     assert_eq!(side * side, WORKGROUP_STEP_MAX_PARTICLES as usize);
     let at = grid(side, side, corners(), &p);
     assert_eq!(
-        auto(&at, &p),
+        solver_on(&at, &p, StepPath::Workgroup).tuning().step_path(),
         StepPath::Workgroup,
         "{} particles",
         side * side

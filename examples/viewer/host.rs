@@ -218,6 +218,10 @@ impl Host {
         if bgra {
             rgba.chunks_exact_mut(4).for_each(|p| p.swap(0, 2));
         }
+        // `--screenshot out/viewer.png` on a fresh clone: out/ need not exist.
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+        }
         render::write_png(&render::Frame {
             path: path.to_path_buf(),
             width: texture.width(),

@@ -98,8 +98,8 @@ const EXIT_CLOSED_PIPE: u8 = 141;
     propagate_version = true
 )]
 struct Cli {
-    /// With no command, `wgcloth` renders the `hanging` scene to `./out`
-    /// (as `wgcloth render hanging`).
+    /// With no command, `wgcloth` renders the `hanging` scene to
+    /// `./out/hanging` (as `wgcloth render hanging --overwrite`).
     #[command(subcommand)]
     command: Option<Command>,
 }
@@ -141,7 +141,7 @@ struct BenchAccuracyArgs {
     scene: String,
 
     /// The folder the CSV and SVG go to; created if missing.
-    #[arg(long, value_name = "DIR", default_value = "bench")]
+    #[arg(long, value_name = "DIR", default_value = "out/bench")]
     out: PathBuf,
 
     /// A run of seconds: 9 × 9 particles, 5 samples, reference at dt / 64.
@@ -162,7 +162,7 @@ struct BenchAccuracyArgs {
 #[derive(Args, Debug)]
 struct BenchStabilityArgs {
     /// The folder the CSV and SVG go to; created if missing.
-    #[arg(long, value_name = "DIR", default_value = "bench")]
+    #[arg(long, value_name = "DIR", default_value = "out/bench")]
     out: PathBuf,
 
     /// A sweep of seconds: 9 × 9 particles, 0.5 s, at most 500 steps.
@@ -205,14 +205,27 @@ struct RenderArgs {
     scene: String,
 
     /// Frames to write (N ≥ 1); frame k shows the cloth at t = k / FPS.
+    /// Default: enough to cover `--seconds`, else the scene's
+    /// `[simulation] duration`.
     #[arg(
         long,
         value_name = "N",
-        default_value_t = 60,
+        conflicts_with = "seconds",
         value_parser = parse_frames,
         allow_negative_numbers = true
     )]
-    frames: u32,
+    frames: Option<u32>,
+
+    /// Simulated time to render [s]: frames up to the first at or after
+    /// T (frame 0 is the start). Default: the scene's `[simulation]
+    /// duration`.
+    #[arg(
+        long,
+        value_name = "T",
+        value_parser = parse_seconds,
+        allow_hyphen_values = true
+    )]
+    seconds: Option<f64>,
 
     /// Frames per second of simulated time: each frame advances
     /// ceil((1/F) / dt) steps (F ≤ 1/dt: a frame is at least a step).
@@ -238,9 +251,10 @@ struct RenderArgs {
     size: (u32, u32),
 
     /// The folder the frames go to (`frame_00000.png`, …); created if
-    /// missing.
-    #[arg(long, value_name = "DIR", default_value = "out")]
-    out: PathBuf,
+    /// missing. Default: `out/<scene>` (the scene's name, or its file's
+    /// stem).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
 
     /// Remove the `frame_*.png` files already in DIR first (without it,
     /// such files are refused rather than mixed with the new frames).
@@ -262,6 +276,11 @@ struct RenderArgs {
     /// high-performance adapter.
     #[arg(long, value_name = "NAME")]
     adapter: Option<String>,
+
+    /// How a step is recorded, as `wgcloth run --step-path` (the results
+    /// are the same bits).
+    #[arg(long, value_enum, default_value_t = StepPathArg::Auto)]
+    step_path: StepPathArg,
 }
 
 impl RenderArgs {
@@ -269,14 +288,16 @@ impl RenderArgs {
     fn default_job() -> RenderArgs {
         RenderArgs {
             scene: "hanging".to_string(),
-            frames: 60,
+            frames: None,
+            seconds: None,
             fps: None,
             size: (640, 480),
-            out: render::default_out(),
+            out: None,
             overwrite: true,
             strain: false,
             integrator: None,
             adapter: None,
+            step_path: StepPathArg::Auto,
         }
     }
 }

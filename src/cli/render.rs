@@ -30,6 +30,13 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         .validate()
         .context("the command-line options make the scene invalid")?;
     let steps_per_frame = frame_steps(args.fps, scene.params.dt)?;
+    let frame_seconds = f64::from(steps_per_frame) * scene.params.dt;
+    let frames = match (args.frames, args.seconds) {
+        (Some(n), _) => n,
+        (None, Some(t)) => frames_for(t, frame_seconds, "--seconds")?,
+        (None, None) => frames_for(scene.duration, frame_seconds, "the scene's duration")?,
+    };
+    let out = args.out.clone().unwrap_or_else(|| default_out(&scene.name));
     let mut context = GpuContext::new(args.adapter.as_deref())?;
     if let Some(dir) = pipeline_cache::default_dir() {
         context.keep_pipelines(&dir);
@@ -38,33 +45,41 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
     // Before the output folder is touched.
     render::check_image(&context.device, width, height)
         .with_context(|| format!("--size {width}x{height}"))?;
-    prepare_dir(&args.out, args.overwrite)?;
+    prepare_dir(&out, args.overwrite)?;
     let options = FrameOptions {
         width,
         height,
-        frames: args.frames,
+        frames,
         steps_per_frame,
-        dir: args.out.clone(),
+        dir: out.clone(),
         strain: args.strain,
     };
     note!(
-        "rendering `{}` on {}: {} frames of {width}×{height}, {steps_per_frame} steps each",
+        "rendering `{}` on {}: {frames} frames of {width}×{height}, {steps_per_frame} steps each, \
+         to {}",
         scene.name,
         context.describe(),
-        args.frames,
+        out.display(),
     );
     let mut done = 0;
     let kernels = context.kernels();
-    let written =
-        render::render_scene_with_kernels(kernels, &context.queue, &scene, &options, |n| {
+    let mut rate = Rate::default();
+    let written = render::render_scene_on_path(
+        kernels,
+        &context.queue,
+        &scene,
+        &options,
+        args.step_path.forced(),
+        |n| {
             done = n;
-            progress(n, args.frames, started);
+            progress(n, frames, rate.frames_per_second(n));
             if interrupt::requested() {
                 ControlFlow::Break(())
             } else {
                 ControlFlow::Continue(())
             }
-        });
+        },
+    );
     note!("");
     if let Err(e) = context.save_pipelines() {
         note!("note: compiled pipelines not kept for the next run: {e}");
@@ -73,9 +88,8 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         Err(wgcloth::Error::Interrupted) => {
             return Err(
                 anyhow::Error::new(wgcloth::Error::Interrupted).context(format!(
-                    "stopped after {done} of {} frames (every frame file in {} is whole)",
-                    args.frames,
-                    args.out.display()
+                    "stopped after {done} of {frames} frames (every frame file in {} is whole)",
+                    out.display()
                 )),
             )
         }
@@ -83,7 +97,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
     };
     outln!(
         "wrote {written} frames to {} ({}…{}), {:.1} s simulated in {:.2} s",
-        args.out.display(),
+        out.display(),
         render::frame_name(0),
         render::frame_name(written.saturating_sub(1)),
         f64::from(written.saturating_sub(1)) * f64::from(steps_per_frame) * scene.params.dt,
@@ -122,15 +136,35 @@ fn prepare_dir(dir: &Path, overwrite: bool) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// The frames since a frame was first read back, over the time since: a
+/// running mean that settles, where frames per interval between two
+/// read-backs jump (frames are read back a few at a time, and the first
+/// waits for the pipelines).
+#[derive(Default)]
+struct Rate {
+    /// The first frame read back, and when.
+    first: Option<(u32, Instant)>,
+}
+
+impl Rate {
+    /// The mean rate once `done` frames are read back [frames/s]; `None`
+    /// until a second read-back gives an interval.
+    fn frames_per_second(&mut self, done: u32) -> Option<f64> {
+        let (first, since) = *self.first.get_or_insert((done, Instant::now()));
+        let seconds = since.elapsed().as_secs_f64();
+        (done > first && seconds > 0.0).then(|| f64::from(done - first) / seconds)
+    }
+}
+
 /// One `\r`-rewritten line on stderr: frames done and their rate.
-fn progress(done: u32, total: u32, started: Instant) {
-    let rate = f64::from(done) / started.elapsed().as_secs_f64().max(1e-9);
+fn progress(done: u32, total: u32, rate: Option<f64>) {
     let width = 30;
     let filled = (done as usize * width)
         .checked_div(total as usize)
         .unwrap_or(width);
+    let rate = rate.map_or(String::new(), |r| format!(", {r:.1} frames/s"));
     note_part!(
-        "\r[{}{}] {done}/{total} frames, {rate:.1} frames/s",
+        "\r[{}{}] {done}/{total} frames{rate}   ",
         "#".repeat(filled),
         " ".repeat(width - filled)
     );
@@ -183,9 +217,26 @@ pub fn frame_steps(fps: Option<f64>, dt: f64) -> Result<u32, UsageError> {
     render::steps_per_frame(fps, dt).map_err(|e| UsageError(format!("--fps: {e}")))
 }
 
-/// The default `--out`.
-pub fn default_out() -> PathBuf {
-    PathBuf::from("out")
+/// The default `--out`: `out/<scene>`, so that rendering another scene
+/// after the quick start finds a folder of its own.
+pub fn default_out(scene: &str) -> PathBuf {
+    Path::new("out").join(scene)
+}
+
+/// The frames that cover `seconds` at `frame_seconds` a frame: frame 0 and
+/// those up to the first at or after `seconds`. `what` names the source in
+/// the error.
+fn frames_for(seconds: f64, frame_seconds: f64, what: &str) -> Result<u32, UsageError> {
+    let intervals = super::run::whole_ceil(seconds / frame_seconds);
+    if intervals.is_nan() || intervals >= f64::from(u32::MAX) {
+        return Err(UsageError(format!(
+            "{what}: {} s at {} s a frame is more than {} frames",
+            wgcloth::params::format_number(seconds),
+            wgcloth::params::format_number(frame_seconds),
+            u32::MAX
+        )));
+    }
+    Ok(intervals as u32 + 1)
 }
 
 #[cfg(test)]
@@ -218,6 +269,34 @@ mod tests {
             e.0
         );
         assert!(e.0.contains("got 1000"), "{}", e.0);
+    }
+
+    #[test]
+    fn frames_cover_the_time_asked() {
+        // 2 s at 1/30 s a frame: frames 0 to 60, the last at t = 2 s.
+        assert_eq!(frames_for(2.0, 1.0 / 30.0, "t").ok(), Some(61));
+        // A time between frames takes the next frame.
+        assert_eq!(frames_for(0.05, 0.034, "t").ok(), Some(3));
+        assert_eq!(frames_for(0.0, 0.034, "t").ok(), Some(1));
+        let e = frames_for(1e300, 0.034, "--seconds").err().map(|e| e.0);
+        assert!(
+            e.as_deref().is_some_and(|e| e.starts_with("--seconds")),
+            "{e:?}"
+        );
+    }
+
+    #[test]
+    fn the_frame_rate_is_a_mean_since_the_first_frame() {
+        let mut rate = Rate::default();
+        assert_eq!(
+            rate.frames_per_second(3),
+            None,
+            "one read-back: no interval"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        let r = rate.frames_per_second(6);
+        // 3 frames in at least 20 ms: at most 150 frames/s.
+        assert!(r.is_some_and(|r| r > 0.0 && r <= 150.0), "{r:?}");
     }
 
     #[test]

@@ -186,12 +186,7 @@ fn precision_for_backend(args: &RunArgs) -> Result<Precision, UsageError> {
 /// [`WHOLE_STEPS_TOLERANCE`]. `what` names the source in the error.
 fn steps_for(seconds: f64, dt: f64, what: &str) -> Result<u64, UsageError> {
     let q = seconds / dt;
-    let nearest = q.round();
-    let n = if (q - nearest).abs() <= WHOLE_STEPS_TOLERANCE * nearest.max(1.0) {
-        nearest
-    } else {
-        q.ceil()
-    };
+    let n = whole_ceil(q);
     if n.is_nan() || n > MAX_STEPS as f64 {
         return Err(UsageError(format!(
             "{what}: {} s at dt = {} s is {q:e} steps; at most {MAX_STEPS:e} are allowed",
@@ -225,6 +220,17 @@ impl<'a> Character<'a> {
             steps: u64::from(steps),
             seconds: f64::from(steps) * dt,
         })
+    }
+}
+
+/// `ceil(q)`, but a `q` within [`WHOLE_STEPS_TOLERANCE`] of a whole number
+/// is that number (1 s / 0.01 s is 100 steps, not 101).
+pub(super) fn whole_ceil(q: f64) -> f64 {
+    let nearest = q.round();
+    if (q - nearest).abs() <= WHOLE_STEPS_TOLERANCE * nearest.max(1.0) {
+        nearest
+    } else {
+        q.ceil()
     }
 }
 

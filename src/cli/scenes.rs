@@ -13,10 +13,10 @@ pub fn list() -> anyhow::Result<()> {
         // user's input: say which one.
         let scene = Scene::builtin(name).with_context(|| format!("built-in scene `{name}`"))?;
         outln!(
-            "{name:<width$}  {}, {}, dt = {} s, {} s",
+            "{name:<width$}  {}, {}, dt = {}, {} s",
             scene.cloth_summary(),
             scene.params.integrator,
-            scene.params.dt,
+            super::summary::time_step(scene.params.dt),
             scene.duration
         )?;
     }

@@ -4,7 +4,7 @@ use std::fmt::{self, Display, Formatter};
 use std::time::Duration;
 
 use wgcloth::diagnostics::Energy;
-use wgcloth::params::SpringKind;
+use wgcloth::params::{format_number, SpringKind};
 use wgcloth::{Integrator, Model};
 
 /// Width of the label column.
@@ -150,7 +150,11 @@ impl Display for Summary<'_> {
             .map(|k| format!("{} {}", k.as_str(), m.kind_ranges[k.index()].len()))
             .join(", ");
         row(f, "springs", &format!("{} ({by_kind})", m.springs.len()))?;
-        row(f, "steps", &format!("{} (dt = {} s)", o.steps, self.dt))?;
+        row(
+            f,
+            "steps",
+            &format!("{} (dt = {})", o.steps, time_step(self.dt)),
+        )?;
         row(f, "simulated time", &format!("{} s", sig(o.time)))?;
         row(
             f,
@@ -183,8 +187,9 @@ impl Display for Summary<'_> {
                 f,
                 "batch",
                 &format!(
-                    "{} cloths, dispatches per step: {}",
+                    "{} cloth{}, dispatches per step: {}",
                     b.cloths,
+                    if b.cloths == 1 { "" } else { "s" },
                     sig_dispatches(b.dispatches_per_step)
                 ),
             )?;
@@ -282,6 +287,21 @@ fn write_cg(f: &mut Formatter<'_>, cg: &CgSummary) -> fmt::Result {
     }
 }
 
+/// A time step as people write it: `1/120 s` for a dt whose reciprocal
+/// is a whole number and whose decimals run on (0.008333333333333333),
+/// else the number itself (`0.001 s`).
+pub(super) fn time_step(dt: f64) -> String {
+    let plain = format_number(dt);
+    let per = (1.0 / dt).round();
+    // Within f64 rounding of 1/N: the scene wrote 1/N as decimals.
+    let whole = (per * dt - 1.0).abs() <= 1e-12 && per >= 2.0;
+    if plain.len() > 8 && whole {
+        format!("1/{per:.0} s")
+    } else {
+        format!("{plain} s")
+    }
+}
+
 /// Dispatches per step: whole when they are (every step recorded the
 /// same), else with two decimals.
 fn sig_dispatches(d: f64) -> String {
@@ -316,6 +336,16 @@ fn sig(v: f64) -> String {
 mod tests {
     use super::*;
     use wgcloth::{ClothSpec, Params};
+
+    #[test]
+    fn time_steps_read_as_written() {
+        assert_eq!(time_step(0.008333333333333333), "1/120 s");
+        assert_eq!(time_step(0.004166666666666667), "1/240 s");
+        assert_eq!(time_step(0.001), "0.001 s");
+        assert_eq!(time_step(0.005), "0.005 s");
+        // Long decimals that are no fraction 1/N stay a number.
+        assert_eq!(time_step(0.0123456789), "0.0123456789 s");
+    }
 
     #[test]
     fn gpu_rows_name_the_adapter_and_what_the_device_reports() {

@@ -150,7 +150,7 @@ pub(crate) fn integrator_code(i: Integrator) -> u32 {
 }
 
 /// Fix-up passes per step: none without a constrained spring kind.
-fn fixup_iterations(params: &Params) -> u32 {
+pub(super) fn fixup_iterations(params: &Params) -> u32 {
     if params.springs.iter().any(|s| s.max_stretch.is_some()) {
         params.fixup.iterations
     } else {

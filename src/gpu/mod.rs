@@ -30,6 +30,7 @@ pub mod pipeline_cache;
 #[doc(hidden)]
 pub mod layout;
 mod path;
+mod path_cost;
 mod plan;
 mod profile;
 #[doc(hidden)]

@@ -8,6 +8,7 @@ use super::kernel::{Dispatch, Kernel, Launch};
 use super::kernels::{Features, GpuKernels};
 use super::layout::{self, GpuCapsule, GpuParams, GpuSphere, MAX_CAPSULES, MAX_SPHERES};
 use super::path::{self, PathChoice, PathInputs, StepPath};
+use super::path_cost::{self, AdapterCost};
 use super::plan::{self, Plan, PlanInputs};
 use super::readback;
 use super::semi_filter::SemiFilter;
@@ -331,9 +332,10 @@ impl GpuSolver {
     /// [`GpuSolver::new`] on the device of `kernels`, taking its pipelines
     /// from that library.
     ///
-    /// The solver steps the cloth on the workgroup path wherever that can
-    /// (see [`StepPath`] and [`GpuTuning::step_path`](super::GpuTuning::step_path)),
-    /// else on the multi-dispatch path.
+    /// The solver steps the cloth on the path a cost model of the adapter
+    /// and the step estimates faster, the multi-dispatch path where the
+    /// workgroup path cannot step it (see [`StepPath`] and
+    /// [`GpuTuning::step_path_reason`](super::GpuTuning::step_path_reason)).
     pub fn with_kernels(
         kernels: &GpuKernels,
         queue: &wgpu::Queue,
@@ -372,6 +374,9 @@ impl GpuSolver {
         let dense = params.integrator == Integrator::SemiImplicit
             && FilterSystem::dense(params.semi_implicit.filter, counts.free as usize);
         let limits = device.limits();
+        let grid = GridLayout::of(model, params);
+        let info = device.adapter_info();
+        let block = GridBlock::for_adapter(&info);
         let path = path::choose(
             &PathInputs {
                 integrator: params.integrator,
@@ -380,12 +385,14 @@ impl GpuSolver {
                 limits: &limits,
             },
             forced,
+            &path::work(model, params, dense, grid.as_ref(), block),
+            &AdapterCost::of(info.device_type, path_cost::cpu_threads()),
         )?;
         // The workgroup kernels read the adjacency lists: a grid cloth on
         // that path is uploaded in general layout.
         let grid = match path.path {
             StepPath::Workgroup => None,
-            StepPath::MultiDispatch => GridLayout::of(model, params),
+            StepPath::MultiDispatch => grid,
         };
         let n = counts.particles;
         let s = grid.as_ref().map_or(model.springs.len(), GridLayout::slots) as u64;

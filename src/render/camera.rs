@@ -97,15 +97,48 @@ impl Camera {
             .collect();
         let auto = Camera::framing_with(model, &scene.params, &path, aspect);
         let c = &scene.camera;
-        let deg = |d: f64| (d as f32).to_radians();
         let view = View {
-            elevation: c.elevation.map_or(ELEVATION, deg),
-            azimuth: c.azimuth.map_or(AZIMUTH, deg),
-            fov_y: c.fov.map_or(FOV_Y, deg),
             distance: c.distance.map(|d| d as f32),
+            ..Camera::angles(scene)
         };
         let target = c.target.map_or(auto.target, |t| t.as_vec3());
         Camera::look(target, auto.radius, view, aspect)
+    }
+
+    /// The camera of frame time `t` \[s\] in a film of `scene`
+    /// (`wgcloth render`): a scene whose character moves is followed —
+    /// framed as at its first key (the cloth and the character's capsules
+    /// there), the target moving with the character, from the `[camera]`
+    /// table's angles and field of view — so that it fills the picture
+    /// however far it runs; the table's target and distance, which frame
+    /// the whole path for a still ([`Camera::for_scene`]), do not apply.
+    /// `None` for a scene without a character.
+    pub fn following(scene: &Scene, model: &Model, aspect: f32, t: f64) -> Option<Camera> {
+        let character = scene.character.as_ref()?;
+        let start = character.keys.first().map_or(0.0, |k| k.time);
+        let here = character.capsules_at(start);
+        let auto = Camera::framing_with(model, &scene.params, &here, aspect);
+        let moved = character.pose(t).position - character.pose(start).position;
+        let view = Camera::angles(scene);
+        Some(Camera::look(
+            auto.target + moved.as_vec3(),
+            auto.radius,
+            view,
+            aspect,
+        ))
+    }
+
+    /// The `[camera]` table's angles and field of view, the defaults where
+    /// it has none; no distance.
+    fn angles(scene: &Scene) -> View {
+        let c = &scene.camera;
+        let deg = |d: f64| (d as f32).to_radians();
+        View {
+            elevation: c.elevation.map_or(ELEVATION, deg),
+            azimuth: c.azimuth.map_or(AZIMUTH, deg),
+            fov_y: c.fov.map_or(FOV_Y, deg),
+            distance: None,
+        }
     }
 
     /// Looks at `target` from the fixed elevation and azimuth, far enough
@@ -260,6 +293,34 @@ mod tests {
             .project(Vec3::new(0.0, 0.5, 0.0), 100, 100)
             .expect("in front");
         assert!(high[1] < low[1]);
+    }
+
+    #[test]
+    fn a_running_character_is_followed_and_fills_the_picture() {
+        let scene = Scene::builtin("cape").expect("built in");
+        let model = scene.model().expect("valid");
+        let aspect = 4.0 / 3.0;
+        let still = Camera::for_scene(&scene, &model, aspect);
+        let character = scene.character.as_ref().expect("the cape's character");
+        for t in [0.0, 1.0, 2.0, 3.0, 4.0] {
+            let cam = Camera::following(&scene, &model, aspect, t).expect("a character");
+            let head = character.pose(t).world(glam::DVec3::new(0.0, 1.62, 0.0));
+            let feet = character.pose(t).world(glam::DVec3::ZERO);
+            let tall = |c: &Camera| {
+                let top = c.project(head.as_vec3(), 640, 480).expect("head in view");
+                let bottom = c.project(feet.as_vec3(), 640, 480).expect("feet in view");
+                bottom[1] - top[1]
+            };
+            // Followed, the character stands over a third of the picture's
+            // height at every time; the still camera, framing the whole
+            // run, shows it smaller.
+            let followed = tall(&cam);
+            assert!(followed > 480.0 / 3.0, "t = {t}: {followed} px");
+            assert!(followed > tall(&still), "t = {t}");
+        }
+        let hanging = Scene::builtin("hanging").expect("built in");
+        let model = hanging.model().expect("valid");
+        assert!(Camera::following(&hanging, &model, aspect, 1.0).is_none());
     }
 
     #[test]

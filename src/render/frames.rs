@@ -9,7 +9,7 @@ use super::png_writer::{self, frame_name, Frame, PngWriter};
 use super::{Camera, FrameTarget, Renderer, COLOR_FORMAT, DEPTH_FORMAT};
 use crate::budget;
 use crate::error::{Error, Result};
-use crate::gpu::{guarded, readback, GpuKernels, GpuSolver};
+use crate::gpu::{guarded, readback, GpuKernels, GpuSolver, StepPath};
 use crate::scene::animation::Animation;
 use crate::scene::Scene;
 
@@ -113,6 +113,20 @@ pub fn render_animated_frames(
     renderer: &Renderer,
     options: &FrameOptions,
     animation: Option<&Animation>,
+    progress: impl FnMut(u32) -> ControlFlow<()>,
+) -> Result<u32> {
+    render_filmed_frames(device, solver, renderer, options, animation, None, progress)
+}
+
+/// [`render_animated_frames`] with `camera_at(t)` the camera of the frame
+/// at time `t` \[s\] (`None`: the renderer's camera throughout).
+fn render_filmed_frames(
+    device: &wgpu::Device,
+    solver: &mut GpuSolver,
+    renderer: &Renderer,
+    options: &FrameOptions,
+    animation: Option<&Animation>,
+    camera_at: Option<&dyn Fn(f64) -> Option<Camera>>,
     mut progress: impl FnMut(u32) -> ControlFlow<()>,
 ) -> Result<u32> {
     let frame_seconds = f64::from(options.steps_per_frame) * solver.dt();
@@ -153,6 +167,9 @@ pub fn render_animated_frames(
             }
             let (spheres, capsules) = solver.colliders();
             renderer.set_colliders(&spheres, &capsules);
+            if let Some(camera) = camera_at.and_then(|at| at(f64::from(frame) * frame_seconds)) {
+                renderer.set_camera(&camera);
+            }
             solver.encode_normals(&mut encoder);
             renderer.encode_frame(&mut encoder, solver, &target);
             copy_to_staging(&mut encoder, &target.color, &staging[slot], row);
@@ -244,7 +261,8 @@ pub fn check_image(device: &wgpu::Device, width: u32, height: u32) -> Result<u64
 }
 
 /// Renders `scene` from its start: builds its model, a solver, a camera
-/// that frames it and a renderer on the host's device, then runs
+/// that frames it (and follows a scene's character:
+/// [`Camera::following`]) and a renderer on the host's device, then runs
 /// [`render_frames`]. The image is checked ([`check_image`]) before the
 /// scene is built.
 pub fn render_scene(
@@ -267,10 +285,27 @@ pub fn render_scene_with_kernels(
     options: &FrameOptions,
     progress: impl FnMut(u32) -> ControlFlow<()>,
 ) -> Result<u32> {
+    render_scene_on_path(kernels, queue, scene, options, None, progress)
+}
+
+/// [`render_scene_with_kernels`] with the solver on step path `path`
+/// ([`GpuSolver::with_step_path`]), or the solver's own choice for `None`
+/// (`wgcloth render --step-path`).
+pub fn render_scene_on_path(
+    kernels: &GpuKernels,
+    queue: &wgpu::Queue,
+    scene: &Scene,
+    options: &FrameOptions,
+    path: Option<StepPath>,
+    progress: impl FnMut(u32) -> ControlFlow<()>,
+) -> Result<u32> {
     let device = kernels.device();
     check_image(device, options.width, options.height)?;
     let model = scene.model()?;
-    let mut solver = GpuSolver::with_kernels(kernels, queue, &model, &scene.params)?;
+    let mut solver = match path {
+        Some(path) => GpuSolver::with_step_path(kernels, queue, &model, &scene.params, path)?,
+        None => GpuSolver::with_kernels(kernels, queue, &model, &scene.params)?,
+    };
     let aspect = options.width as f32 / options.height as f32;
     let camera = Camera::for_scene(scene, &model, aspect);
     let renderer = guarded(device, "building the renderer", None, || {
@@ -281,12 +316,15 @@ pub fn render_scene_with_kernels(
         Ok(renderer)
     })?;
     let animation = scene.animation(&model);
-    render_animated_frames(
+    // A moving character is followed (see `Camera::following`).
+    let follow = |t: f64| Camera::following(scene, &model, aspect, t);
+    render_filmed_frames(
         device,
         &mut solver,
         &renderer,
         options,
         animation.as_ref(),
+        Some(&follow),
         progress,
     )
 }

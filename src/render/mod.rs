@@ -24,8 +24,8 @@ use wgpu::util::DeviceExt;
 
 pub use camera::Camera;
 pub use frames::{
-    check_image, read_rgba, render_frames, render_scene, render_scene_with_kernels,
-    steps_per_frame, FrameOptions, MAX_STEPS_PER_FRAME, STAGING_BUFFERS,
+    check_image, read_rgba, render_frames, render_scene, render_scene_on_path,
+    render_scene_with_kernels, steps_per_frame, FrameOptions, MAX_STEPS_PER_FRAME, STAGING_BUFFERS,
 };
 pub use png_writer::{existing_frames, frame_name, is_frame_name, remove_frames, write_png, Frame};
 

@@ -25,8 +25,10 @@ use crate::model::Model;
 use crate::params::{Integrator, Params, PinTarget};
 use crate::stats::StepStats;
 
-/// The path a lone solver would take for this cloth: the batch puts the
-/// cloths of the workgroup path in its shared buffers.
+/// The path of this cloth in a batch: the workgroup path wherever it can
+/// step the cloth — sharing the batch's one dispatch is the point of a
+/// batch, whatever a lone solver's cost model would choose — else a solver
+/// of its own on the multi-dispatch path.
 pub(super) fn path(kernels: &GpuKernels, model: &Model, params: &Params) -> Result<StepPath> {
     params.validate()?;
     let counts = Counts::of_model(model);
@@ -38,7 +40,11 @@ pub(super) fn path(kernels: &GpuKernels, model: &Model, params: &Params) -> Resu
         dense,
         limits: &limits,
     };
-    Ok(path::choose(&inputs, None)?.path)
+    Ok(if path::workgroup_steps(&inputs) {
+        StepPath::Workgroup
+    } else {
+        StepPath::MultiDispatch
+    })
 }
 
 /// Whether the cloth is semi-implicit with the dense filter.
