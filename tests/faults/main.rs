@@ -6,6 +6,9 @@
 #[path = "../cli_common/mod.rs"]
 mod cli_common;
 mod divergence;
+#[path = "../gpu_common/mod.rs"]
+mod gpu_common;
 mod memory_device;
 mod messages;
+mod moving_bodies;
 mod outputs;
