@@ -7,7 +7,7 @@
 
 use std::borrow::Cow;
 
-use wgcloth::diagnostics::Divergence;
+use wgcloth::diagnostics::{Divergence, Motion};
 use wgcloth::gpu::{Profile, Profiler, StepPath, Timestamps};
 use wgcloth::real::Vec3;
 use wgcloth::scene::animation::Animation;
@@ -46,6 +46,9 @@ pub trait Solver {
     fn time(&self) -> f64;
     /// The current state (a read-back on the GPU).
     fn state(&mut self) -> wgcloth::Result<State<'_, Self::Real>>;
+    /// The moving bodies as the solver has moved them (what
+    /// [`Divergence::check_with`] bounds the work of).
+    fn motion(&self) -> wgcloth::Result<Motion>;
     /// The divergence rule for `model` and `params`, starting from the
     /// current state.
     fn divergence_rule(&mut self, model: &Model, params: &Params) -> wgcloth::Result<Divergence> {
@@ -116,6 +119,10 @@ impl<R: Real> Solver for Cpu<R> {
 
     fn steps(&self) -> u64 {
         self.solver.steps()
+    }
+
+    fn motion(&self) -> wgcloth::Result<Motion> {
+        Ok(self.solver.motion().clone())
     }
 
     fn time(&self) -> f64 {
@@ -327,6 +334,10 @@ impl Solver for Gpu {
 
     fn steps(&self) -> u64 {
         self.solver.steps_recorded()
+    }
+
+    fn motion(&self) -> wgcloth::Result<Motion> {
+        Ok(self.solver.motion().clone())
     }
 
     fn time(&self) -> f64 {

@@ -4,6 +4,7 @@
 
 use std::borrow::Cow;
 
+use wgcloth::diagnostics::Motion;
 use wgcloth::gpu::{ClothId, GpuBatch, StepPath};
 use wgcloth::params::{Capsule, PinTarget};
 use wgcloth::real::Vec3;
@@ -100,6 +101,10 @@ impl Solver for GpuCopies {
 
     fn time(&self) -> f64 {
         self.steps() as f64 * self.dt
+    }
+
+    fn motion(&self) -> wgcloth::Result<Motion> {
+        self.batch.motion(self.first).cloned()
     }
 
     fn state(&mut self) -> wgcloth::Result<State<'_, f32>> {

@@ -269,9 +269,10 @@ impl Run<'_> {
             let traced = trace.as_ref().is_some_and(|t| t.wants(done));
             if check || traced {
                 let time = solver.time();
+                let motion = solver.motion()?;
                 let s = solver.state()?;
                 if check {
-                    rule.check(done, time, &s.x, &s.v)?;
+                    rule.check_with(done, time, &s.x, &s.v, &motion)?;
                 }
                 if let Some(trace) = trace.as_mut().filter(|_| traced) {
                     trace.step(done, time, &s.x, &s.v)?;

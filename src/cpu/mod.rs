@@ -503,6 +503,8 @@ pub struct CpuSolver<R: Real> {
     steps: u64,
     time: f64,
     last: StepStats,
+    /// The moving bodies, for [`CpuSolver::check_divergence`].
+    motion: diagnostics::Motion,
 }
 
 impl<R: Real> CpuSolver<R> {
@@ -555,6 +557,7 @@ impl<R: Real> CpuSolver<R> {
             steps: 0,
             time: 0.0,
             last: StepStats::default(),
+            motion: diagnostics::Motion::new(model, params),
         };
         if solver.integrator == Integrator::SemiImplicit {
             solver.build_filter()?;
@@ -625,12 +628,25 @@ impl<R: Real> CpuSolver<R> {
     }
 
     /// Applies `rule` to the current state (see
-    /// [`Divergence`](diagnostics::Divergence)): an embedder calls this
-    /// every [`CHECK_EVERY`](diagnostics::CHECK_EVERY) steps and at its last
-    /// step, after [`CpuSolver::step`] (which reports a non-finite state at
-    /// once by itself).
+    /// [`Divergence`](diagnostics::Divergence)), bounding the work of the
+    /// bodies as this solver moved them ([`CpuSolver::motion`]): an
+    /// embedder calls this every [`CHECK_EVERY`](diagnostics::CHECK_EVERY)
+    /// steps and at its last step, after [`CpuSolver::step`] (which reports
+    /// a non-finite state at once by itself).
     pub fn check_divergence(&self, rule: &diagnostics::Divergence) -> Result<()> {
-        rule.check(self.steps, self.time, &self.state.x, &self.state.v)
+        rule.check_with(
+            self.steps,
+            self.time,
+            &self.state.x,
+            &self.state.v,
+            &self.motion,
+        )
+    }
+
+    /// The moving bodies (colliders, pins) as this solver has moved them
+    /// since it started, told by every setter that moves one.
+    pub fn motion(&self) -> &diagnostics::Motion {
+        &self.motion
     }
 
     /// The current state in the internals' vectors (for the CLI and the
@@ -654,6 +670,10 @@ impl<R: Real> CpuSolver<R> {
             });
         }
         self.state = state;
+        for p in (0..n).filter(|&p| self.sys.inv_mass[p] <= R::ZERO) {
+            let x = glam::DVec3::from_array(self.state.x[p].to_f64());
+            self.motion.place(p, x, self.time);
+        }
         Ok(())
     }
 
@@ -716,6 +736,7 @@ impl<R: Real> CpuSolver<R> {
         self.check_colliders(spheres, &[])?;
         self.sys.spheres = spheres_r(spheres);
         self.sys.sphere_base = self.work.clock;
+        self.motion.set_spheres(self.time, spheres);
         Ok(())
     }
 
@@ -725,6 +746,7 @@ impl<R: Real> CpuSolver<R> {
         self.check_colliders(&[], capsules)?;
         self.sys.capsules = capsules_r(capsules);
         self.sys.capsule_base = self.work.clock;
+        self.motion.set_capsules(self.time, capsules);
         Ok(())
     }
 
@@ -769,6 +791,12 @@ impl<R: Real> CpuSolver<R> {
                 return Err(e);
             }
         }
+        if pinned {
+            let x = glam::DVec3::from_array(self.state.x[p].to_f64());
+            self.motion.pin(p, Some(x), self.time);
+        } else {
+            self.motion.release(p);
+        }
         Ok(())
     }
 
@@ -789,6 +817,8 @@ impl<R: Real> CpuSolver<R> {
                 end,
             };
         }
+        let duration = f64::from(steps) * self.sys.dt.to_f64();
+        self.motion.set_pin_targets(self.time, targets, duration);
         Ok(())
     }
 

@@ -14,6 +14,7 @@ use super::solver::{
 };
 use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_with_capacity};
+use crate::diagnostics::Motion;
 use crate::error::Result;
 use crate::kernel_config::{integrator, WORKGROUP};
 use crate::model::Model;
@@ -378,6 +379,7 @@ impl GpuSolver {
             specialised: true,
             host_params: params.clone(),
             path,
+            motion: Motion::new(model, params),
         })
     }
 }

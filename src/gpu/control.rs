@@ -173,6 +173,7 @@ impl GpuSolver {
         p.validate()?;
         self.host_params = p;
         entry::spheres(spheres)(&mut self.params, self.steps_recorded);
+        self.motion.set_spheres(self.time(), spheres);
         self.update_features()
     }
 
@@ -185,6 +186,7 @@ impl GpuSolver {
         p.validate()?;
         self.host_params = p;
         entry::capsules(capsules)(&mut self.params, self.steps_recorded);
+        self.motion.set_capsules(self.time(), capsules);
         self.update_features()
     }
 
@@ -208,6 +210,9 @@ impl GpuSolver {
         for (p, goal) in goals {
             self.write_pin_goal(p, goal);
         }
+        let duration = f64::from(motion::frame_steps(frame_seconds, self.host_params.dt)?)
+            * self.host_params.dt;
+        self.motion.set_pin_targets(self.time(), targets, duration);
         Ok(())
     }
 
@@ -253,6 +258,7 @@ impl GpuSolver {
             (p * 16) as u64,
             bytemuck::cast_slice(&position.to_array()),
         );
+        self.motion.place(p, position.as_dvec3(), self.time());
         Ok(())
     }
 
@@ -283,6 +289,13 @@ impl GpuSolver {
         }
         // A new pin stands still until it is given a target.
         self.write_pin_goal(p, [0.0; 4]);
+        // Where a new pin is would need a read-back: its first target
+        // places it for the divergence rule.
+        if pinned {
+            self.motion.pin(p, None, self.time());
+        } else {
+            self.motion.release(p);
+        }
         if let Some(filter) = change.filter {
             self.queue
                 .write_buffer(&self.buffers.dense, 0, bytemuck::cast_slice(&filter.words));

@@ -3,7 +3,7 @@
 //! [`GpuSolver::check`]); the finite bounds need the state on the host.
 
 use super::solver::{GpuSolver, GpuState};
-use crate::diagnostics::Divergence;
+use crate::diagnostics::{Divergence, Motion};
 use crate::error::Result;
 
 impl GpuSolver {
@@ -21,14 +21,27 @@ impl GpuSolver {
     }
 
     /// Reads the state back (blocking) and applies `rule` to it at the last
-    /// recorded step: [`crate::Error::NonFinite`] with the exact step the
-    /// device recorded, or [`crate::Error::Diverged`]. An embedder calls
-    /// this every [`crate::diagnostics::CHECK_EVERY`] steps and at its last
-    /// step; it returns the state it judged.
+    /// recorded step, bounding the work of the bodies as this solver moved
+    /// them ([`GpuSolver::motion`]): [`crate::Error::NonFinite`] with the
+    /// exact step the device recorded, or [`crate::Error::Diverged`]. An
+    /// embedder calls this every [`crate::diagnostics::CHECK_EVERY`] steps
+    /// and at its last step; it returns the state it judged.
     pub fn check_divergence(&self, rule: &Divergence) -> Result<GpuState> {
         let state = self.read_state()?;
-        rule.check(self.steps_recorded, self.time(), &state.x, &state.v)?;
+        rule.check_with(
+            self.steps_recorded,
+            self.time(),
+            &state.x,
+            &state.v,
+            &self.motion,
+        )?;
         Ok(state)
+    }
+
+    /// The moving bodies (colliders, pins) as this solver has moved them
+    /// since it started, told by every setter that moves one.
+    pub fn motion(&self) -> &Motion {
+        &self.motion
     }
 
     /// Simulated time of the recorded steps, `steps × dt` \[s\] (as the

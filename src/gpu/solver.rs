@@ -15,6 +15,7 @@ use super::semi_filter::SemiFilter;
 use crate::aggregation::Aggregation;
 use crate::budget::{self, Counts};
 use crate::cpu::filter::FilterSystem;
+use crate::diagnostics::Motion;
 use crate::error::{Error, Result};
 use crate::kernel_config::WORKGROUP;
 use crate::model::Model;
@@ -142,6 +143,8 @@ pub struct GpuSolver {
     pub(super) host_params: Params,
     /// How a step is recorded, and why.
     pub(super) path: PathChoice,
+    /// The moving bodies, for [`GpuSolver::check_divergence`].
+    pub(super) motion: Motion,
 }
 
 /// What the step plan depends on (`params`: as uploaded).

@@ -7,9 +7,12 @@ mod character;
 #[path = "../cli_common/mod.rs"]
 mod cli_common;
 mod divergence;
+#[path = "../gpu_common/mod.rs"]
+mod gpu_common;
 mod inputs;
 mod memory_device;
 mod messages;
+mod moving_bodies;
 mod outputs;
 
 use std::process::Output;

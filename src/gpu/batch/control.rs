@@ -7,6 +7,7 @@ use glam::{DVec3, Vec3};
 use super::table::Table;
 use super::table_cloth::TableCloth;
 use super::{in_cloth, ClothId, GpuBatch, Member};
+use crate::diagnostics::Motion;
 use crate::error::Result;
 use crate::gpu::control::entry;
 use crate::gpu::GpuSolver;
@@ -71,6 +72,14 @@ impl GpuBatch {
         )
     }
 
+    /// Tells cloth `id`'s record of moving bodies ([`GpuBatch::motion`])
+    /// a change made at its current time.
+    fn moved(&mut self, id: ClothId, tell: impl FnOnce(&mut Motion, f64)) -> Result<()> {
+        let time = self.time(id)?;
+        tell(&mut self.slots[id.slot as usize].motion, time);
+        Ok(())
+    }
+
     /// [`GpuSolver::set_spheres`] for cloth `id`.
     pub fn set_spheres(&mut self, id: ClothId, spheres: &[Sphere]) -> Result<()> {
         crate::gpu::solver::check_collider_counts(spheres.len(), 0)?;
@@ -79,7 +88,8 @@ impl GpuBatch {
             |s| s.set_spheres(spheres),
             |p| p.spheres = spheres.to_vec(),
             entry::spheres(spheres),
-        )
+        )?;
+        self.moved(id, |m, t| m.set_spheres(t, spheres))
     }
 
     /// [`GpuSolver::set_capsules`] for cloth `id`.
@@ -90,7 +100,8 @@ impl GpuBatch {
             |s| s.set_capsules(capsules),
             |p| p.capsules = capsules.to_vec(),
             entry::capsules(capsules),
-        )
+        )?;
+        self.moved(id, |m, t| m.set_capsules(t, capsules))
     }
 
     /// [`GpuSolver::set_position`] for particle `p` of cloth `id` (`p`
@@ -100,7 +111,8 @@ impl GpuBatch {
             id,
             |s| s.set_position(p, position),
             |c, t| c.set_position(t, p, position),
-        )
+        )?;
+        self.moved(id, |m, t| m.place(p, position.as_dvec3(), t))
     }
 
     /// [`GpuSolver::set_pinned`] for particle `p` of cloth `id`.
@@ -110,7 +122,16 @@ impl GpuBatch {
             id,
             |s| s.set_pinned(p, pinned),
             |c, t| c.set_pinned(t, slot, p, pinned),
-        )
+        )?;
+        // Where a new pin is would need a read-back: its first target
+        // places it for the divergence rule.
+        self.moved(id, |m, t| {
+            if pinned {
+                m.pin(p, None, t);
+            } else {
+                m.release(p);
+            }
+        })
     }
 
     /// [`GpuSolver::set_pin_targets`] for cloth `id` (particles counted
@@ -125,6 +146,9 @@ impl GpuBatch {
             id,
             |s| s.set_pin_targets(targets, frame_seconds),
             |c, t| c.set_pin_targets(t, targets, frame_seconds),
-        )
+        )?;
+        let dt = self.dt(id)?;
+        let duration = f64::from(crate::cpu::motion::frame_steps(frame_seconds, dt)?) * dt;
+        self.moved(id, |m, t| m.set_pin_targets(t, targets, duration))
     }
 }

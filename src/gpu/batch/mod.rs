@@ -18,6 +18,7 @@ use std::ops::Range;
 
 use super::kernels::GpuKernels;
 use super::solver::{GpuSolver, GpuState};
+use crate::diagnostics::{Divergence, Motion};
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::params::Params;
@@ -76,6 +77,8 @@ enum Member {
 struct Slot {
     generation: u32,
     member: Option<Member>,
+    /// The moving bodies of its cloth, for [`GpuBatch::check_divergence`].
+    motion: Motion,
 }
 
 /// Many cloths on a wgpu device the host owns, stepped together.
@@ -165,15 +168,18 @@ impl GpuBatch {
                 params,
             )?)),
         };
+        let motion = Motion::new(model, params);
         if slot == self.slots.len() {
             self.slots.push(Slot {
                 generation: 0,
                 member: None,
+                motion: motion.clone(),
             });
         }
         let s = &mut self.slots[slot];
         s.generation = s.generation.wrapping_add(1);
         s.member = Some(member);
+        s.motion = motion;
         if let Err(e) = self.prepare() {
             // Not added: its pipelines could not be built.
             if let Some(Member::Table(c)) = self.slots[slot].member.take() {
@@ -215,6 +221,7 @@ impl GpuBatch {
             Some(Slot {
                 generation,
                 member: Some(m),
+                ..
             }) if *generation == id.generation => Ok(m),
             _ => Err(self.unknown(id)),
         }
@@ -420,6 +427,46 @@ impl GpuBatch {
             Member::Table(c) => Ok(c.steps_recorded),
             Member::Solo(solver) => Ok(solver.steps_recorded()),
         }
+    }
+
+    /// The time step of cloth `id` \[s\].
+    pub fn dt(&self, id: ClothId) -> Result<f64> {
+        match self.member(id)? {
+            Member::Table(c) => Ok(c.host_params().dt),
+            Member::Solo(solver) => Ok(solver.dt()),
+        }
+    }
+
+    /// Simulated time of cloth `id`'s recorded steps, `steps × dt` \[s\].
+    pub fn time(&self, id: ClothId) -> Result<f64> {
+        Ok(self.steps_recorded(id)? as f64 * self.dt(id)?)
+    }
+
+    /// The moving bodies (colliders, pins) of cloth `id` as the batch's
+    /// setters have moved them since it was added.
+    pub fn motion(&self, id: ClothId) -> Result<&Motion> {
+        self.member(id)?;
+        Ok(&self.slots[id.slot as usize].motion)
+    }
+
+    /// Reads cloth `id`'s state back (blocking) and applies `rule` to it at
+    /// its last recorded step, bounding the work of its bodies as the
+    /// batch moved them ([`GpuBatch::motion`]), as
+    /// [`GpuSolver::check_divergence`] does for a solver; returns the state
+    /// it judged. An error names the cloth. The rule for a cloth is
+    /// [`Divergence::new`] from its model, its parameters and
+    /// [`GpuBatch::read_state`].
+    pub fn check_divergence(&self, id: ClothId, rule: &Divergence) -> Result<GpuState> {
+        let state = self.read_state(id)?;
+        rule.check_with(
+            self.steps_recorded(id)?,
+            self.time(id)?,
+            &state.x,
+            &state.v,
+            self.motion(id)?,
+        )
+        .map_err(|e| in_cloth(id, e))?;
+        Ok(state)
     }
 }
 

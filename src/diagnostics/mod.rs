@@ -1,7 +1,12 @@
 //! Energy and strain measures, the same for every backend: they take
 //! positions and velocities in any precision (glam's `Vec3` or `DVec3`,
 //! see [`Vector`]) and accumulate in `f64`; and
-//! [`Divergence`], the one rule that says a simulation has blown up.
+//! [`Divergence`], the one rule that says a simulation has blown up, with
+//! the record of moving bodies it bounds the work of ([`Motion`]).
+
+mod motion;
+
+pub use motion::{Motion, Reach};
 
 use crate::error::{Error, Result};
 use crate::model::Model;
@@ -166,15 +171,16 @@ impl std::fmt::Display for Joules {
 /// starts (usually the initial state). A state has diverged when
 /// 1. a position or velocity is not finite ([`Error::NonFinite`]); or
 /// 2. its total energy ([`energy`]: kinetic + gravitational + elastic)
-///    exceeds `E₀ + W_wind(t) + max(ENERGY_MARGIN · S, ENERGY_FLOOR)`
-///    ([`Crossed::Energy`]); or
+///    exceeds `E₀ + W_wind(t) + W_motion(t) + max(ENERGY_MARGIN · S,
+///    ENERGY_FLOOR)` ([`Crossed::Energy`]); or
 /// 3. its largest stretch strain exceeds the strain bound
 ///    ([`DIVERGED_STRAIN`] unless set by [`Divergence::with_max_strain`];
 ///    [`Crossed::Strain`]).
 ///
-/// Gravity is inside the total, and damping, the ground and the spheres
-/// only take energy out, so without wind a physical run never exceeds
-/// `E₀`. Wind can feed energy in; its work since the start is bounded by
+/// Gravity is inside the total, and damping, the ground and colliders at
+/// rest only take energy out, so without wind or moving bodies a physical
+/// run never exceeds `E₀`. Wind can feed energy in; its work since the
+/// start is bounded by
 /// `W_wind(t) = ½ M_free |w|² + (c_d + c_l) · A · |w|³ · t`: the kinetic
 /// energy of the free particles carried along at the wind's speed, plus
 /// the power of the whole rest area `A` facing the wind at full speed
@@ -190,10 +196,43 @@ impl std::fmt::Display for Joules {
 /// `K₀` and `U₀` the initial kinetic and elastic energies) sizes the
 /// margin to the cloth.
 ///
+/// Moving bodies — spheres and capsules with a velocity or moved by a
+/// host, pins moving to their targets — do work on the cloth, bounded from
+/// the [`Reach`] of the bodies ([`Motion`]: the fastest speed `U` any of
+/// them has had, the largest total change of velocity `V = Σ |Δu|` of any
+/// one of them (its start from rest included), the highest point `h_top` a
+/// moving collider has reached, the most `Δh` a pin has risen):
+/// `W_motion = ½ M_free W² + M_free W v_S + M |g| H`, with `W = U + V`,
+/// `v_S = √(2 S / M_free)` and `H = max(Δh, h_top − y₀, 0)` (`y₀` the
+/// lowest particle at the start, heights along `−g`).
+/// - Carrying and flinging: a contact never increases a particle's speed
+///   relative to the body, and a pin moves its particle with it, so in the
+///   frame of a body at constant velocity the cloth moves as by a body at
+///   rest, at speeds of its own scale `v_S`; each change `Δu` of the
+///   body's velocity shifts every relative velocity by `Δu` (a cape whose
+///   pins jerk to `u` swings its hem to `2u`). World speeds stay under
+///   `v_S + W`, and the kinetic energy above the cloth's own under the
+///   first two terms.
+/// - Lifting: a collider lifts the cloth no higher than its top, pins by
+///   their rise.
+/// - Stretching: pins that move relative to each other stretch the cloth
+///   between them; a rigid motion (a character walking and turning) does
+///   not. That energy is not in the bound: the strain bound caps it, and
+///   pins dragged apart by more than the margin allows are a blow-up (see
+///   `docs/integrators.md`).
+///
+/// The term grows with the bodies' speeds and heights, not with the
+/// cloth's state, so a real blow-up next to a moving body, which grows
+/// geometrically, still passes it within a few steps.
+///
 /// A driver checks every [`CHECK_EVERY`] steps and at its last step with
-/// [`Divergence::check`] (or [`crate::cpu::CpuSolver::check_divergence`],
-/// [`crate::gpu::GpuSolver::check_divergence`]); build a new rule after
-/// changing gravity, wind, masses or pins.
+/// [`Divergence::check`] (moving bodies as the parameters set them from
+/// time zero) or [`Divergence::check_with`] (the bodies as a solver moved
+/// them), or lets the solver do it: [`crate::cpu::CpuSolver::check_divergence`],
+/// [`crate::gpu::GpuSolver::check_divergence`] and
+/// [`crate::gpu::GpuBatch::check_divergence`] keep their own [`Motion`],
+/// told by every setter that moves a body. Build a new rule after changing
+/// gravity, wind, masses or pins.
 #[derive(Clone, Debug)]
 pub struct Divergence {
     model: Model,
@@ -206,6 +245,18 @@ pub struct Divergence {
     base: f64,
     /// Bound on the wind's power `(c_d + c_l) A |w|³` \[W\].
     wind_power: f64,
+    /// Mass of the free particles `M_free` \[kg\].
+    free_mass: f64,
+    /// Mass of the cloth `M` \[kg\].
+    total_mass: f64,
+    /// `|g|` [m/s²].
+    gravity: f64,
+    /// The cloth's own speed scale `v_S = √(2 S / M_free)` [m/s].
+    own_speed: f64,
+    /// The lowest particle at the start, along `−g` \[m\] (`y₀`).
+    lowest: f64,
+    /// The moving bodies as the parameters set them from time zero.
+    motion: Motion,
     /// Strain bound (`1.0` = 100 %).
     max_strain: f64,
 }
@@ -233,6 +284,20 @@ impl Divergence {
         };
         let scale = total_mass * g * rest_side(model) + e0.kinetic + e0.elastic + wind_kinetic;
         let margin = (ENERGY_MARGIN * scale).max(ENERGY_FLOOR);
+        let own_speed = if free_mass > 0.0 {
+            (2.0 * scale / free_mass).sqrt()
+        } else {
+            0.0
+        };
+        let up = if g > 0.0 {
+            -params.gravity / g
+        } else {
+            glam::DVec3::ZERO
+        };
+        let lowest = x
+            .iter()
+            .map(|p| glam::DVec3::from_array(p.to_f64()).dot(up))
+            .fold(f64::INFINITY, f64::min);
         Divergence {
             model: model.clone(),
             params: params.clone(),
@@ -240,6 +305,12 @@ impl Divergence {
             initial: e0.total(),
             base: e0.total() + wind_kinetic + margin,
             wind_power,
+            free_mass,
+            total_mass,
+            gravity: g,
+            own_speed,
+            lowest,
+            motion: Motion::new(model, params),
             max_strain: DIVERGED_STRAIN,
         }
     }
@@ -256,9 +327,32 @@ impl Divergence {
         self.initial
     }
 
-    /// The energy bound at `time` \[s\] \[J\].
+    /// The energy bound at `time` \[s\] \[J\], with the bodies moving as
+    /// the parameters set them from time zero.
     pub fn energy_limit(&self, time: f64) -> f64 {
-        self.base + self.wind_power * (time - self.start).max(0.0)
+        self.energy_limit_with(time, &self.motion)
+    }
+
+    /// The energy bound at `time` \[s\] \[J\] with the bodies as `motion`
+    /// has them.
+    pub fn energy_limit_with(&self, time: f64, motion: &Motion) -> f64 {
+        self.base + self.wind_power * (time - self.start).max(0.0) + self.motion_work(time, motion)
+    }
+
+    /// `W_motion` \[J\]: the bound on the work the bodies as `motion` has
+    /// them can have done by `time` \[s\] (zero when nothing moves).
+    pub fn motion_work(&self, time: f64, motion: &Motion) -> f64 {
+        let Reach {
+            speed,
+            change,
+            top,
+            rise,
+        } = motion.reach(time);
+        let w = speed + change;
+        let lift = rise.max(top - self.lowest).max(0.0);
+        0.5 * self.free_mass * w * w
+            + self.free_mass * w * self.own_speed
+            + self.total_mass * self.gravity * lift
     }
 
     /// The strain bound (`1.0` = 100 %).
@@ -267,10 +361,21 @@ impl Divergence {
     }
 
     /// The bound a finite state `x`, `v` at `time` \[s\] crosses (energy
-    /// first), if any.
+    /// first), if any, with the bodies moving as the parameters set them.
     pub fn crossed<V: Vector>(&self, time: f64, x: &[V], v: &[V]) -> Option<Crossed> {
+        self.crossed_with(time, x, v, &self.motion)
+    }
+
+    /// [`Divergence::crossed`] with the bodies as `motion` has them.
+    pub fn crossed_with<V: Vector>(
+        &self,
+        time: f64,
+        x: &[V],
+        v: &[V],
+        motion: &Motion,
+    ) -> Option<Crossed> {
         let total = energy(&self.model, &self.params, x, v).total();
-        let limit = self.energy_limit(time);
+        let limit = self.energy_limit_with(time, motion);
         // A finite state's energy can still overflow (+∞ kinetic, −∞
         // gravitational: NaN); that is past the bound too.
         if total > limit || total.is_nan() {
@@ -288,8 +393,26 @@ impl Divergence {
 
     /// Applies the rule to the state after `step` (1-based) at `time` \[s\]:
     /// [`Error::NonFinite`] naming the first non-finite particle, or
-    /// [`Error::Diverged`] naming the bound crossed.
+    /// [`Error::Diverged`] naming the bound crossed. The bodies move as the
+    /// parameters set them from time zero: a driver that moves them
+    /// ([`crate::scene::animation::Animation`], `set_spheres`, pin targets)
+    /// checks with the solver's record instead ([`Divergence::check_with`]
+    /// or the solver's `check_divergence`).
     pub fn check<V: Vector>(&self, step: u64, time: f64, x: &[V], v: &[V]) -> Result<()> {
+        self.check_with(step, time, x, v, &self.motion)
+    }
+
+    /// [`Divergence::check`] with the bodies as `motion` has them (a
+    /// solver's record: `motion()` on [`crate::cpu::CpuSolver`],
+    /// [`crate::gpu::GpuSolver`], [`crate::gpu::GpuBatch`]).
+    pub fn check_with<V: Vector>(
+        &self,
+        step: u64,
+        time: f64,
+        x: &[V],
+        v: &[V],
+        motion: &Motion,
+    ) -> Result<()> {
         if let Some(particle) = first_non_finite(x, v) {
             return Err(Error::NonFinite {
                 step,
@@ -297,7 +420,7 @@ impl Divergence {
                 particle,
             });
         }
-        match self.crossed(time, x, v) {
+        match self.crossed_with(time, x, v, motion) {
             Some(crossed) => Err(Error::Diverged {
                 step,
                 time,
