@@ -83,7 +83,7 @@ pub fn exact_gpu(model: &Model, params: &Params) -> GpuSolver {
 /// cap is never reached and every result is what the default cap gives.
 /// It matters for time: a GPU solver with the adaptive budget off (as the
 /// tests that compare bits run it) records the cap's CG dispatches every
-/// step, and on lavapipe each costs as much as one that works.
+/// step, each with its launch and barrier even once CG has stopped.
 pub const BUSY_CG_MAX_ITERATIONS: u32 = 50;
 
 /// Parameters that exercise every force and collider: wind with lift, a
