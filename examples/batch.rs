@@ -29,6 +29,9 @@ const SECONDS: f64 = 2.0;
 const SIZE: (u32, u32) = (640, 400);
 
 fn main() -> anyhow::Result<()> {
+    // Before any thread exists: quiets Mesa's complaint about an unset
+    // XDG_RUNTIME_DIR (Linux hosts).
+    wgcloth::gpu::quiet_mesa();
     let out = std::env::args_os()
         .nth(1)
         .map_or_else(|| PathBuf::from("out/batch.png"), PathBuf::from);

@@ -22,6 +22,9 @@ const SECONDS: f64 = 5.0;
 const SIZE: (u32, u32) = (480, 360);
 
 fn main() -> anyhow::Result<()> {
+    // Before any thread exists: quiets Mesa's complaint about an unset
+    // XDG_RUNTIME_DIR (Linux hosts).
+    wgcloth::gpu::quiet_mesa();
     let out = std::env::args_os()
         .nth(1)
         .map_or_else(|| PathBuf::from("out/cape.png"), PathBuf::from);

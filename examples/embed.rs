@@ -25,6 +25,9 @@ const SIZE: (u32, u32) = (320, 240);
 const DRAG_PER_FRAME: f32 = 0.002;
 
 fn main() -> anyhow::Result<()> {
+    // Before any thread exists: quiets Mesa's complaint about an unset
+    // XDG_RUNTIME_DIR (Linux hosts).
+    wgcloth::gpu::quiet_mesa();
     let out = std::env::args_os()
         .nth(1)
         .map_or_else(|| PathBuf::from("out/embed.png"), PathBuf::from);

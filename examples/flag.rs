@@ -6,5 +6,8 @@
 mod common;
 
 fn main() -> anyhow::Result<()> {
+    // Before any thread exists: quiets Mesa's complaint about an unset
+    // XDG_RUNTIME_DIR (Linux hosts).
+    wgcloth::gpu::quiet_mesa();
     common::render_builtin("flag", 3.0)
 }

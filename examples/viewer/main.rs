@@ -78,6 +78,9 @@ fn parse_drag(text: &str) -> Result<(Vec2, Vec2), String> {
 }
 
 fn main() -> anyhow::Result<()> {
+    // Before any thread exists: quiets Mesa's complaint about an unset
+    // XDG_RUNTIME_DIR (Linux hosts).
+    wgcloth::gpu::quiet_mesa();
     let options = Options::parse();
     let scene = Scene::resolve(&options.scene)?;
     let event_loop = EventLoop::new().context(

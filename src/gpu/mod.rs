@@ -7,7 +7,8 @@
 //! - [`GpuBatch`] steps many cloths together, each drawable from the
 //!   batch's buffers;
 //! - [`GpuContext`] opens an adapter and device for tools and tests (the
-//!   solver itself never does);
+//!   solver itself never does), and [`quiet_mesa`] settles the
+//!   environment Mesa's drivers expect, for hosts on Linux;
 //! - [`GpuSolver::tuning`] and [`GpuSolver::tuning_mut`] inspect and set
 //!   the knobs benchmarks and tests use ([`GpuTuning`], [`GpuTuningMut`]).
 
@@ -21,6 +22,7 @@ mod debug;
 mod divergence;
 mod errors;
 mod grid;
+mod host_env;
 mod kernel;
 mod kernels;
 pub mod pipeline_cache;
@@ -47,6 +49,7 @@ pub use batch::{ClothId, DrawRange, GpuBatch};
 pub use context::{GpuContext, BACKEND_NAMES};
 pub(crate) use errors::guarded;
 pub use grid::GridBlock;
+pub use host_env::quiet_mesa;
 pub use path::StepPath;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 pub use solver::{GpuSolver, GpuState};

@@ -11,9 +11,11 @@ use wgcloth::model::{ClothSpec, Corner, Pin};
 use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
 use wgcloth::{Model, Params};
 
-/// The adapter every GPU test runs on. A machine without one fails the
-/// test with the library's message saying how to get one (lavapipe) — a GPU
-/// test never passes silently.
+/// The adapter every GPU test runs on, opened once per test binary (each
+/// solver of a binary built with `ctx.kernels()` shares its compiled
+/// pipelines too). A machine without one fails the test with the library's
+/// message saying how to get one (lavapipe) — a GPU test never passes
+/// silently.
 pub fn gpu() -> &'static GpuContext {
     static CONTEXT: OnceLock<GpuContext> = OnceLock::new();
     CONTEXT.get_or_init(|| match GpuContext::new(None) {
@@ -41,7 +43,7 @@ pub fn worst(gpu: &[Vec3], cpu: &[Vec3]) -> (f64, usize) {
 /// difference [m], the particle, and both positions there.
 pub fn compare(model: &Model, params: &Params, steps: u32) -> (f64, usize, Vec3, Vec3) {
     let ctx = gpu();
-    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, params)
+    let mut g = GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, model, params)
         .unwrap_or_else(|e| panic!("GPU solver: {e}"));
     g.step(steps).unwrap_or_else(|e| panic!("GPU run: {e}"));
     let gs = g
@@ -68,14 +70,26 @@ pub fn solver_on(model: &Model, params: &Params, path: StepPath) -> GpuSolver {
 /// may stop a step whose colliders or pins just changed earlier).
 pub fn exact_gpu(model: &Model, params: &Params) -> GpuSolver {
     let ctx = gpu();
-    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, model, params).expect("GPU solver");
+    let mut g =
+        GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, model, params).expect("GPU solver");
     g.tuning_mut().set_adaptive_cg_budget(false);
     g
 }
 
+/// The CG cap of [`busy_params`] (the default is 200). CG needs at most 14
+/// iterations a step on the tests' 13 × 11 busy cloth, 20 on a 17² one with
+/// a capsule, 30 on a 33² one (200 steps each; `wgcloth run SCENE --steps
+/// 200 --precision f32`, whose summary gives the most a step took), so the
+/// cap is never reached and every result is what the default cap gives.
+/// It matters for time: a GPU solver with the adaptive budget off (as the
+/// tests that compare bits run it) records the cap's CG dispatches every
+/// step, each with its launch and barrier even once CG has stopped.
+pub const BUSY_CG_MAX_ITERATIONS: u32 = 50;
+
 /// Parameters that exercise every force and collider: wind with lift, a
 /// ground and a sphere the falling cloth reaches within ~100 steps; Jacobi
-/// fix-up (the GPU's); dt 1 ms for explicit, 1/120 s otherwise.
+/// fix-up (the GPU's); dt 1 ms for explicit, 1/120 s otherwise; CG capped
+/// at [`BUSY_CG_MAX_ITERATIONS`].
 pub fn busy_params(integrator: Integrator) -> Params {
     let mut p = Params {
         integrator,
@@ -86,6 +100,7 @@ pub fn busy_params(integrator: Integrator) -> Params {
         },
         ..Params::default()
     };
+    p.implicit.max_iterations = BUSY_CG_MAX_ITERATIONS;
     p.fixup.method = FixupMethod::Jacobi;
     p.ground = Some(Ground {
         height: 0.75,

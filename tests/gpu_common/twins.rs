@@ -3,7 +3,7 @@
 //! bit-for-bit comparison of output words.
 
 use wgcloth::cpu::twins::{self, CpuSolver, Filter, SpringBlock, State, Sym3, System, Workspace};
-use wgcloth::gpu::{DebugBuffer, Dispatch, GpuKernels, GpuSolver, Kernel, StepPath};
+use wgcloth::gpu::{DebugBuffer, Dispatch, GpuSolver, Kernel, StepPath};
 use wgcloth::kernel_config::filter_kind::{FIXED, FREE, PLANE};
 use wgcloth::real::Vec3;
 use wgcloth::{Model, Params};
@@ -72,8 +72,7 @@ impl Twins {
         path: StepPath,
     ) -> Self {
         let ctx = gpu();
-        let kernels = GpuKernels::new(&ctx.device);
-        let mut g = GpuSolver::with_step_path(&kernels, &ctx.queue, model, params, path)
+        let mut g = GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, model, params, path)
             .unwrap_or_else(|e| panic!("GPU solver on the {path} path: {e}"));
         let mut tuning = g.tuning_mut();
         tuning
