@@ -14,6 +14,7 @@ use wgcloth::{Real, Scene, Vector};
 
 mod cli_common;
 use cli_common::*;
+mod gpu_common;
 
 /// A 5 × 5 explicit cloth, 5 steps by default: fast enough for a debug build.
 const SMALL_SCENE: &str = r#"
@@ -560,7 +561,45 @@ fn no_arguments_render_the_default_job_to_out() {
         frames_in(&dir.join("out").join("hanging")),
         expected_frames(frames, (640, 480))
     );
+    // The README shows this run's last frame: a change to the scene, the
+    // solver or the camera that moves the cloth leaves docs/images/hanging.png
+    // stale, and `bash docs/images/make.sh` must be run.
+    let last = dir
+        .join("out")
+        .join("hanging")
+        .join(wgcloth::render::frame_name(frames - 1));
+    let (w, h, got) = gpu_common::decode_png(&last);
+    let shown = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/images/hanging.png");
+    let (sw, sh, want) = gpu_common::decode_png(&shown);
+    assert_eq!((w, h), (sw, sh), "docs/images/hanging.png has another size");
+    let differing = got
+        .chunks(4)
+        .zip(want.chunks(4))
+        .filter(|(a, b)| {
+            a.iter()
+                .zip(b.iter())
+                .any(|(x, y)| x.abs_diff(*y) > STALE_CHANNEL)
+        })
+        .count();
+    let share = differing as f64 / f64::from(w * h);
+    assert!(
+        share <= STALE_PIXELS,
+        "{:.2} % of the quick start's last frame differs from docs/images/hanging.png: \
+         regenerate the docs' pictures with `bash docs/images/make.sh`",
+        share * 100.0
+    );
 }
+
+/// A channel difference [0–255] above which a pixel of the quick start's
+/// frame counts as differing from the README's: on lavapipe the two are the
+/// same bytes; another adapter may shade a surface a few levels apart.
+const STALE_CHANNEL: u8 = 8;
+
+/// The share of differing pixels the README's picture may have (0.5 %): the
+/// cloth's outline is about 1 % of the picture, so a cloth that moved by a
+/// pixel or more fails, while an adapter that rasterises a few edge pixels
+/// differently passes.
+const STALE_PIXELS: f64 = 0.005;
 
 /// Without `--out`, each scene renders into `out/<scene>`: a second scene
 /// after the first is not refused for the first one's frames. `--seconds`

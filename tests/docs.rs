@@ -284,7 +284,10 @@ fn every_built_in_scene_is_listed_where_the_docs_list_them() {
         .iter()
         .map(|s| s.to_string())
         .collect();
-    for (page, first) in [("README.md", "hanging"), ("docs/scene-format.md", "hanging")] {
+    for (page, first) in [
+        ("README.md", "hanging"),
+        ("docs/scene-format.md", "hanging"),
+    ] {
         let text = std::fs::read_to_string(repo().join(page)).expect("readable");
         // The scenes table is the one whose first row names the first scene.
         let names = table_names(&text);
@@ -397,4 +400,29 @@ fn the_readme_embedding_snippet_is_lines_of_the_embed_example() {
             ),
         }
     }
+}
+
+#[test]
+fn every_picture_in_the_docs_is_made_by_docs_images_make_sh() {
+    let script = std::fs::read_to_string(repo().join("docs/images/make.sh")).expect("readable");
+    let mut pictures = 0;
+    for entry in std::fs::read_dir(repo().join("docs/images")).expect("docs/images is readable") {
+        let path = entry.expect("docs/images entry").path();
+        let name = path.file_name().and_then(|n| n.to_str()).expect("a name");
+        if name == "make.sh" {
+            continue;
+        }
+        pictures += 1;
+        // Written by name, or as a scene's last frame (`last_frame SCENE`).
+        let by_name = script.contains(&format!("$images/{name}"));
+        let by_scene = name
+            .strip_suffix(".png")
+            .is_some_and(|scene| script.contains(&format!("\nlast_frame {scene} ")));
+        assert!(
+            by_name || by_scene,
+            "docs/images/{name} is not made by docs/images/make.sh: a picture nobody \
+             can regenerate goes stale"
+        );
+    }
+    assert!(pictures > 0, "no pictures in docs/images");
 }

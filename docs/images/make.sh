@@ -1,0 +1,37 @@
+#!/usr/bin/env bash
+# Regenerates every picture in docs/images from the code, on the adapter the
+# tests use (lavapipe here): `bash docs/images/make.sh` from anywhere.
+# tests/cli.rs checks that the quick start's last frame still is
+# hanging.png, and tests/docs.rs that every picture in docs/images is made
+# here. The viewer's screenshot needs an X server: Xvfb (xvfb-run).
+set -euo pipefail
+
+cd "$(dirname "$0")/../.."
+images=docs/images
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+cargo build --release --bin wgcloth --examples
+wgcloth=target/release/wgcloth
+
+# last_frame SCENE: renders the built-in SCENE over its duration and copies
+# its last frame to docs/images/SCENE.png.
+last_frame() {
+    "$wgcloth" render "$1" --out "$work/$1"
+    cp "$(ls "$work/$1"/frame_*.png | tail -n 1)" "$images/$1.png"
+}
+
+last_frame hanging     # the README's top picture: the quick start's last frame
+last_frame tablecloth # a mesh cloth (OBJ)
+last_frame banner     # a mesh cloth (glTF) with a hole
+
+target/release/examples/cape "$images/cape.png"
+target/release/examples/batch "$images/batch.png"
+xvfb-run -a target/release/examples/viewer --frames 60 --drag 400,153:620,43 \
+    --screenshot "$images/viewer.png"
+
+"$wgcloth" bench accuracy hanging --out "$work/accuracy"
+cp "$work/accuracy/accuracy.svg" "$images/accuracy-hanging.svg"
+"$wgcloth" bench cantilever --chart "$images/cantilever.svg"
+
+echo "regenerated: $(ls "$images" | grep -v make.sh | tr '\n' ' ')"
