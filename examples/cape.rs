@@ -50,7 +50,8 @@ fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Result
     let steps = render::steps_per_frame(FPS, scene.params.dt)?;
     let frame_seconds = f64::from(steps) * scene.params.dt;
     let (width, height) = SIZE;
-    let camera = Camera::for_scene(&scene, &model, width as f32 / height as f32);
+    let aspect = width as f32 / height as f32;
+    let camera = Camera::for_scene(&scene, &model, aspect);
     let formats = RendererFormats::default();
     let renderer = Renderer::with_formats(device, queue, &scene.params, &camera, formats)?;
     let target = FrameTarget::with_formats(device, width, height, formats);
@@ -76,9 +77,13 @@ fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Result
         });
         solver.encode_steps(&mut encoder, steps);
         solver.encode_normals(&mut encoder);
-        // 3. The colliders drawn where they are at the frame's end.
+        // 3. The colliders drawn where they are at the frame's end, seen
+        //    by a camera that follows the character (a game has its own).
         let (spheres, capsules) = solver.colliders();
         renderer.set_colliders(&spheres, &capsules);
+        if let Some(camera) = Camera::following(&scene, &model, aspect, t + frame_seconds) {
+            renderer.set_camera(&camera);
+        }
         {
             let mut pass =
                 renderer.begin_pass(&mut encoder, &target.color_view, &target.depth_view);

@@ -152,9 +152,14 @@ impl Rate {
     fn frames_per_second(&mut self, done: u32) -> Option<f64> {
         let (first, since) = *self.first.get_or_insert((done, Instant::now()));
         let seconds = since.elapsed().as_secs_f64();
-        (done > first && seconds > 0.0).then(|| f64::from(done - first) / seconds)
+        (done > first && seconds >= RATE_SETTLES).then(|| f64::from(done - first) / seconds)
     }
 }
+
+/// The time a rate is measured over before it is shown [s]: frames are
+/// read back a few at a time, so a rate over the first few milliseconds
+/// says how many came back together, not how fast they are made.
+const RATE_SETTLES: f64 = 0.5;
 
 /// One `\r`-rewritten line on stderr: frames done and their rate.
 fn progress(done: u32, total: u32, rate: Option<f64>) {
@@ -293,10 +298,14 @@ mod tests {
             None,
             "one read-back: no interval"
         );
-        std::thread::sleep(std::time::Duration::from_millis(20));
+        assert_eq!(rate.frames_per_second(5), None, "too soon to say");
+        std::thread::sleep(std::time::Duration::from_secs_f64(RATE_SETTLES));
         let r = rate.frames_per_second(6);
-        // 3 frames in at least 20 ms: at most 150 frames/s.
-        assert!(r.is_some_and(|r| r > 0.0 && r <= 150.0), "{r:?}");
+        // 3 frames in at least RATE_SETTLES: at most 6 frames/s.
+        assert!(
+            r.is_some_and(|r| r > 0.0 && r <= 3.0 / RATE_SETTLES),
+            "{r:?}"
+        );
     }
 
     #[test]
