@@ -1,7 +1,8 @@
 //! The solver on a device created with `wgpu::Limits::default()` — what
 //! WebGPU guarantees every device, and what a host that asks for nothing
 //! more gets — runs every integrator on both step paths and in a
-//! `GpuBatch`, and gives the `f32` CPU mirror's bits. GPU tests on
+//! `GpuBatch`, and gives the `f32` CPU mirror's bits (the banded filter,
+//! which the GPU solves by CG, within a tolerance). GPU tests on
 //! lavapipe in CI, whose adapter grants more: the device here is asked for
 //! the defaults only, so wgpu refuses any binding or workgroup beyond them.
 
@@ -75,6 +76,27 @@ fn mirror(case: &Case) -> (Vec<Vec3>, Vec<Vec3>) {
     (c.positions(), c.velocities())
 }
 
+/// How far the banded filter's cloth may be from the mirror after
+/// [`STEPS`] steps \[m\]: the GPU solves that filter by CG (to relative
+/// 1e-5) where the CPU applies the exact banded factor, so the two differ
+/// by up to 1e-6 m a step (see `tests/gpu_semi_implicit.rs`); eight steps,
+/// 1e-5 m. Every other case is compared bit for bit.
+const CG_FILTER_TOL: f64 = 1e-5;
+
+/// `got` is the mirror's state bit for bit, or within [`CG_FILTER_TOL`]
+/// for the banded filter's `case`; on failure names the worst particle.
+fn check(what: &str, case: &Case, got: &GpuState, want: &(Vec<Vec3>, Vec<Vec3>)) {
+    if case.params.semi_implicit.filter == FilterMethod::Banded {
+        let (dx, px) = worst(&got.x, &want.0);
+        assert!(
+            dx < CG_FILTER_TOL,
+            "{what}: position off by {dx:e} m at particle {px}"
+        );
+    } else {
+        assert_mirrors(what, got, want);
+    }
+}
+
 /// `got` is the mirror's state bit for bit; on failure names the worst
 /// particle.
 fn assert_mirrors(what: &str, got: &GpuState, want: &(Vec<Vec3>, Vec<Vec3>)) {
@@ -127,7 +149,12 @@ fn every_integrator_runs_on_both_paths_within_webgpu_default_limits() {
             let got = g
                 .read_state()
                 .unwrap_or_else(|e| panic!("{}: read-back: {e}", case.name));
-            assert_mirrors(&format!("{} on the {path} path", case.name), &got, &want);
+            check(
+                &format!("{} on the {path} path", case.name),
+                &case,
+                &got,
+                &want,
+            );
             ran += 1;
         }
     }
@@ -159,6 +186,11 @@ fn a_batch_of_every_integrator_runs_within_webgpu_default_limits() {
         let got = batch
             .read_state(id)
             .unwrap_or_else(|e| panic!("{}: read-back: {e}", case.name));
-        assert_mirrors(&format!("{} in a batch", case.name), &got, &mirror(case));
+        check(
+            &format!("{} in a batch", case.name),
+            case,
+            &got,
+            &mirror(case),
+        );
     }
 }
