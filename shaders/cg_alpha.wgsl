@@ -16,7 +16,4 @@ fn cg_alpha(@builtin(local_invocation_id) lid: vec3<u32>) {
         return;
     }
     alpha_slots_next(cg_iteration(), running);
-    if (!running) {
-        set_cg_args(false);
-    }
 }

@@ -23,7 +23,7 @@ fn cg_apply(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (cg_done()) {
         return;
     }
-    beta = partials[scalar_index(C_BETA)];
+    beta = partial(scalar_index(C_BETA));
     if (GRID && COARSE && p < params.grid.w) {
         near_load(grid_block_origin(p), vec2<i32>(i32(BLOCK_ROWS), i32(BLOCK_COLS)));
     }

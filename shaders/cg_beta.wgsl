@@ -17,7 +17,4 @@ fn cg_beta(@builtin(local_invocation_id) lid: vec3<u32>) {
     }
     // The direction update of this iteration is only needed by the next.
     beta_slots_next(done.iteration, done.running);
-    if (!done.running) {
-        set_cg_args(false);
-    }
 }

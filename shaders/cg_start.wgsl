@@ -13,6 +13,5 @@ fn cg_start(@builtin(local_invocation_id) lid: vec3<u32>) {
     if (lid.x != 0u) {
         return;
     }
-    set_cg_args(running);
     start_slots(running);
 }

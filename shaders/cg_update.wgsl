@@ -20,7 +20,7 @@ fn cg_update(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     // α once per invocation (a load after a store to `work` is not
     // merged with the one before it).
-    let alpha = partials[scalar_index(C_ALPHA)];
+    let alpha = partial(scalar_index(C_ALPHA));
     if (COARSE) {
         if (gid.x < params.coarse.z) {
             cg_update_aggregate(gid.x, alpha, FIRST);

@@ -23,7 +23,7 @@ fn cloth_explicit(
         atomicAdd(&status[sw(STATUS_STEP)], 1u);
         reset_fixup();
     }
-    for (var s = params.spring_base + lid.x; s < params.spring_base + params.spring_count; s += SUM_GROUP) {
+    for (var s = lid.x; s < params.spring_count; s += SUM_GROUP) {
         spring_force_item(s);
     }
     phase_barrier();

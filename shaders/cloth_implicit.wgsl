@@ -41,7 +41,7 @@ fn cloth_implicit(
     if (l == 0u) {
         implicit_step_start();
     }
-    for (var s = params.spring_base + l; s < params.spring_base + params.spring_count; s += SUM_GROUP) {
+    for (var s = l; s < params.spring_count; s += SUM_GROUP) {
         implicit_springs_item(s);
     }
     phase_barrier();
@@ -73,7 +73,7 @@ fn cloth_implicit(
             }
             phase_barrier();
         }
-        let beta = partials[scalar_index(C_BETA)];
+        let beta = partial(scalar_index(C_BETA));
         for (var p = first + l; p < end; p += SUM_GROUP) {
             cg_apply_item(p, beta);
         }
@@ -81,7 +81,7 @@ fn cloth_implicit(
         if (!cg_share(l, cg_alpha_scalar(l))) {
             break;
         }
-        let alpha = partials[scalar_index(C_ALPHA)];
+        let alpha = partial(scalar_index(C_ALPHA));
         if (coarse) {
             for (var a = l; a < level1; a += SUM_GROUP) {
                 cg_update_aggregate(a, alpha, false);

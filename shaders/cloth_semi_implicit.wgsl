@@ -29,7 +29,7 @@ fn cloth_semi_implicit(
     if (lid.x == 0u) {
         atomicAdd(&status[sw(STATUS_STEP)], 1u);
     }
-    for (var s = params.spring_base + lid.x; s < params.spring_base + params.spring_count; s += SUM_GROUP) {
+    for (var s = lid.x; s < params.spring_count; s += SUM_GROUP) {
         spring_force_item(s);
     }
     phase_barrier();
@@ -76,7 +76,7 @@ fn remove_rigid_rotation(lid: u32) {
             }
         }
         for (var k = 0u; k < T_CENTRE_SUMS; k++) {
-            partials[pi(torque_slot(T_MASS + k), b)] = sums[k];
+            set_partial(pi(torque_slot(T_MASS + k), b), sums[k]);
         }
     }
     phase_barrier();
@@ -90,7 +90,7 @@ fn remove_rigid_rotation(lid: u32) {
             }
         }
         for (var k = 0u; k < T_MOMENT_SUMS; k++) {
-            partials[pi(torque_slot(T_EXCESS + k), b)] = sums[k];
+            set_partial(pi(torque_slot(T_EXCESS + k), b), sums[k]);
         }
     }
     phase_barrier();

@@ -14,10 +14,10 @@ fn normals(@builtin(global_invocation_id) gid: vec3<u32>) {
     let tb = tri_adj(p);
     let te = tri_adj(p + 1u);
     for (var k = tb; k < te; k++) {
-        let base = params.triangles + 3u * topo[params.tri_adj_entries + k];
-        let a = x[topo[base]].xyz;
-        let b = x[topo[base + 1u]].xyz;
-        let c = x[topo[base + 2u]].xyz;
+        let base = params.triangles + 3u * topo(params.tri_adj_entries + k);
+        let a = x[topo(base)].xyz;
+        let b = x[topo(base + 1u)].xyz;
+        let c = x[topo(base + 2u)].xyz;
         n += cross3(b - a, c - a);
     }
     let l = len3(n);

@@ -23,7 +23,7 @@ fn semi_cg_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
         let begin = spring_adj(p);
         let end = spring_adj(p + 1u);
         for (var k = begin; k < end; k++) {
-            diag += spring_work[si(S_BLOCK, topo[params.spring_adj_entries + k] >> 1u)].w;
+            diag += work[si(S_BLOCK, topo(params.spring_adj_entries + k) >> 1u)].w;
         }
         work[wi(W_Z, p)] = vec4<f32>(0.0, 0.0, 0.0, kind);
         work[wi(W_FILTER, p)] = vec4<f32>(0.0);

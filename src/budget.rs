@@ -385,28 +385,32 @@ pub fn gpu_bytes(
     } else {
         0
     };
-    let partials = array::<u32>(
+    // A partial per `vec4` (see `partial` in shaders/common/layout.wgsl).
+    let partials = vec4(
         u64::from(layout::PARTIAL_SLOTS) * n.div_ceil(REDUCTION_BLOCK as u64)
             + u64::from(layout::CG_SCALARS),
     );
-    let slot_words = array::<[u32; 3]>(u64::from(
-        params
-            .implicit
-            .max_iterations
-            .max(crate::gpu::FILTER_CG_MAX_ITERATIONS),
-    ));
+    // The two buffers the kernels bind: read-only model data, scratch.
+    let model = total(&[springs, topo, dense_buffer]);
+    let scratch = total(&[work, spring_work, partials]);
+    // alpha_args' three slots and beta_args' two per recorded CG
+    // iteration, and one more.
+    let slot_words = array::<[u32; 3]>(
+        5 * (u64::from(
+            params
+                .implicit
+                .max_iterations
+                .max(crate::gpu::FILTER_CG_MAX_ITERATIONS),
+        ) + 1),
+    );
     let device = total(&[
         size_of::<GpuParams>() as u64,
-        springs,
-        topo,
+        model,
         // Positions, velocities and normals.
         vec4(3 * n),
-        work,
-        spring_work,
-        partials,
-        dense_buffer,
+        scratch,
         array::<[u32; 3]>(t),
-        2 * slot_words,
+        slot_words,
         // A read-back of positions and velocities.
         vec4(2 * n),
     ]);
@@ -420,8 +424,19 @@ pub fn gpu_bytes(
     };
     let host = total(&[
         model_bytes(n, counts.springs, t),
-        topo,
-        springs,
+        // The model's arrays built, then packed into one upload with the
+        // dense filter's words.
+        2 * (topo + springs),
+        if dense {
+            array::<f32>(
+                counts
+                    .free
+                    .saturating_mul(counts.free)
+                    .saturating_add(counts.free),
+            )
+        } else {
+            0
+        },
         spring_work,
         vec4(2 * n),
         // The read-back's bytes and the state unpacked from them.
@@ -432,10 +447,7 @@ pub fn gpu_bytes(
     GpuNeed {
         device,
         host,
-        largest: [springs, spring_work, work, dense_buffer]
-            .into_iter()
-            .max()
-            .unwrap_or(0),
+        largest: model.max(scratch).max(vec4(n)),
     }
 }
 

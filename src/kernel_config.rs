@@ -165,9 +165,9 @@ pub mod work {
     ];
 }
 
-/// Sections of the per-spring `spring_work` buffer: section `s` of spring
-/// slot `k` is `vec4<f32>` number `s × spring slots + k` (WGSL: `S_*`,
-/// `si`).
+/// Per-spring sections, after the per-particle ones in the `work`
+/// buffer: section `s` of spring slot `k` is `vec4<f32>` number
+/// `s × spring slots + k` from there (WGSL: `S_*`, `si`).
 pub mod spring_work {
     /// The implicit block (m, a) with B = a I + m mᵀ.
     pub const BLOCK: u32 = 0;
@@ -179,9 +179,11 @@ pub mod spring_work {
     pub const COUNT: u32 = 3;
 }
 
-/// The `partials` buffer: slot `k` holds one `f32` per reduction block
-/// (`k × blocks + block`; blocks = ⌈particles / WORKGROUP⌉), then the
-/// [`CG_SCALARS`](partials::CG_SCALARS) CG scalars (WGSL: `P_*`, `C_*`, `scalar_index`).
+/// The reduction partials, after the per-spring sections of the `work`
+/// buffer, one `f32` per `vec4` (in x): slot `k` holds one per reduction
+/// block (`k × blocks + block`; blocks = ⌈particles / WORKGROUP⌉), then
+/// the [`CG_SCALARS`](partials::CG_SCALARS) CG scalars (WGSL: `P_*`,
+/// `C_*`, `pi`, `scalar_index`, `partial`).
 pub mod partials {
     /// cᵀq, per block.
     pub const CQ: u32 = 0;
@@ -233,10 +235,10 @@ pub mod status {
     /// The first of three rotating "this fix-up pass moved something"
     /// flags.
     pub const FIXUP_FLAG: usize = 10;
-    /// The CG iteration whose `cg_alpha` was last enabled (its slot may
-    /// still hold a workgroup; `cg_start` clears it).
+    /// The CG iteration whose `alpha_args` slots were last enabled (they
+    /// may still hold workgroups; `cg_start` clears them).
     pub const ALPHA_SLOT: usize = 13;
-    /// The same for `cg_beta`.
+    /// The same for `beta_args`.
     pub const BETA_SLOT: usize = 14;
     /// Number of status words.
     pub const COUNT: usize = 16;

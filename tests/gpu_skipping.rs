@@ -170,8 +170,8 @@ fn the_plan_names_kernels_and_variants() {
     );
 }
 
-/// The CG iterations launch their scalar kernels from the iteration's
-/// slots, and the per-particle ones from `cg_args`.
+/// The CG iterations launch their scalar kernels and their per-particle
+/// ones from the iteration's slots.
 #[test]
 fn cg_iterations_launch_from_their_slots() {
     let p = base(Integrator::Implicit);
@@ -190,9 +190,17 @@ fn cg_iterations_launch_from_their_slots() {
     let beta: Vec<Launch> = (0..budget).map(Launch::BetaSlot).collect();
     assert_eq!(launches(Kernel::CgAlpha), alpha);
     assert_eq!(launches(Kernel::CgBeta), beta);
-    assert!(launches(Kernel::CgApply)
+    let apply: Vec<Launch> = (0..budget).map(Launch::ApplySlot).collect();
+    let update: Vec<Launch> = (0..budget).map(Launch::UpdateSlot).collect();
+    assert_eq!(launches(Kernel::CgApply), apply);
+    // The iterations' cg_update (with coarse levels a first one before
+    // them preconditions the initial residual, launched directly).
+    let iterations: Vec<Launch> = plan
         .iter()
-        .all(|&l| l == Launch::ApplyArgs));
+        .filter(|d| d.kernel == Kernel::CgUpdate && d.variant == Variant::Plain)
+        .map(|d| d.launch)
+        .collect();
+    assert_eq!(iterations, update);
     assert_eq!(launches(Kernel::CgStart), [Launch::Direct]);
 }
 

@@ -679,39 +679,46 @@ fn check_level2(t: &mut Twins, out: &[u32]) {
 
 /// What a CG scalar kernel leaves besides its scalars, in a test scene
 /// whose CG runs on: the status word that stops CG as the twin's
-/// `stopped`, slot `k` of the next scalar kernel's indirect arguments
-/// `slots` enabled and slot `k − 1` cleared, and the per-particle
-/// kernels' arguments.
-fn assert_running(t: &Twins, flags: &[u32], cg: &cpu::cg::Scalars<f32>, slots: &[u32], k: usize) {
+/// `stopped`, and iteration `k`'s slots of the indirect arguments it
+/// enables, `args` (`alpha_args`: cg_alpha's, cg_apply's and cg_prolong's;
+/// `beta_args`: cg_beta's and cg_update's), enabled and `k − 1`'s
+/// cleared.
+fn assert_running(
+    t: &Twins,
+    flags: &[u32],
+    cg: &cpu::cg::Scalars<f32>,
+    args: &[u32],
+    alpha: bool,
+    k: usize,
+) {
     assert_eq!(flags[status::CG_STOPPED], u32::from(cg.stopped), "stopped");
     assert!(!cg.stopped, "the test's CG runs on");
-    assert_eq!(slots[3 * k], 1, "the next kernel's slot {k} enabled");
-    if k > 0 {
-        assert_eq!(slots[3 * (k - 1)], 0, "slot {} cleared", k - 1);
-    }
-    check_cg_args(t, cg.stopped);
-}
-
-/// The indirect arguments a CG scalar kernel leaves: the per-particle
-/// kernels' workgroups (0 once stopped) in `cg_args` words 0 and 3.
-fn check_cg_args(t: &Twins, stopped: bool) {
-    let args = t.read(DebugBuffer::CgArgs);
+    let layout = t.gpu.debug_layout();
     let plan = t.plan();
-    let groups = |k: Kernel| {
-        let d = plan.iter().find(|d| d.kernel == k).expect("a CG kernel");
+    let groups = |kernel: Kernel| {
+        let d = plan
+            .iter()
+            .find(|d| d.kernel == kernel)
+            .expect("a CG kernel");
         d.items.div_ceil(wgcloth::gpu::WORKGROUP)
     };
-    let want = |k| if stopped { 0 } else { groups(k) };
-    assert_eq!(
-        args[0],
-        want(Kernel::CgApply),
-        "cg_args: cg_apply's workgroups"
-    );
-    assert_eq!(
-        args[3],
-        want(Kernel::CgUpdate),
-        "cg_args: cg_update's workgroups"
-    );
+    let per_particle: &[Kernel] = if alpha {
+        &[Kernel::CgApply, Kernel::CgUpdate]
+    } else {
+        &[Kernel::CgUpdate]
+    };
+    assert_eq!(layout.arg_slot(args, 0, k), 1, "the next kernel's slot {k}");
+    for (d, &kernel) in per_particle.iter().enumerate() {
+        // cg_prolong's slot (the third of alpha_args) takes cg_update's
+        // workgroups.
+        let want = groups(kernel);
+        assert_eq!(layout.arg_slot(args, d + 1, k), want, "{kernel}'s slot {k}");
+    }
+    if k > 0 {
+        for d in 0..=per_particle.len() {
+            assert_eq!(layout.arg_slot(args, d, k - 1), 0, "slot {} cleared", k - 1);
+        }
+    }
 }
 
 /// What a CG scalar kernel writes: in `work` (the coarse terms),
@@ -732,8 +739,8 @@ fn run_scalar_kernel(t: &mut Twins, i: usize) -> Scalar {
         work: t.read(DebugBuffer::Work),
         partials: t.read(DebugBuffer::Partials),
         status: t.read(DebugBuffer::Status),
-        alpha_slots: t.read(DebugBuffer::AlphaSlots),
-        beta_slots: t.read(DebugBuffer::BetaSlots),
+        alpha_slots: t.read(DebugBuffer::AlphaArgs),
+        beta_slots: t.read(DebugBuffer::BetaArgs),
     }
 }
 
@@ -758,7 +765,7 @@ fn check_cg_start(t: &mut Twins, i: usize) {
     let scalars = [partials::DELTA0, partials::DELTA, partials::BETA]
         .map(|k| cg_scalar(t, &after.partials, k));
     assert_same("δ0, δ, β", &scalars, &bits(&[cg.delta0, cg.delta, cg.beta]));
-    assert_running(t, &after.status, &cg, &after.alpha_slots, 0);
+    assert_running(t, &after.status, &cg, &after.alpha_slots, true, 0);
 }
 
 general_and!(cg_start_matches_its_twin: Implicit, coarse_general, CgStart, 0, check_cg_start);
@@ -852,6 +859,7 @@ fn cg_alpha_matches_its_twin() {
         &after.status,
         &cg,
         &after.beta_slots,
+        false,
         cg.iterations as usize,
     );
 }
@@ -933,6 +941,7 @@ fn check_cg_beta(t: &mut Twins, i: usize) {
         &after.status,
         &cg,
         &after.alpha_slots,
+        true,
         cg.iterations as usize,
     );
 }

@@ -37,6 +37,67 @@ fn every_kernel_parses_and_validates() {
     }
 }
 
+/// Storage buffers per shader stage that every WebGPU device grants
+/// (`maxStorageBuffersPerShaderStage`, `wgpu::Limits::default()`).
+const WEBGPU_STORAGE_BUFFERS: usize = 8;
+
+/// The `(group, binding)` of each storage buffer `kernel`'s pipeline
+/// layout binds, from naga's analysis of the composed module: every
+/// storage buffer of group 0, which one layout shared by the kernels binds
+/// whole (`src/gpu/kernels.rs`), and those of the later groups that the
+/// entry point uses (each kernel's own group 1 binds only those).
+fn storage_bindings(kernel: Kernel, block: GridBlock) -> Vec<(u32, u32)> {
+    let source = shaders::kernel_source(kernel, block).unwrap_or_else(|e| panic!("{e}"));
+    let module = naga::front::wgsl::parse_str(&source)
+        .unwrap_or_else(|e| panic!("{kernel} does not parse:\n{}", e.emit_to_string(&source)));
+    let info = Validator::new(ValidationFlags::all(), Capabilities::all())
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{kernel} does not validate:\n{}", e.emit_to_string(&source)));
+    let entry = module
+        .entry_points
+        .iter()
+        .position(|e| e.name == kernel.name())
+        .unwrap_or_else(|| panic!("{kernel} has no entry point"));
+    let used = info.get_entry_point(entry);
+    module
+        .global_variables
+        .iter()
+        .filter(|(_, g)| matches!(g.space, naga::AddressSpace::Storage { .. }))
+        .filter_map(|(h, g)| {
+            let b = g.binding.as_ref()?;
+            (b.group == 0 || !used[h].is_empty()).then_some((b.group, b.binding))
+        })
+        .collect()
+}
+
+/// No kernel uses more storage buffers than WebGPU grants every device,
+/// for every grid block shape (the pipeline layouts are checked against
+/// the same limit on a device by `tests/default_limits.rs`).
+#[test]
+fn every_kernel_binds_at_most_webgpu_s_storage_buffers() {
+    let mut widest = 0;
+    for kernel in Kernel::ALL {
+        for block in [GridBlock::ONE, GridBlock { cols: 2, rows: 2 }] {
+            let used = storage_bindings(kernel, block);
+            assert!(
+                used.len() <= WEBGPU_STORAGE_BUFFERS,
+                "{kernel} uses {} storage buffers, more than WebGPU's \
+                 {WEBGPU_STORAGE_BUFFERS}: {used:?}",
+                used.len()
+            );
+            widest = widest.max(used.len());
+        }
+    }
+    // The count is of something: cg_start binds group 0's six and both
+    // argument buffers, cg_alpha one of them, a workgroup kernel group
+    // 0's six and its cloth table.
+    let count = |k: Kernel| storage_bindings(k, GridBlock::ONE).len();
+    assert_eq!(count(Kernel::CgStart), 8);
+    assert_eq!(count(Kernel::CgAlpha), 7);
+    assert_eq!(count(Kernel::ClothImplicit), 7);
+    assert_eq!(widest, 8);
+}
+
 /// `Kernel::ALL` names every file of `shaders/` (the render shader's
 /// folder aside), so no kernel is left out of these tests.
 #[test]

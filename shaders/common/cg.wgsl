@@ -284,11 +284,11 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
     let end = spring_adj(p + 1u);
     let others = spring_adj_others();
     for (var k = begin; k < end; k++) {
-        let e = topo[params.spring_adj_entries + k];
+        let e = topo(params.spring_adj_entries + k);
         let at_j = (e & 1u) != 0u;
-        let other = work[wi(sec, topo[others + k])].xyz;
+        let other = work[wi(sec, topo(others + k))].xyz;
         let d = select(own - other, other - own, at_j);
-        let blk = spring_work[si(S_BLOCK, e >> 1u)];
+        let blk = work[si(S_BLOCK, e >> 1u)];
         let y = d * blk.w + blk.xyz * dot3(blk.xyz, d);
         // `a − y` is `a + (−y)` exactly.
         acc += select(y, -y, at_j);
@@ -364,24 +364,60 @@ fn cg_update_item(p: u32, alpha: f32, first: bool) {
     work[wi(W_S, p)] = vec4<f32>(filter_with(rk.w, p, s), rk.w);
 }
 
-// Indirect dispatch arguments of cg_apply (words 0–2) and cg_update
-// (words 3–5) (group 1, bound only to cg_start, cg_alpha and cg_beta,
-// which write them): workgroups, or 0 once CG has stopped, so a stopped
-// iteration runs no workgroup.
-@group(1) @binding(0) var<storage, read_write> cg_args: array<u32>;
+// The CG iterations' indirect dispatch arguments (group 1): a slot
+// (workgroups, 1, 1) per recorded CG iteration, and one more, for each
+// indirect dispatch of an iteration. `alpha_args` holds cg_alpha's slots,
+// then cg_apply's, then cg_prolong's (the pass before the iteration's
+// cg_apply); `beta_args` cg_beta's, then cg_update's. An iteration's slots
+// hold workgroups only while it is due: cg_start enables iteration 0's
+// `alpha_args` slots, cg_alpha k enables iteration k's `beta_args` slots
+// and clears k − 1's, cg_beta k clears k's `alpha_args` slots and enables
+// k + 1's — so once CG stops, the rest of the recorded iterations dispatch
+// no workgroup at all (an empty indirect dispatch costs far less than a
+// workgroup that runs only to find CG stopped). A kernel may not bind the
+// buffer it is dispatched from: cg_alpha binds only `beta_args`, cg_beta
+// only `alpha_args`, cg_start both (with group 0's six, the eight storage
+// buffers every WebGPU device grants).
+@group(1) @binding(0) var<storage, read_write> alpha_args: array<u32>;
+@group(1) @binding(1) var<storage, read_write> beta_args: array<u32>;
 
-// Indirect dispatch arguments of cg_alpha (binding 1) and cg_beta
-// (binding 2): a slot (workgroups, 1, 1) per recorded CG iteration of a
-// step. A slot holds one workgroup only while its iteration is due: each
-// scalar kernel enables the next one and clears the slot of the one
-// before — cg_start enables alpha 0, alpha k beta k, beta k alpha k + 1 —
-// so once CG stops, the rest of the recorded iterations dispatch no
-// workgroup at all (an empty indirect dispatch costs far less than a
-// workgroup that runs only to find CG stopped). A kernel may not bind the buffer it
-// is dispatched from: cg_alpha binds only beta's slots, cg_beta only
-// alpha's, cg_start both.
-@group(1) @binding(1) var<storage, read_write> alpha_slots: array<u32>;
-@group(1) @binding(2) var<storage, read_write> beta_slots: array<u32>;
+// cg_apply's workgroups: it gathers by block on a grid (params.grid.w
+// blocks).
+fn apply_groups() -> u32 {
+    if (GRID) {
+        return (params.grid.w + WORKGROUP - 1u) / WORKGROUP;
+    }
+    return params.partial_count;
+}
+
+// cg_update's and cg_prolong's workgroups: with coarse levels they take a
+// level-1 aggregate per invocation.
+fn update_groups() -> u32 {
+    if (COARSE) {
+        return (params.coarse.z + WORKGROUP - 1u) / WORKGROUP;
+    }
+    return params.partial_count;
+}
+
+// Slots per dispatch in `alpha_args` (three dispatches of three words).
+fn alpha_arg_slots() -> u32 {
+    return arrayLength(&alpha_args) / 9u;
+}
+
+// Enables (`on`) or clears iteration k's slots of `alpha_args`.
+fn set_alpha_args(k: u32, on: bool) {
+    let slots = alpha_arg_slots();
+    alpha_args[3u * k] = select(0u, 1u, on);
+    alpha_args[3u * (slots + k)] = select(0u, apply_groups(), on);
+    alpha_args[3u * (2u * slots + k)] = select(0u, update_groups(), on);
+}
+
+// Enables (`on`) or clears iteration k's slots of `beta_args`.
+fn set_beta_args(k: u32, on: bool) {
+    let slots = arrayLength(&beta_args) / 6u;
+    beta_args[3u * k] = select(0u, 1u, on);
+    beta_args[3u * (slots + k)] = select(0u, update_groups(), on);
+}
 
 // The CG iteration in progress (counted by cg_beta).
 fn cg_iteration() -> u32 {
@@ -389,52 +425,37 @@ fn cg_iteration() -> u32 {
 }
 
 // cg_start: clear the slots the last solve left enabled, then enable
-// alpha 0 if CG runs.
+// iteration 0's `alpha_args` slots if CG runs.
 fn start_slots(running: bool) {
-    alpha_slots[3u * atomicLoad(&status[sw(STATUS_ALPHA_SLOT)])] = 0u;
-    beta_slots[3u * atomicLoad(&status[sw(STATUS_BETA_SLOT)])] = 0u;
+    set_alpha_args(atomicLoad(&status[sw(STATUS_ALPHA_SLOT)]), false);
+    set_beta_args(atomicLoad(&status[sw(STATUS_BETA_SLOT)]), false);
     if (running) {
-        alpha_slots[0] = 1u;
+        set_alpha_args(0u, true);
         atomicStore(&status[sw(STATUS_ALPHA_SLOT)], 0u);
     }
 }
 
-// cg_alpha of iteration k: clear beta k − 1's slot; enable beta k unless
-// CG stopped.
+// cg_alpha of iteration k: clear iteration k − 1's `beta_args` slots;
+// enable k's unless CG stopped.
 fn alpha_slots_next(k: u32, running: bool) {
     if (k > 0u) {
-        beta_slots[3u * (k - 1u)] = 0u;
+        set_beta_args(k - 1u, false);
     }
     if (running) {
-        beta_slots[3u * k] = 1u;
+        set_beta_args(k, true);
         atomicStore(&status[sw(STATUS_BETA_SLOT)], k);
     }
 }
 
-// cg_beta of iteration k: clear alpha k's slot; enable alpha k + 1 (if
-// recorded) unless CG stopped.
+// cg_beta of iteration k: clear iteration k's `alpha_args` slots; enable
+// k + 1's unless CG stopped (the slots after the last recorded iteration
+// launch only its cg_prolong).
 fn beta_slots_next(k: u32, running: bool) {
-    alpha_slots[3u * k] = 0u;
-    if (running && 3u * (k + 1u) < arrayLength(&alpha_slots)) {
-        alpha_slots[3u * (k + 1u)] = 1u;
+    set_alpha_args(k, false);
+    if (running && k + 1u < alpha_arg_slots()) {
+        set_alpha_args(k + 1u, true);
         atomicStore(&status[sw(STATUS_ALPHA_SLOT)], k + 1u);
     }
-}
-
-fn set_cg_args(running: bool) {
-    // cg_apply gathers by block on a grid (params.grid.w blocks).
-    var apply = params.partial_count;
-    if (GRID) {
-        apply = (params.grid.w + WORKGROUP - 1u) / WORKGROUP;
-    }
-    // cg_update (and cg_prolong) take a level-1 aggregate per invocation
-    // with coarse levels.
-    var update = params.partial_count;
-    if (COARSE) {
-        update = (params.coarse.z + WORKGROUP - 1u) / WORKGROUP;
-    }
-    cg_args[0] = select(0u, apply, running);
-    cg_args[3] = select(0u, update, running);
 }
 
 var<workgroup> scratch: array<f32, WORKGROUP>;
@@ -455,7 +476,7 @@ fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
         for (var k = 0u; k < count; k++) {
             total += scratch[k];
         }
-        partials[pi(slot, wid)] = total;
+        set_partial(pi(slot, wid), total);
     }
 }
 
@@ -464,7 +485,7 @@ fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
 fn sum_partials(slot: u32) -> f32 {
     var total = 0.0;
     for (var k = 0u; k < params.partial_count; k++) {
-        total += partials[pi(slot, k)];
+        total += partial(pi(slot, k));
     }
     return total;
 }
@@ -479,7 +500,7 @@ fn staged_value(source: u32, slot: u32, k: u32) -> f32 {
     if (source == STAGED_LEVEL2) {
         return work[wa(W_COARSE_Z, params.coarse.z + k)].w;
     }
-    return partials[pi(slot, k)];
+    return partial(pi(slot, k));
 }
 
 var<workgroup> stage: array<f32, SUM_GROUP>;
@@ -524,7 +545,7 @@ fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
         for (var p = start; p < end; p++) {
             block += work[wi(sec, p)].w;
         }
-        partials[pi(slot, b)] = block;
+        set_partial(pi(slot, b), block);
     }
     storageBarrier();
     return sum_staged(STAGED_PARTIALS, slot, params.partial_count, lid);
@@ -548,7 +569,7 @@ fn cg_alpha_scalar(lid: u32) -> bool {
     }
     let running = finite1(cq) && cq > 0.0;
     if (running) {
-        partials[scalar_index(C_ALPHA)] = partials[scalar_index(C_DELTA)] / cq;
+        set_partial(scalar_index(C_ALPHA), partial(scalar_index(C_DELTA)) / cq);
     } else {
         atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);
     }

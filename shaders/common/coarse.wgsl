@@ -84,9 +84,9 @@ fn cg_start_scalars(lid: u32, coarse: bool) -> bool {
     if (lid != 0u) {
         return false;
     }
-    partials[scalar_index(C_DELTA0)] = delta0;
-    partials[scalar_index(C_DELTA)] = delta;
-    partials[scalar_index(C_BETA)] = 0.0;
+    set_partial(scalar_index(C_DELTA0), delta0);
+    set_partial(scalar_index(C_DELTA), delta);
+    set_partial(scalar_index(C_BETA), 0.0);
     let running = rho > params.cg_tolerance_sq * delta0;
     if (!running) {
         atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);
@@ -112,9 +112,9 @@ fn cg_beta_scalars(lid: u32, coarse: bool) -> BetaDone {
     if (lid != 0u) {
         return BetaDone(false, 0u);
     }
-    partials[scalar_index(C_BETA)] = delta / partials[scalar_index(C_DELTA)];
-    partials[scalar_index(C_DELTA)] = delta;
-    let running = rho > params.cg_tolerance_sq * partials[scalar_index(C_DELTA0)];
+    set_partial(scalar_index(C_BETA), delta / partial(scalar_index(C_DELTA)));
+    set_partial(scalar_index(C_DELTA), delta);
+    let running = rho > params.cg_tolerance_sq * partial(scalar_index(C_DELTA0));
     let iteration = atomicAdd(&status[sw(STATUS_CG_ITERATIONS)], 1u);
     if (!running) {
         atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);

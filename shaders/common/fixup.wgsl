@@ -13,7 +13,7 @@ const SLACK: f32 = 1.0 + 1.1920929e-7 * 64.0;
 // Returns the correction c (end i moves by −w_i c, end j by +w_j c) and
 // whether the spring is over its limit.
 fn fixup_correction(s: u32, src: u32) -> vec4<f32> {
-    let sp = springs[s];
+    let sp = spring(s);
     if (sp.max_len <= 0.0) {
         return vec4<f32>(0.0);
     }
@@ -47,7 +47,7 @@ fn fixup_particle(p: u32, src: u32, dst: u32) -> bool {
     let begin = spring_adj(p);
     let end = spring_adj(p + 1u);
     for (var k = begin; k < end; k++) {
-        let e = topo[params.spring_adj_entries + k];
+        let e = topo(params.spring_adj_entries + k);
         let c = fixup_correction(e >> 1u, src);
         if (c.w == 0.0) {
             continue;

@@ -23,15 +23,15 @@ fn implicit_step_start() {
 // cpu::implicit::springs): its block, K v and force into S_BLOCK, S_KV
 // and S_FORCE.
 fn implicit_springs_item(s: u32) {
-    let sp = springs[s];
+    let sp = spring(s);
     let xi = x[sp.i].xyz;
     let xj = x[sp.j].xyz;
     let vi = v[sp.i].xyz;
     let vj = v[sp.j].xyz;
     let lin = linearise(sp.rest, sp.k, sp.kd, xi, xj, vi, vj);
-    spring_work[si(S_BLOCK, s)] = lin.blk;
-    spring_work[si(S_KV, s)] = vec4<f32>(lin.kv, 0.0);
-    spring_work[si(S_FORCE, s)] = vec4<f32>(lin.f, 0.0);
+    work[si(S_BLOCK, s)] = lin.blk;
+    work[si(S_KV, s)] = vec4<f32>(lin.kv, 0.0);
+    work[si(S_FORCE, s)] = vec4<f32>(lin.f, 0.0);
 }
 
 // A particle's contributions to its aggregates' D at both levels (twin:
@@ -78,13 +78,13 @@ fn implicit_prepare_item(p: u32, coarse: bool) {
     let end = spring_adj(p + 1u);
     let others = spring_adj_others();
     for (var k = begin; k < end; k++) {
-        let e = topo[params.spring_adj_entries + k];
+        let e = topo(params.spring_adj_entries + k);
         let s = e >> 1u;
-        let kvs = spring_work[si(S_KV, s)].xyz;
+        let kvs = work[si(S_KV, s)].xyz;
         kv += select(kvs, -kvs, (e & 1u) != 0u);
-        let blk = spring_work[si(S_BLOCK, s)];
+        let blk = work[si(S_BLOCK, s)];
         pre = sym3_add_block(pre, blk);
-        levels = levels_add(levels, topo[others + k], blk, coarse);
+        levels = levels_add(levels, topo(others + k), blk, coarse);
     }
     let f = total_force(p, x0, v0, STATE_BUFFERS);
     prepare_particle(p, x0, v0, f, kv, pre, levels, coarse);

@@ -1,5 +1,5 @@
 // What every wgcloth kernel shares: the structs (Pod twins in
-// src/gpu/layout.rs), bindings 1–10 of the one bind group, the scene
+// src/gpu/layout.rs), bindings 1–6 of group 0, the scene
 // features, and the accessors that place a cloth in the buffers. Binding
 // 0, the parameters `params`, is declared by the file that includes this
 // one: common/bindings.wgsl (a uniform block: the multi-dispatch kernels)
@@ -70,7 +70,7 @@ struct Params {
     spring_count: u32,
     triangle_count: u32,
     sphere_count: u32,
-    // Offsets into `topo` (u32 words).
+    // Word offsets into `model` (see topo).
     spring_adj_entries: u32,
     tri_adj_offsets: u32,
     tri_adj_entries: u32,
@@ -81,11 +81,13 @@ struct Params {
     // Free particles in the dense filter.
     filter_count: u32,
     torque_compensation: u32,
-    // The cloth's place in the shared buffers, as element indices into
-    // each (all zero for a lone cloth; a batch gives each cloth its own):
-    // its first particle (x, v, vertex_normals), spring, spring adjacency
-    // offset in `topo`, `work` and `spring_work` entry, reduction partial,
-    // status word and dense filter word.
+    // The cloth's place in the shared buffers (a batch gives each cloth
+    // its own): its first particle (x, v, vertex_normals); in `model`, its
+    // first spring record (a vec4 index), its spring adjacency offsets and
+    // dense filter (word indices, as topo_base's neighbours above); in
+    // `work`, its per-particle sections, per-spring sections and first
+    // partial (vec4 indices); its first status word. Springs are numbered
+    // within their cloth.
     particle_base: u32,
     spring_base: u32,
     topo_base: u32,
@@ -138,30 +140,61 @@ struct Spring {
     _pad1: u32,
 }
 
-@group(0) @binding(1) var<storage, read> springs: array<Spring>;
-// Spring adjacency offsets (N + 1) at params.topo_base, then its entries
-// (spring << 1 | end), then each entry's other particle; triangle adjacency
-// offsets and entries; triangles (see spring_adj, tri_adj).
-@group(0) @binding(2) var<storage, read> topo: array<u32>;
+// Group 0 binds seven buffers (six of them storage, plus `params`), so
+// that with cg_start's two dispatch-argument buffers in group 1 no kernel
+// binds more than the eight storage buffers per stage every WebGPU device
+// grants (see docs/design.md, "Bindings"). Read-only model data shares one
+// buffer, the scratch another.
+
+// The cloth's model, read only, as u32 words (f32 as their bits): its
+// spring records (two vec4 words each, see `spring`) from vec4
+// params.spring_base; the spring adjacency offsets (N + 1) at word
+// params.topo_base, then its entries (spring << 1 | end), then each
+// entry's other particle; triangle adjacency offsets and entries;
+// triangles (see spring_adj, tri_adj, topo); the dense semi-implicit
+// filter from word params.dense_base (see dense).
+@group(0) @binding(1) var<storage, read> model: array<vec4<u32>>;
 // Positions [m]; w = inverse mass (0 = pinned). Also the vertex buffer.
-@group(0) @binding(3) var<storage, read_write> x: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> x: array<vec4<f32>>;
 // Velocities [m/s]; w = mass [kg].
-@group(0) @binding(4) var<storage, read_write> v: array<vec4<f32>>;
-// Per-particle scratch (see wi).
-@group(0) @binding(5) var<storage, read_write> work: array<vec4<f32>>;
-// Per-spring scratch (see si).
-@group(0) @binding(6) var<storage, read_write> spring_work: array<vec4<f32>>;
-// Reduction partials (see pi; a block is 64 particles: one workgroup of
-// a per-particle dispatch).
-@group(0) @binding(7) var<storage, read_write> partials: array<f32>;
+@group(0) @binding(3) var<storage, read_write> v: array<vec4<f32>>;
+// Scratch: the per-particle sections from params.work_base (see wi), the
+// per-spring sections from params.spring_work_base (see si), and the
+// reduction partials and CG scalars from params.partial_base, one per
+// vec4 in x (see pi, partial; a block is 64 particles: one workgroup of a
+// per-particle dispatch).
+@group(0) @binding(4) var<storage, read_write> work: array<vec4<f32>>;
 // Status words (see STATUS_*, sw).
-@group(0) @binding(8) var<storage, read_write> status: array<atomic<u32>>;
+@group(0) @binding(5) var<storage, read_write> status: array<atomic<u32>>;
 // Vertex normals; w unused.
-@group(0) @binding(9) var<storage, read_write> vertex_normals: array<vec4<f32>>;
-// Dense semi-implicit filter, row-major over filter positions, then the
-// filter order (particle of each position, as f32 bits), from
-// params.dense_base.
-@group(0) @binding(10) var<storage, read> dense: array<f32>;
+@group(0) @binding(6) var<storage, read_write> vertex_normals: array<vec4<f32>>;
+
+// Word `i` of `model`.
+fn topo(i: u32) -> u32 {
+    return model[i >> 2u][i & 3u];
+}
+
+// Word `i` of `model` as the f32 it holds (the dense filter).
+fn dense(i: u32) -> f32 {
+    return bitcast<f32>(topo(i));
+}
+
+// Spring s of the cloth (counted within it): two vec4 loads.
+fn spring(s: u32) -> Spring {
+    let at = params.spring_base + 2u * s;
+    let a = model[at];
+    let b = model[at + 1u];
+    return Spring(
+        a.x,
+        a.y,
+        bitcast<f32>(a.z),
+        bitcast<f32>(a.w),
+        bitcast<f32>(b.x),
+        bitcast<f32>(b.y),
+        b.z,
+        b.w,
+    );
+}
 
 // A length below which a spring or triangle has no direction. Twin:
 // Real::TINY for f32.
@@ -178,15 +211,26 @@ fn wi(section: u32, p: u32) -> u32 {
     return params.work_base + section * params.particle_count + local(p);
 }
 
-// Spring s's entry of `spring_work` section `section`.
+// Spring s's entry (in `work`) of the per-spring section `section`.
 fn si(section: u32, s: u32) -> u32 {
-    return params.spring_work_base + section * params.spring_count + (s - params.spring_base);
+    return params.spring_work_base + section * params.spring_count + s;
 }
 
 // Reduction block `block`'s partial of slot `slot` (blocks of WORKGROUP
-// particles, counted from the cloth's first).
+// particles, counted from the cloth's first): an entry of `work`, read
+// by `partial`, written by `set_partial`.
 fn pi(slot: u32, block: u32) -> u32 {
     return params.partial_base + slot * params.partial_count + block;
+}
+
+// The partial or CG scalar at `work` entry `i` (see pi). One per vec4, so
+// that two workgroups writing neighbouring partials never write one vec4.
+fn partial(i: u32) -> f32 {
+    return work[i].x;
+}
+
+fn set_partial(i: u32, value: f32) {
+    work[i] = vec4<f32>(value, 0.0, 0.0, 0.0);
 }
 
 // The cloth's status word `word` (STATUS_*).
@@ -197,16 +241,16 @@ fn sw(word: u32) -> u32 {
 // Where particle p's spring adjacency entries start, relative to
 // params.spring_adj_entries (its row ends where particle p + 1's starts).
 fn spring_adj(p: u32) -> u32 {
-    return topo[params.topo_base + local(p)];
+    return topo(params.topo_base + local(p));
 }
 
 // Where particle p's triangle adjacency entries start, relative to
 // params.tri_adj_entries.
 fn tri_adj(p: u32) -> u32 {
-    return topo[params.tri_adj_offsets + local(p)];
+    return topo(params.tri_adj_offsets + local(p));
 }
 
 // Where the other-particle column of the spring adjacency starts.
 fn spring_adj_others() -> u32 {
-    return params.spring_adj_entries + topo[params.topo_base + params.particle_count];
+    return params.spring_adj_entries + topo(params.topo_base + params.particle_count);
 }

@@ -63,9 +63,9 @@ fn spring_force_of(
 // `sec` (see state_x).
 fn wind_triangle_force(t: u32, sec: u32) -> vec3<f32> {
     let base = params.triangles + 3u * t;
-    let a = topo[base];
-    let b = topo[base + 1u];
-    let c = topo[base + 2u];
+    let a = topo(base);
+    let b = topo(base + 1u);
+    let c = topo(base + 2u);
     let xa = state_x(a, sec);
     let cr = cross3(state_x(b, sec) - xa, state_x(c, sec) - xa);
     let twice_area = len3(cr);
@@ -258,8 +258,8 @@ fn spring_sum(p: u32, xp: vec3<f32>, vp: vec3<f32>, sec: u32) -> vec3<f32> {
     let begin = spring_adj(p);
     let end = spring_adj(p + 1u);
     for (var k = begin; k < end; k++) {
-        let e = topo[params.spring_adj_entries + k];
-        let f = spring_work[si(S_FORCE, e >> 1u)].xyz;
+        let e = topo(params.spring_adj_entries + k);
+        let f = work[si(S_FORCE, e >> 1u)].xyz;
         // `a − f` is `a + (−f)` exactly: branch-free for SIMD lanes.
         sum += select(f, -f, (e & 1u) != 0u);
     }
@@ -296,7 +296,7 @@ fn add_wind(p: u32, f_in: vec3<f32>, sec: u32) -> vec3<f32> {
         let tb = tri_adj(p);
         let te = tri_adj(p + 1u);
         for (var k = tb; k < te; k++) {
-            f += wind_triangle_force(topo[params.tri_adj_entries + k], sec);
+            f += wind_triangle_force(topo(params.tri_adj_entries + k), sec);
         }
     }
     return f;

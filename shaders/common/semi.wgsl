@@ -31,8 +31,8 @@ fn semi_rhs_particle(p: u32, zero_dv: bool) {
     let begin = spring_adj(p);
     let end = spring_adj(p + 1u);
     for (var k = begin; k < end; k++) {
-        let e = topo[params.spring_adj_entries + k];
-        let sp = springs[e >> 1u];
+        let e = topo(params.spring_adj_entries + k);
+        let sp = spring(e >> 1u);
         let frame = spring_transverse(sp.rest, x[sp.i].xyz, x[sp.j].xyz);
         // A spring with an end on a collider keeps k I (twin: touching).
         var c = 1.0;

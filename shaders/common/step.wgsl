@@ -10,9 +10,9 @@
 // Spring s's force on end i into S_FORCE (twin:
 // cpu::forces::spring_forces), for the particles to gather.
 fn spring_force_item(s: u32) {
-    let sp = springs[s];
+    let sp = spring(s);
     let f = spring_force(sp, x[sp.i].xyz, x[sp.j].xyz, v[sp.i].xyz, v[sp.j].xyz);
-    spring_work[si(S_FORCE, s)] = vec4<f32>(f, 0.0);
+    work[si(S_FORCE, s)] = vec4<f32>(f, 0.0);
 }
 
 // Symplectic Euler (twin: cpu::explicit::integrate) of a particle with
@@ -87,8 +87,8 @@ fn filter_dense_row(k: u32) {
     let order = base + n * n;
     var acc = vec3<f32>(0.0);
     for (var q = 0u; q < n; q++) {
-        let particle = bitcast<u32>(dense[order + q]);
-        acc += work[wi(W_RHS, particle)].xyz * dense[base + q * n + k];
+        let particle = bitcast<u32>(dense(order + q));
+        acc += work[wi(W_RHS, particle)].xyz * dense(base + q * n + k);
     }
-    work[wi(W_DV, bitcast<u32>(dense[order + k]))] = vec4<f32>(acc, 0.0);
+    work[wi(W_DV, bitcast<u32>(dense(order + k)))] = vec4<f32>(acc, 0.0);
 }

@@ -1,37 +1,37 @@
 //! A cloth's buffers on the device and the bind groups that hand them to
-//! the kernels (group 0: `shaders/common/bindings.wgsl`; group 1 of the
+//! the kernels (group 0: `shaders/common/layout.wgsl`; group 1 of the
 //! kernels that write indirect dispatch arguments: `shaders/common/cg.wgsl`).
 
 use wgpu::util::DeviceExt;
 
-use super::debug::DebugBuffer;
-use super::kernel::ArgsGroup;
+use super::kernel::{arg_slots, args_words, ArgsBuffer, ArgsGroup};
 use super::kernels::GpuKernels;
 use super::layout::{GpuParams, GpuSpring};
 use crate::budget::try_vec;
 use crate::error::Result;
-use crate::kernel_config::{partials, spring_work, status, work, WORKGROUP};
+use crate::kernel_config::{spring_work, status};
 
 /// What the arrays built for upload are named in a memory error.
 pub(super) const UPLOAD: &str = "the GPU solver's buffers (their host copies)";
 
 /// What the buffers are made from, built on the host.
 pub(super) struct Uploads<'a> {
-    /// The uniform block.
+    /// The uniform block, placed (see `ClothArrays::place`).
     pub params: &'a GpuParams,
-    /// A spring per slot.
+    /// The words of `model` (see `ClothArrays::model_words`).
+    pub model: &'a [u32],
+    /// `vec4` entries of `model` (the words and the dense filter's room).
+    pub model_len: u64,
+    /// A spring per slot (for the constant blocks).
     pub springs: &'a [GpuSpring],
-    /// Adjacency and triangles (see `topo` in
-    /// `shaders/common/bindings.wgsl`).
-    pub topo: &'a [u32],
+    /// `vec4` entries of `work`.
+    pub work_len: u64,
     /// Positions and inverse masses, velocities and masses.
     pub x: &'a [[f32; 4]],
     /// Velocities and masses.
     pub v: &'a [[f32; 4]],
     /// Triangle indices.
     pub triangles: &'a [[u32; 3]],
-    /// The dense semi-implicit filter (empty without one).
-    pub dense: &'a [f32],
     /// The semi-implicit CG's constant block factor dt² \[s²\] (`None`:
     /// the blocks are computed every step, or there is no CG).
     pub constant_blocks: Option<f32>,
@@ -46,24 +46,22 @@ pub(super) struct Uploads<'a> {
 #[derive(Debug)]
 pub(super) struct ClothBuffers {
     pub params: wgpu::Buffer,
-    pub springs: wgpu::Buffer,
-    pub topo: wgpu::Buffer,
+    /// Spring records, topology and the dense filter.
+    pub model: wgpu::Buffer,
     pub x: wgpu::Buffer,
     pub v: wgpu::Buffer,
+    /// The per-particle and per-spring sections and the partials.
     pub work: wgpu::Buffer,
-    pub spring_work: wgpu::Buffer,
-    pub partials: wgpu::Buffer,
     pub status: wgpu::Buffer,
     pub normals: wgpu::Buffer,
-    pub dense: wgpu::Buffer,
     pub indices: wgpu::Buffer,
-    /// Indirect arguments of the per-particle CG kernels (see
-    /// [`ClothBuffers::new`]).
-    pub cg_args: wgpu::Buffer,
-    /// Indirect arguments of cg_alpha and cg_beta, a slot per recorded CG
-    /// iteration.
-    pub alpha_slots: wgpu::Buffer,
-    pub beta_slots: wgpu::Buffer,
+    /// Indirect arguments of each CG iteration's cg_alpha, cg_apply and
+    /// cg_prolong (see [`ClothBuffers::new`]).
+    pub alpha_args: wgpu::Buffer,
+    /// Indirect arguments of each CG iteration's cg_beta and cg_update.
+    pub beta_args: wgpu::Buffer,
+    /// Slots per dispatch in `alpha_args` and `beta_args`.
+    pub arg_slots: u32,
     /// Group 0.
     pub bind_group: wgpu::BindGroup,
     /// Group 0 of the workgroup kernels (on the workgroup path): the
@@ -81,8 +79,9 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
 
 /// The smallest storage buffer made \[bytes\]. A binding must hold at least
 /// one element of its array, and a cloth may have no springs (every
-/// stiffness zero): an empty array gets one zeroed element of the largest
-/// type bound (a `Spring`), which no kernel reads (each stops at its count).
+/// stiffness zero): an empty array gets zeroed elements the size of the
+/// largest thing read (a spring record), which no kernel reads (each stops
+/// at its count).
 const MIN_BINDING: usize = std::mem::size_of::<GpuSpring>();
 
 /// A buffer holding `contents` (at least [`MIN_BINDING`] bytes).
@@ -131,26 +130,15 @@ impl ClothBuffers {
         if up.workgroup {
             uniform |= wgpu::BufferUsages::STORAGE;
         }
-        let partial_words = u64::from(partials::SLOTS) * n.div_ceil(u64::from(WORKGROUP))
-            + u64::from(partials::CG_SCALARS);
         let params = init(
             device,
             "wgcloth.params",
             bytemuck::bytes_of(up.params),
             uniform,
         );
-        let springs = init(
-            device,
-            "wgcloth.springs",
-            bytemuck::cast_slice(up.springs),
-            STORAGE,
-        );
-        let topo = init(
-            device,
-            "wgcloth.topo",
-            bytemuck::cast_slice(up.topo),
-            STORAGE,
-        );
+        // Sized for the dense filter's room, which the words may not fill.
+        let model = zeroed(device, "wgcloth.model", up.model_len * 16);
+        queue.write_buffer(&model, 0, bytemuck::cast_slice(up.model));
         let x = init(
             device,
             "wgcloth.positions",
@@ -163,9 +151,7 @@ impl ClothBuffers {
             bytemuck::cast_slice(up.v),
             STORAGE,
         );
-        let work = zeroed(device, "wgcloth.work", u64::from(work::COUNT) * n * 16);
-        let spring_work = spring_work_buffer(device, up)?;
-        let partials = zeroed(device, "wgcloth.partials", partial_words * 4);
+        let work = work_buffer(device, queue, up)?;
         let status = status_buffer(device);
         let normals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("wgcloth.normals"),
@@ -173,26 +159,13 @@ impl ClothBuffers {
             usage: vertex,
             mapped_at_creation: false,
         });
-        let dense = dense_buffer(device, queue, up);
         let indices = init(
             device,
             "wgcloth.indices",
             bytemuck::cast_slice(up.triangles),
             wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
         );
-        let group0 = [
-            &params,
-            &springs,
-            &topo,
-            &x,
-            &v,
-            &work,
-            &spring_work,
-            &partials,
-            &status,
-            &normals,
-            &dense,
-        ];
+        let group0 = [&params, &model, &x, &v, &work, &status, &normals];
         let bind_group = buffers_group(device, "wgcloth.bindings", kernels.group0(), &group0);
         let cloth_group = up.workgroup.then(|| {
             buffers_group(
@@ -202,15 +175,15 @@ impl ClothBuffers {
                 &group0,
             )
         });
-        let (cg_args, alpha_slots, beta_slots) = indirect_args(device, up.cg_max_iterations);
+        let arg_slots = arg_slots(up.cg_max_iterations.max(1));
+        let (alpha_args, beta_args) = indirect_args(device, arg_slots);
         let args_groups = ArgsGroup::ALL.map(|g| {
             let entries: Vec<_> = g
                 .bindings()
                 .iter()
                 .map(|&binding| wgpu::BindGroupEntry {
                     binding,
-                    resource: [&cg_args, &alpha_slots, &beta_slots][binding as usize]
-                        .as_entire_binding(),
+                    resource: [&alpha_args, &beta_args][binding as usize].as_entire_binding(),
                 })
                 .collect();
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -221,67 +194,50 @@ impl ClothBuffers {
         });
         Ok(ClothBuffers {
             params,
-            springs,
-            topo,
+            model,
             x,
             v,
             work,
-            spring_work,
-            partials,
             status,
             normals,
-            dense,
             indices,
-            cg_args,
-            alpha_slots,
-            beta_slots,
+            alpha_args,
+            beta_args,
+            arg_slots,
             bind_group,
             cloth_group,
             args_groups,
         })
     }
 
-    /// The buffer a kernel knows as `buffer`.
-    pub fn get(&self, buffer: DebugBuffer) -> &wgpu::Buffer {
-        match buffer {
-            DebugBuffer::Params => &self.params,
-            DebugBuffer::Springs => &self.springs,
-            DebugBuffer::Topo => &self.topo,
-            DebugBuffer::X => &self.x,
-            DebugBuffer::V => &self.v,
-            DebugBuffer::Work => &self.work,
-            DebugBuffer::SpringWork => &self.spring_work,
-            DebugBuffer::Partials => &self.partials,
-            DebugBuffer::Status => &self.status,
-            DebugBuffer::VertexNormals => &self.normals,
-            DebugBuffer::Dense => &self.dense,
-            DebugBuffer::CgArgs => &self.cg_args,
-            DebugBuffer::AlphaSlots => &self.alpha_slots,
-            DebugBuffer::BetaSlots => &self.beta_slots,
+    /// The buffer of indirect arguments `which`.
+    pub fn args(&self, which: ArgsBuffer) -> &wgpu::Buffer {
+        match which {
+            ArgsBuffer::Alpha => &self.alpha_args,
+            ArgsBuffer::Beta => &self.beta_args,
         }
     }
 }
 
-/// `spring_work`, with the semi-implicit CG's constant blocks (m = 0,
-/// a = dt² k) where it has them; the implicit integrator overwrites it
+/// `work`, zeroed but for the semi-implicit CG's constant blocks (m = 0,
+/// a = dt² k) where it has them; the implicit integrator overwrites them
 /// every step.
-fn spring_work_buffer(device: &wgpu::Device, up: &Uploads<'_>) -> Result<wgpu::Buffer> {
-    let mut blocks = try_vec(
-        spring_work::COUNT as usize * up.springs.len(),
-        [0f32; 4],
-        UPLOAD,
-    )?;
+fn work_buffer(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    up: &Uploads<'_>,
+) -> Result<wgpu::Buffer> {
+    let work = zeroed(device, "wgcloth.work", up.work_len * 16);
     if let Some(dt2) = up.constant_blocks {
+        let mut blocks = try_vec(up.springs.len(), [0f32; 4], UPLOAD)?;
         for (b, s) in blocks.iter_mut().zip(up.springs) {
             b[3] = dt2 * s.k;
         }
+        let at = u64::from(up.params.spring_work_base)
+            + u64::from(spring_work::BLOCK) * up.springs.len() as u64;
+        queue.write_buffer(&work, at * 16, bytemuck::cast_slice(&blocks));
     }
-    Ok(init(
-        device,
-        "wgcloth.spring_work",
-        bytemuck::cast_slice(&blocks),
-        STORAGE,
-    ))
+    Ok(work)
 }
 
 /// `status`, with no step found non-finite yet.
@@ -297,58 +253,37 @@ fn status_buffer(device: &wgpu::Device) -> wgpu::Buffer {
     )
 }
 
-/// `dense`, sized for every particle free, so that changing pins (which
-/// rebuilds W) never needs a new buffer; a stub without a dense filter.
-fn dense_buffer(device: &wgpu::Device, queue: &wgpu::Queue, up: &Uploads<'_>) -> wgpu::Buffer {
-    if up.dense.is_empty() {
-        return zeroed(device, "wgcloth.dense", 16);
-    }
-    let n = u64::from(up.params.particle_count);
-    let buffer = zeroed(device, "wgcloth.dense", (n * n + n) * 4);
-    queue.write_buffer(&buffer, 0, bytemuck::cast_slice(up.dense));
-    buffer
-}
-
-/// `cg_args`, `alpha_slots` and `beta_slots`.
+/// `alpha_args` and `beta_args`, every slot cleared (workgroups 0).
 ///
-/// The per-particle CG kernels are dispatched indirectly from `cg_args`,
-/// which the CG scalar kernels zero when CG stops: a stopped iteration
-/// then runs no workgroup. It lives in its own group, bound only to the
-/// kernels that write it (a dispatch may not read its arguments from a
-/// buffer its kernel binds). cg_start writes the workgroup counts at the
-/// start of every solve, before any dispatch reads them (set_cg_args in
-/// shaders/common/cg.wgsl is their one formula).
-///
-/// The scalar kernels' own indirect arguments: a (workgroups, 1, 1) slot
-/// per CG iteration, which the kernels enable one ahead and clear behind
-/// them (see alpha_slots in shaders/common/cg.wgsl).
-fn indirect_args(
-    device: &wgpu::Device,
-    cg_max_iterations: u32,
-) -> (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer) {
+/// Each CG iteration's per-particle kernels and scalar kernels are
+/// dispatched indirectly from its slots, which the scalar kernels enable
+/// one step ahead and clear behind them, so a stopped CG dispatches no
+/// workgroup (see `alpha_args` in `shaders/common/cg.wgsl`). A dispatch may
+/// not read its arguments from a buffer its kernel binds: the slots of
+/// what cg_alpha enables (cg_update's and cg_beta's) are in one buffer, of
+/// what cg_beta enables (cg_apply's, cg_alpha's, cg_prolong's) in the
+/// other, and each binds only the other's; cg_start binds both.
+fn indirect_args(device: &wgpu::Device, slots: u32) -> (wgpu::Buffer, wgpu::Buffer) {
     let usage = STORAGE | wgpu::BufferUsages::INDIRECT;
-    let cg_args = init(
-        device,
-        "wgcloth.cg_args",
-        bytemuck::cast_slice(&[0u32, 1, 1, 0, 1, 1]),
-        usage,
-    );
-    let slots: Vec<u32> = (0..cg_max_iterations.max(1))
-        .flat_map(|_| [0u32, 1, 1])
-        .collect();
-    let alpha = init(
-        device,
-        "wgcloth.alpha_slots",
-        bytemuck::cast_slice(&slots),
-        usage,
-    );
-    let beta = init(
-        device,
-        "wgcloth.beta_slots",
-        bytemuck::cast_slice(&slots),
-        usage,
-    );
-    (cg_args, alpha, beta)
+    let [alpha, beta] = args_words(slots).map(|words| {
+        (0..words / 3)
+            .flat_map(|_| [0u32, 1, 1])
+            .collect::<Vec<u32>>()
+    });
+    (
+        init(
+            device,
+            "wgcloth.alpha_args",
+            bytemuck::cast_slice(&alpha),
+            usage,
+        ),
+        init(
+            device,
+            "wgcloth.beta_args",
+            bytemuck::cast_slice(&beta),
+            usage,
+        ),
+    )
 }
 
 /// A bind group of `buffers` at bindings 0, 1, … of `layout` (group 0 of

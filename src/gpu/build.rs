@@ -16,7 +16,7 @@ use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_with_capacity};
 use crate::diagnostics::Motion;
 use crate::error::Result;
-use crate::kernel_config::{integrator, WORKGROUP};
+use crate::kernel_config::{integrator, partials, spring_work, work, WORKGROUP};
 use crate::model::Model;
 use crate::params::{Integrator, Params, SpringParams};
 
@@ -254,6 +254,88 @@ pub(crate) struct ClothArrays {
     pub dense: Vec<f32>,
 }
 
+/// `u32` words of a spring record in `model` (two `vec4<u32>`).
+const SPRING_WORDS: u64 = (std::mem::size_of::<GpuSpring>() / 4) as u64;
+
+impl ClothArrays {
+    /// Spring records in `model` (slots).
+    fn spring_count(&self) -> u64 {
+        self.springs.len() as u64
+    }
+
+    /// Words the dense filter may take: sized for every particle free, so
+    /// that changing pins (which rebuilds it) never needs more; none
+    /// without a dense filter.
+    fn dense_capacity(&self) -> u64 {
+        if self.dense.is_empty() {
+            return 0;
+        }
+        let n = u64::from(self.params.particle_count);
+        n * n + n
+    }
+
+    /// `vec4` entries of the cloth's part of `model`: its spring records,
+    /// `topo` and the dense filter, as `u32` words, padded to a whole
+    /// `vec4` so the next cloth's records start aligned.
+    pub(crate) fn model_len(&self) -> u64 {
+        let words = SPRING_WORDS * self.spring_count() + self.topo.len() as u64;
+        (words + self.dense_capacity()).div_ceil(4)
+    }
+
+    /// `vec4` entries of the cloth's part of `work`: the per-particle
+    /// sections, the per-spring sections, the reduction partials and the
+    /// CG scalars (one per `vec4`, see `partial` in
+    /// `shaders/common/layout.wgsl`).
+    pub(crate) fn work_len(&self) -> u64 {
+        let n = u64::from(self.params.particle_count);
+        u64::from(work::COUNT) * n
+            + u64::from(spring_work::COUNT) * self.spring_count()
+            + partial_count(n)
+    }
+
+    /// The cloth's part of `model` as uploaded: the spring records,
+    /// `topo`, the dense filter's bits (its unused capacity is left out:
+    /// a new buffer is zeroed, and no kernel reads past the filter).
+    pub(crate) fn model_words(&self) -> Result<Vec<u32>> {
+        let springs: &[u32] = bytemuck::cast_slice(&self.springs);
+        let len = springs.len() + self.topo.len() + self.dense.len();
+        let mut words: Vec<u32> = try_with_capacity(len, UPLOAD)?;
+        words.extend_from_slice(springs);
+        words.extend_from_slice(&self.topo);
+        words.extend(self.dense.iter().map(|w| w.to_bits()));
+        Ok(words)
+    }
+
+    /// Places the cloth's parts of `model` at `vec4` entry `model_at` and
+    /// of `work` at `vec4` entry `work_at` (a lone cloth: both 0): the
+    /// bases and `topo` offsets of its parameters (built relative to its
+    /// own arrays) become indices into the shared buffers, the contract of
+    /// `shaders/common/layout.wgsl`.
+    pub(crate) fn place(&mut self, model_at: u64, work_at: u64) {
+        let n = u64::from(self.params.particle_count);
+        let s = self.spring_count();
+        let topo_at = (4 * model_at + SPRING_WORDS * s) as u32;
+        let p = &mut self.params;
+        p.spring_base = model_at as u32;
+        p.topo_base = topo_at;
+        p.spring_adj_entries += topo_at;
+        p.tri_adj_offsets += topo_at;
+        p.tri_adj_entries += topo_at;
+        p.triangles += topo_at;
+        p.dense_base = topo_at + self.topo.len() as u32;
+        let spring_work_at = work_at + u64::from(work::COUNT) * n;
+        p.work_base = work_at as u32;
+        p.spring_work_base = spring_work_at as u32;
+        p.partial_base = (spring_work_at + u64::from(spring_work::COUNT) * s) as u32;
+    }
+}
+
+/// Reduction partials and CG scalars of a cloth of `n` particles (see
+/// [`crate::kernel_config::partials`]).
+pub(crate) fn partial_count(n: u64) -> u64 {
+    u64::from(partials::SLOTS) * n.div_ceil(u64::from(WORKGROUP)) + u64::from(partials::CG_SCALARS)
+}
+
 /// The arrays of `model` under `params` with its semi-implicit `filter`,
 /// in `grid` layout (`None`: general) gathered by `block`.
 pub(super) fn cloth_arrays(
@@ -319,34 +401,29 @@ impl GpuSolver {
         } else {
             params.implicit.max_iterations
         };
-        let arrays = cloth_arrays(model, params, filter, grid.as_ref(), block)?;
+        let mut arrays = cloth_arrays(model, params, filter, grid.as_ref(), block)?;
+        arrays.place(0, 0);
         let slots = arrays.springs.len();
         let fixup_iterations = fixup_iterations(params);
-        let ClothArrays {
-            params: gpu_params,
-            springs,
-            topo,
-            x,
-            v,
-            dense,
-        } = arrays;
         let buffers = ClothBuffers::new(
             device,
             queue,
             &kernels,
             &Uploads {
-                params: &gpu_params,
-                springs: &springs,
-                topo: &topo,
-                x: &x,
-                v: &v,
+                params: &arrays.params,
+                model: &arrays.model_words()?,
+                model_len: arrays.model_len(),
+                springs: &arrays.springs,
+                work_len: arrays.work_len(),
+                x: &arrays.x,
+                v: &arrays.v,
                 triangles: &model.triangles,
-                dense: &dense,
                 constant_blocks: semi_cg.then_some((params.dt * params.dt) as f32),
                 cg_max_iterations,
                 workgroup: path.path == StepPath::Workgroup,
             },
         )?;
+        let gpu_params = arrays.params;
         let features = scene_features(model, params, grid.as_ref().map(|_| block));
         let inputs = plan_inputs(
             params.integrator,

@@ -49,7 +49,8 @@ pub(super) fn pin(
     params.torque_compensation =
         torque_bits(host.semi_implicit.torque_compensation, model.pinned_count());
     let filter = if params.filter_count > 0 {
-        let filter = SemiFilter::new(model, host)?;
+        // The device holds the dense filter for every particle free.
+        let filter = SemiFilter::new(model, host, true)?;
         params.filter_count = filter.count;
         Some(filter)
     } else {
@@ -244,7 +245,8 @@ impl GpuSolver {
     /// Writes particle `p`'s pin goal (`work` section `PIN_TARGET`).
     fn write_pin_goal(&self, p: usize, goal: [f32; 4]) {
         let n = self.params.particle_count as u64;
-        let offset = (u64::from(section::PIN_TARGET) * n + p as u64) * 16;
+        let offset =
+            (u64::from(self.params.work_base) + u64::from(section::PIN_TARGET) * n + p as u64) * 16;
         self.queue
             .write_buffer(&self.buffers.work, offset, bytemuck::cast_slice(&goal));
     }
@@ -297,8 +299,11 @@ impl GpuSolver {
             self.motion.release(p);
         }
         if let Some(filter) = change.filter {
-            self.queue
-                .write_buffer(&self.buffers.dense, 0, bytemuck::cast_slice(&filter.words));
+            self.queue.write_buffer(
+                &self.buffers.model,
+                u64::from(self.params.dense_base) * 4,
+                bytemuck::cast_slice(&filter.words),
+            );
         }
         self.update_features()
     }

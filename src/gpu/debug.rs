@@ -11,45 +11,49 @@ use super::solver::GpuSolver;
 use crate::error::{Error, Result};
 use crate::kernel_config::{partials, WORKGROUP};
 
-/// A buffer a kernel binds, named as in `shaders/common/bindings.wgsl`
-/// (group 0) and `shaders/common/cg.wgsl` (group 1).
+/// A buffer a kernel binds, or a part of one, named as in
+/// `shaders/common/layout.wgsl` (group 0) and `shaders/common/cg.wgsl`
+/// (group 1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum DebugBuffer {
     /// `params`: the uniform block ([`super::layout::GpuParams`]).
     Params,
-    /// `springs` ([`super::layout::GpuSpring`] per slot).
+    /// The spring records of `model` ([`super::layout::GpuSpring`] per
+    /// slot).
     Springs,
-    /// `topo`: adjacency and triangles.
+    /// The topology words of `model`: adjacency and triangles.
     Topo,
     /// `x`: positions and inverse masses.
     X,
     /// `v`: velocities and masses.
     V,
-    /// `work`: the per-particle sections ([`crate::kernel_config::work`]).
+    /// The per-particle sections of `work`
+    /// ([`crate::kernel_config::work`]).
     Work,
-    /// `spring_work`: the per-spring sections
+    /// The per-spring sections of `work`
     /// ([`crate::kernel_config::spring_work`]).
     SpringWork,
-    /// `partials`: reduction partials and CG scalars
-    /// ([`crate::kernel_config::partials`]).
+    /// The reduction partials and CG scalars of `work`
+    /// ([`crate::kernel_config::partials`]), a word each (the `x` of its
+    /// `vec4`).
     Partials,
     /// `status` ([`crate::kernel_config::status`]).
     Status,
     /// `vertex_normals`.
     VertexNormals,
-    /// `dense`: the dense semi-implicit filter.
+    /// The dense semi-implicit filter's words of `model` (to the end of
+    /// the buffer).
     Dense,
-    /// `cg_args`: the per-particle CG kernels' indirect arguments.
-    CgArgs,
-    /// `alpha_slots`: cg_alpha's indirect arguments.
-    AlphaSlots,
-    /// `beta_slots`: cg_beta's indirect arguments.
-    BetaSlots,
+    /// `alpha_args`: the slots of cg_alpha, then of cg_apply, then of
+    /// cg_prolong ([`DebugLayout::arg_slots`] each, three words a slot).
+    AlphaArgs,
+    /// `beta_args`: the slots of cg_beta, then of cg_update.
+    BetaArgs,
 }
 
 impl DebugBuffer {
     /// Every buffer.
-    pub const ALL: [DebugBuffer; 14] = [
+    pub const ALL: [DebugBuffer; 13] = [
         DebugBuffer::Params,
         DebugBuffer::Springs,
         DebugBuffer::Topo,
@@ -61,9 +65,8 @@ impl DebugBuffer {
         DebugBuffer::Status,
         DebugBuffer::VertexNormals,
         DebugBuffer::Dense,
-        DebugBuffer::CgArgs,
-        DebugBuffer::AlphaSlots,
-        DebugBuffer::BetaSlots,
+        DebugBuffer::AlphaArgs,
+        DebugBuffer::BetaArgs,
     ];
 }
 
@@ -77,6 +80,8 @@ pub struct DebugLayout {
     /// Words (`f32`) per slot of `partials`: one per reduction block of
     /// [`WORKGROUP`] particles.
     pub partial_slot_words: usize,
+    /// Slots per dispatch in `alpha_args` and `beta_args`.
+    pub arg_slots: usize,
 }
 
 impl DebugLayout {
@@ -104,7 +109,18 @@ impl DebugLayout {
     pub fn cg_scalar(&self, k: u32) -> usize {
         partials::SLOTS as usize * self.partial_slot_words + k as usize
     }
+
+    /// The workgroup count (the first word) of slot `k` of dispatch
+    /// `dispatch` (0, 1, 2: see [`DebugBuffer::AlphaArgs`] and
+    /// [`DebugBuffer::BetaArgs`]) within the buffer's `words`.
+    pub fn arg_slot(&self, words: &[u32], dispatch: usize, k: usize) -> u32 {
+        words[3 * (dispatch * self.arg_slots + k)]
+    }
 }
+
+/// Where a [`DebugBuffer`] lies: its buffer, first byte, bytes (`None`: to
+/// the end), and whether it holds a word per `vec4` (the partials).
+type View<'a> = (&'a wgpu::Buffer, u64, Option<u64>, bool);
 
 impl GpuSolver {
     /// The dispatches of the next step, in the order
@@ -157,21 +173,64 @@ impl GpuSolver {
         Ok(())
     }
 
+    /// Where `buffer` lies in the solver's buffers.
+    fn view(&self, buffer: DebugBuffer) -> View<'_> {
+        let b = &self.buffers;
+        let p = &self.params;
+        let vec4 = |k: u32| u64::from(k) * 16;
+        let word = |k: u32| u64::from(k) * 4;
+        let spring_bytes = u64::from(self.spring_slots) * 32;
+        match buffer {
+            DebugBuffer::Params => (&b.params, 0, None, false),
+            DebugBuffer::Springs => (&b.model, vec4(p.spring_base), Some(spring_bytes), false),
+            DebugBuffer::Topo => {
+                let len = word(p.dense_base) - word(p.topo_base);
+                (&b.model, word(p.topo_base), Some(len), false)
+            }
+            DebugBuffer::Dense => (&b.model, word(p.dense_base), None, false),
+            DebugBuffer::X => (&b.x, 0, None, false),
+            DebugBuffer::V => (&b.v, 0, None, false),
+            DebugBuffer::Work => {
+                let len = vec4(p.spring_work_base) - vec4(p.work_base);
+                (&b.work, vec4(p.work_base), Some(len), false)
+            }
+            DebugBuffer::SpringWork => {
+                let len = vec4(p.partial_base) - vec4(p.spring_work_base);
+                (&b.work, vec4(p.spring_work_base), Some(len), false)
+            }
+            DebugBuffer::Partials => (&b.work, vec4(p.partial_base), None, true),
+            DebugBuffer::Status => (&b.status, 0, None, false),
+            DebugBuffer::VertexNormals => (&b.normals, 0, None, false),
+            DebugBuffer::AlphaArgs => (&b.alpha_args, 0, None, false),
+            DebugBuffer::BetaArgs => (&b.beta_args, 0, None, false),
+        }
+    }
+
     /// The words of `buffer` (blocking).
     #[doc(hidden)]
     pub fn debug_read(&self, buffer: DebugBuffer) -> Result<Vec<u32>> {
-        let b = self.buffers.get(buffer);
-        let bytes = readback::read_buffers(&self.device, &self.queue, &[(b, 0, b.size())])?;
-        Ok(bytemuck::cast_slice::<u8, u32>(&bytes[0]).to_vec())
+        let (b, start, len, strided) = self.view(buffer);
+        let len = len.unwrap_or(b.size() - start);
+        let bytes = readback::read_buffers(&self.device, &self.queue, &[(b, start, len)])?;
+        let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[0]);
+        Ok(if strided {
+            words.iter().step_by(4).copied().collect()
+        } else {
+            words
+        })
     }
 
     /// Writes `words` into `buffer` from its start (takes effect before
-    /// the next submitted work). More words than the buffer holds is an
-    /// error.
+    /// the next submitted work). More words than the buffer holds, or a
+    /// write to the partials (a word per `vec4`), is an error.
     #[doc(hidden)]
     pub fn debug_write(&self, buffer: DebugBuffer, words: &[u32]) -> Result<()> {
-        let b = self.buffers.get(buffer);
-        let capacity = b.size() / 4;
+        let (b, start, len, strided) = self.view(buffer);
+        let capacity = if strided {
+            0
+        } else {
+            len.unwrap_or(b.size() - start) / 4
+        };
         if words.len() as u64 > capacity {
             return Err(Error::InvalidParameter {
                 key: format!("{buffer:?} words"),
@@ -180,7 +239,8 @@ impl GpuSolver {
             });
         }
         guarded(&self.device, "writing a buffer", None, || {
-            self.queue.write_buffer(b, 0, bytemuck::cast_slice(words));
+            self.queue
+                .write_buffer(b, start, bytemuck::cast_slice(words));
             Ok(())
         })
     }
@@ -192,6 +252,7 @@ impl GpuSolver {
             work_section_words: 4 * self.params.particle_count as usize,
             spring_section_words: 4 * self.spring_slots as usize,
             partial_slot_words: self.params.particle_count.div_ceil(WORKGROUP) as usize,
+            arg_slots: self.buffers.arg_slots as usize,
         }
     }
 }

@@ -135,16 +135,16 @@ impl std::fmt::Display for Kernel {
 }
 
 /// The buffers a kernel that writes indirect dispatch arguments binds as
-/// its group 1 (see `cg_args` and `alpha_slots` in
-/// `shaders/common/cg.wgsl`): a kernel may not bind the buffer it is
-/// dispatched from, so each binds only the others'.
+/// its group 1 (see `alpha_args` in `shaders/common/cg.wgsl`): a kernel
+/// may not bind the buffer it is dispatched from, so cg_alpha and cg_beta
+/// each bind only the other's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ArgsGroup {
-    /// cg_start: `cg_args`, `alpha_slots`, `beta_slots`.
+    /// cg_start: `alpha_args`, `beta_args`.
     Start,
-    /// cg_alpha: `cg_args`, `beta_slots`.
+    /// cg_alpha: `beta_args`.
     Alpha,
-    /// cg_beta: `cg_args`, `alpha_slots`.
+    /// cg_beta: `alpha_args`.
     Beta,
 }
 
@@ -157,12 +157,12 @@ impl ArgsGroup {
         self as usize
     }
 
-    /// The group-1 bindings: 0 `cg_args`, 1 `alpha_slots`, 2 `beta_slots`.
+    /// The group-1 bindings: 0 `alpha_args`, 1 `beta_args`.
     pub const fn bindings(self) -> &'static [u32] {
         match self {
-            ArgsGroup::Start => &[0, 1, 2],
-            ArgsGroup::Alpha => &[0, 2],
-            ArgsGroup::Beta => &[0, 1],
+            ArgsGroup::Start => &[0, 1],
+            ArgsGroup::Alpha => &[1],
+            ArgsGroup::Beta => &[0],
         }
     }
 }
@@ -301,29 +301,61 @@ pub enum Launch {
     /// ⌈items / WORKGROUP⌉ workgroups (one workgroup for the CG scalar
     /// kernels' `items` of [`WORKGROUP`](crate::kernel_config::WORKGROUP)).
     Direct,
-    /// Indirectly from `cg_args`, words 0–2 (cg_apply's workgroups, 0 once
-    /// CG has stopped; see `shaders/common/cg.wgsl`).
-    ApplyArgs,
-    /// Indirectly from `cg_args`, words 3–5 (cg_update's and cg_prolong's).
-    UpdateArgs,
-    /// Indirectly from CG iteration `k`'s slot of `alpha_slots`.
+    /// Indirectly from CG iteration `k`'s cg_apply slot of `alpha_args`
+    /// (its workgroups while the iteration is due, else 0; see
+    /// `shaders/common/cg.wgsl`).
+    ApplySlot(u32),
+    /// Indirectly from CG iteration `k`'s cg_alpha slot of `alpha_args`.
     AlphaSlot(u32),
-    /// Indirectly from CG iteration `k`'s slot of `beta_slots`.
+    /// Indirectly from the cg_prolong slot of `alpha_args` before CG
+    /// iteration `k`'s cg_apply.
+    ProlongSlot(u32),
+    /// Indirectly from CG iteration `k`'s cg_update slot of `beta_args`.
+    UpdateSlot(u32),
+    /// Indirectly from CG iteration `k`'s cg_beta slot of `beta_args`.
     BetaSlot(u32),
     /// One workgroup per cloth of the cloth table, `n` cloths (the
     /// workgroup kernels, [`Kernel::steps_cloths`]).
     Cloths(u32),
 }
 
+/// Which buffer of indirect arguments a [`Launch`] reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum ArgsBuffer {
+    /// `alpha_args`.
+    Alpha,
+    /// `beta_args`.
+    Beta,
+}
+
 impl Launch {
-    /// Byte offset of the arguments in their buffer.
-    pub(crate) fn offset(self) -> u64 {
+    /// The buffer and byte offset of an indirect launch's arguments, with
+    /// `slots` slots per dispatch in each buffer (see
+    /// [`args_words`]); `None` for a direct one.
+    pub(crate) fn args(self, slots: u32) -> Option<(ArgsBuffer, u64)> {
+        let at = |region: u32, k: u32| u64::from(region * slots + k) * 12;
         match self {
-            Launch::Direct | Launch::ApplyArgs | Launch::Cloths(_) => 0,
-            Launch::UpdateArgs => 12,
-            Launch::AlphaSlot(k) | Launch::BetaSlot(k) => u64::from(k) * 12,
+            Launch::Direct | Launch::Cloths(_) => None,
+            Launch::AlphaSlot(k) => Some((ArgsBuffer::Alpha, at(0, k))),
+            Launch::ApplySlot(k) => Some((ArgsBuffer::Alpha, at(1, k))),
+            Launch::ProlongSlot(k) => Some((ArgsBuffer::Alpha, at(2, k))),
+            Launch::BetaSlot(k) => Some((ArgsBuffer::Beta, at(0, k))),
+            Launch::UpdateSlot(k) => Some((ArgsBuffer::Beta, at(1, k))),
         }
     }
+}
+
+/// Slots per dispatch in `alpha_args` and `beta_args` for at most
+/// `cg_max_iterations` recorded CG iterations: one per iteration and one
+/// more (the cg_prolong after the last).
+pub(crate) const fn arg_slots(cg_max_iterations: u32) -> u32 {
+    cg_max_iterations + 1
+}
+
+/// `u32` words of `alpha_args` (three dispatches) and `beta_args` (two)
+/// with `slots` slots per dispatch, three words each.
+pub(crate) const fn args_words(slots: u32) -> [u32; 2] {
+    [9 * slots, 6 * slots]
 }
 
 /// One entry of a step's plan: a kernel variant over `items` invocations.

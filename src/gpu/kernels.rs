@@ -123,19 +123,17 @@ fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
-/// Group 0's storage bindings 1–10 and whether each is read-only (see
-/// `shaders/common/bindings.wgsl`); binding 0 is the uniform block.
-const GROUP0_STORAGE: [(u32, bool); 10] = [
+/// Group 0's storage bindings 1–6 and whether each is read-only (see
+/// `shaders/common/layout.wgsl`): model, x, v, work, status,
+/// vertex_normals; binding 0 is the uniform block (the cloth table, a
+/// storage array, for the workgroup kernels).
+pub(crate) const GROUP0_STORAGE: [(u32, bool); 6] = [
     (1, true),
-    (2, true),
+    (2, false),
     (3, false),
     (4, false),
     (5, false),
     (6, false),
-    (7, false),
-    (8, false),
-    (9, false),
-    (10, true),
 ];
 
 impl GpuKernels {

@@ -205,13 +205,18 @@ impl<P> Plan<(Dispatch, P)> {
     }
 }
 
-/// A dispatch of the CG iterations in iteration `k`: the scalar kernels
-/// launch from their slot of the iteration.
+/// A dispatch of the CG iterations in iteration `k`: the plan's slot
+/// launches count from their iteration (the cg_prolong at an iteration's
+/// end launches from the next one's slot, as it prepares that one's
+/// cg_apply), so each launches from its own.
 pub(super) fn in_iteration(d: Dispatch, k: u32) -> Dispatch {
     match d.launch {
-        Launch::AlphaSlot(_) => d.launched(Launch::AlphaSlot(k)),
-        Launch::BetaSlot(_) => d.launched(Launch::BetaSlot(k)),
-        _ => d,
+        Launch::AlphaSlot(j) => d.launched(Launch::AlphaSlot(j + k)),
+        Launch::BetaSlot(j) => d.launched(Launch::BetaSlot(j + k)),
+        Launch::ApplySlot(j) => d.launched(Launch::ApplySlot(j + k)),
+        Launch::UpdateSlot(j) => d.launched(Launch::UpdateSlot(j + k)),
+        Launch::ProlongSlot(j) => d.launched(Launch::ProlongSlot(j + k)),
+        Launch::Direct | Launch::Cloths(_) => d,
     }
 }
 
@@ -316,18 +321,18 @@ fn step(i: &PlanInputs) -> Vec<Part<Dispatch>> {
 /// cg_prolong take a level-1 aggregate per invocation, and
 /// [`Variant::CgFirst`] preconditions the initial residual.
 ///
-/// The per-iteration kernels are dispatched indirectly (see `cg_args` and
-/// `alpha_slots` in `shaders/common/cg.wgsl`): a dispatch whose
-/// invocations all return at once still runs its workgroups (on a CPU
-/// adapter, the masked-off code too), while an indirect dispatch of zero
-/// workgroups runs none.
+/// The per-iteration kernels are dispatched indirectly, each from its
+/// iteration's slot (see `alpha_args` in `shaders/common/cg.wgsl`): a
+/// dispatch whose invocations all return at once still runs its
+/// workgroups (on a CPU adapter, the masked-off code too), while an
+/// indirect dispatch of zero workgroups runs none.
 fn cg(i: &PlanInputs, plan: &mut Vec<Part<Dispatch>>) {
     let (n, gather) = (i.particles, i.gather);
     let one = WORKGROUP;
     let coarse = i.features.coarse;
     let prolong = coarse && !i.features.grid;
     let update = if coarse { i.aggregates[0] } else { n };
-    let prolong_pass = Dispatch::direct(Kernel::CgProlong, update).launched(Launch::UpdateArgs);
+    let prolong_pass = Dispatch::direct(Kernel::CgProlong, update).launched(Launch::ProlongSlot(0));
     plan.push(Part::Once(Dispatch::direct(Kernel::CgInit, gather)));
     if coarse {
         let first = Dispatch::direct(Kernel::CgUpdate, update).of(Variant::CgFirst);
@@ -338,13 +343,13 @@ fn cg(i: &PlanInputs, plan: &mut Vec<Part<Dispatch>>) {
         plan.push(Part::Once(prolong_pass));
     }
     let mut iteration = vec![
-        Dispatch::direct(Kernel::CgApply, gather).launched(Launch::ApplyArgs),
+        Dispatch::direct(Kernel::CgApply, gather).launched(Launch::ApplySlot(0)),
         Dispatch::direct(Kernel::CgAlpha, one).launched(Launch::AlphaSlot(0)),
-        Dispatch::direct(Kernel::CgUpdate, update).launched(Launch::UpdateArgs),
+        Dispatch::direct(Kernel::CgUpdate, update).launched(Launch::UpdateSlot(0)),
         Dispatch::direct(Kernel::CgBeta, one).launched(Launch::BetaSlot(0)),
     ];
     if prolong {
-        iteration.push(prolong_pass);
+        iteration.push(prolong_pass.launched(Launch::ProlongSlot(1)));
     }
     plan.push(Part::CgIterations(iteration));
 }

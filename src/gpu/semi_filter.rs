@@ -30,12 +30,14 @@ pub const FILTER_CG_TOLERANCE: f64 = 1e-5;
 pub const FILTER_CG_MAX_ITERATIONS: u32 = 1000;
 
 impl SemiFilter {
-    /// The filter of `model` under `params`, built in `f32` on the host.
-    pub(super) fn new(model: &Model, params: &Params) -> Result<SemiFilter> {
+    /// The filter of `model` under `params`, built in `f32` on the host;
+    /// solved by CG where `params` chooses it, or where the device cannot
+    /// hold the dense one (`fits` false).
+    pub(super) fn new(model: &Model, params: &Params, fits: bool) -> Result<SemiFilter> {
         let sys = crate::cpu::System::<f32>::new(model, params);
         let grid = model.grid.as_ref().map(|g| (g.nx, g.ny));
         let fs = FilterSystem::new(&sys, grid);
-        if !FilterSystem::dense(params.semi_implicit.filter, fs.len()) {
+        if !(fits && FilterSystem::dense(params.semi_implicit.filter, fs.len())) {
             return Ok(SemiFilter {
                 count: 0,
                 words: Vec::new(),

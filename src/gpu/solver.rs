@@ -19,7 +19,7 @@ use crate::diagnostics::Motion;
 use crate::error::{Error, Result};
 use crate::kernel_config::WORKGROUP;
 use crate::model::Model;
-use crate::params::{Capsule, Ground, Integrator, Params, Sphere, Wind};
+use crate::params::{Capsule, FilterMethod, Ground, Integrator, Params, Sphere, Wind};
 use crate::stats::StepStats;
 use glam::{DVec3, Vec3};
 
@@ -62,10 +62,14 @@ pub(super) fn decode_status(
     })
 }
 
-/// Storage buffers a kernel binds at most: group 0's ten (see
-/// `shaders/common/bindings.wgsl`) and cg_start's three dispatch-argument
-/// buffers in group 1.
-pub(super) const STORAGE_BUFFERS: u32 = 13;
+/// Storage buffers a kernel binds at most: group 0's six (see
+/// `shaders/common/layout.wgsl`) and cg_start's two dispatch-argument
+/// buffers in group 1 — the eight per shader stage that every WebGPU
+/// device grants (`wgpu::Limits::default()`). A workgroup kernel binds
+/// group 0's six and its cloth table.
+pub(super) const STORAGE_BUFFERS: u32 = 8;
+const _: () =
+    assert!(STORAGE_BUFFERS <= wgpu::Limits::defaults().max_storage_buffers_per_shader_stage);
 
 /// Positions and velocities read back from the device.
 #[derive(Clone, Debug, PartialEq)]
@@ -297,6 +301,22 @@ pub(super) fn check_collider_counts(spheres: usize, capsules: usize) -> Result<(
     Ok(())
 }
 
+/// Whether the device can bind the model buffer of `model` with the dense
+/// semi-implicit filter (sized for every particle free): the automatic
+/// filter choice takes CG where it cannot (WebGPU's default binding limit
+/// of 128 MiB holds the filter of about 5 800 particles), a dense filter
+/// asked for is refused by the limit check instead.
+fn dense_fits(model: &Model, counts: Counts, params: &Params, limits: &wgpu::Limits) -> bool {
+    // The most spring slots either layout may take: six per particle on a
+    // grid.
+    let slots = (model.springs.len() as u64).max(6 * counts.particles);
+    let need = budget::gpu_bytes(counts, slots, params, true, 0);
+    need.largest
+        <= limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size)
+}
+
 /// Refuses `needed` when the device's limit `name` is only `available`;
 /// `what` is what needs it.
 pub(super) fn limit(name: &'static str, what: &str, available: u64, needed: u64) -> Result<()> {
@@ -374,9 +394,11 @@ impl GpuSolver {
         let device = kernels.device();
         params.validate()?;
         let counts = Counts::of_model(model);
-        let dense = params.integrator == Integrator::SemiImplicit
-            && FilterSystem::dense(params.semi_implicit.filter, counts.free as usize);
         let limits = device.limits();
+        let dense = params.integrator == Integrator::SemiImplicit
+            && FilterSystem::dense(params.semi_implicit.filter, counts.free as usize)
+            && (params.semi_implicit.filter != FilterMethod::Auto
+                || dense_fits(model, counts, params, &limits));
         let grid = GridLayout::of(model, params);
         let info = device.adapter_info();
         let block = GridBlock::for_adapter(&info);
@@ -451,7 +473,7 @@ impl GpuSolver {
         budget::check_gpu_host(device, need.host, need.device, || what.clone())?;
 
         let filter = if params.integrator == Integrator::SemiImplicit {
-            Some(SemiFilter::new(model, params)?)
+            Some(SemiFilter::new(model, params, dense)?)
         } else {
             None
         };
@@ -484,14 +506,14 @@ impl GpuSolver {
                 }
                 pass.dispatch_workgroups(n, 1, 1)
             }
-            Launch::ApplyArgs | Launch::UpdateArgs => {
-                pass.dispatch_workgroups_indirect(&self.buffers.cg_args, launch.offset())
-            }
-            Launch::AlphaSlot(_) => {
-                pass.dispatch_workgroups_indirect(&self.buffers.alpha_slots, launch.offset())
-            }
-            Launch::BetaSlot(_) => {
-                pass.dispatch_workgroups_indirect(&self.buffers.beta_slots, launch.offset())
+            Launch::ApplySlot(_)
+            | Launch::AlphaSlot(_)
+            | Launch::ProlongSlot(_)
+            | Launch::UpdateSlot(_)
+            | Launch::BetaSlot(_) => {
+                if let Some((buffer, offset)) = launch.args(self.buffers.arg_slots) {
+                    pass.dispatch_workgroups_indirect(self.buffers.args(buffer), offset)
+                }
             }
         }
     }
@@ -703,7 +725,33 @@ impl GpuSolver {
 
 #[cfg(test)]
 mod tests {
-    use super::widen_step;
+    use super::{dense_fits, widen_step};
+    use crate::budget::Counts;
+    use crate::model::{ClothSpec, Model};
+    use crate::params::{Integrator, Params};
+
+    /// The dense filter of a cloth fits WebGPU's default binding until the
+    /// cloth's `n² + n` words pass 128 MiB: an 80² cloth (6 400
+    /// particles, 164 MB) does not, a 64² one (16.8 MB) does.
+    #[test]
+    fn the_dense_filter_fits_the_default_binding_up_to_its_size() {
+        let params = Params {
+            integrator: Integrator::SemiImplicit,
+            ..Params::default()
+        };
+        let limits = wgpu::Limits::default();
+        let fits = |side: usize| {
+            let spec = ClothSpec {
+                nx: side,
+                ny: side,
+                ..ClothSpec::default()
+            };
+            let model = Model::new(&spec, &params.springs).expect("a grid");
+            dense_fits(&model, Counts::of_model(&model), &params, &limits)
+        };
+        assert!(fits(64));
+        assert!(!fits(80));
+    }
 
     #[test]
     fn device_step_counts_widen_past_the_32_bit_wrap() {

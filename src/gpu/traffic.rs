@@ -8,8 +8,10 @@
 //! a [`GpuSpring`](super::layout::GpuSpring) 32, an adjacency entry 4). So
 //! they are a lower bound on the memory traffic: re-reads that a cache
 //! serves are not counted, and a kernel that misses its cache moves more.
-//! The uniform block and the handful of CG scalars are left out, and so
-//! are the pin goals (`W_PIN_TARGET`), which only pinned particles read.
+//! The uniform block, the reduction partials (a `vec4` per block of 64
+//! particles and slot, in `work`) and the handful of CG scalars are left
+//! out, and so are the pin goals (`W_PIN_TARGET`), which only pinned
+//! particles read.
 //! The particle clock (`W_CLOCK`, one `vec4` per particle) is counted
 //! where a kernel reads or advances it.
 

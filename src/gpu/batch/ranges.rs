@@ -6,43 +6,32 @@
 use std::ops::Range;
 
 /// The shared buffers of a batch, each indexed by its own element (a
-/// particle's `vec4`, a spring, a `u32` word, …; see [`Region::ALL`]).
+/// particle's `vec4`, a `vec4` of words, a `u32` word; see [`Region::ALL`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Region {
     /// `x`, `v` and `vertex_normals`: a `vec4` per particle.
     Particles,
-    /// `springs`: a spring per slot.
-    Springs,
-    /// `topo`: `u32` words.
-    Topo,
-    /// `work`: a `vec4` per section and particle.
+    /// `model`: spring records, topology and dense filters, `vec4`s of
+    /// `u32` words.
+    Model,
+    /// `work`: per-particle and per-spring sections and partials, `vec4`s.
     Work,
-    /// `spring_work`: a `vec4` per section and spring slot.
-    SpringWork,
-    /// `partials`: `f32` block sums, then the CG scalars.
-    Partials,
     /// `status`: `u32` words.
     Status,
-    /// `dense`: the dense semi-implicit filter's `f32` words.
-    Dense,
     /// The index buffer: `u32` triangle indices.
     Indices,
 }
 
 /// Number of [`Region`]s.
-pub(crate) const REGIONS: usize = 9;
+pub(crate) const REGIONS: usize = 5;
 
 impl Region {
     /// Every region, in the order of [`Extents`]' arrays.
     pub(crate) const ALL: [Region; REGIONS] = [
         Region::Particles,
-        Region::Springs,
-        Region::Topo,
+        Region::Model,
         Region::Work,
-        Region::SpringWork,
-        Region::Partials,
         Region::Status,
-        Region::Dense,
         Region::Indices,
     ];
 
@@ -162,7 +151,7 @@ mod tests {
         let b = layout.reserve(&lens(20, 5));
         assert_eq!(a, [0; REGIONS]);
         assert_eq!(b[Region::Particles.index()], 10);
-        assert_eq!(b[Region::Topo.index()], 4);
+        assert_eq!(b[Region::Model.index()], 4);
         assert_eq!(layout.ends()[Region::Particles.index()], 30);
         assert_eq!(layout.ends()[Region::Indices.index()], 9);
     }
@@ -176,16 +165,16 @@ mod tests {
         // Too large for the holes: at the ends.
         let c = layout.reserve(&lens(11, 5));
         assert_eq!(c[Region::Particles.index()], 30);
-        assert_eq!(c[Region::Topo.index()], 9);
+        assert_eq!(c[Region::Model.index()], 9);
         // Fits: in the hole, and the buffers need not grow.
         let before = layout.ends();
         let d = layout.reserve(&lens(10, 3));
         assert_eq!(d[Region::Particles.index()], 0);
-        assert_eq!(d[Region::Topo.index()], 0);
+        assert_eq!(d[Region::Model.index()], 0);
         assert_eq!(layout.ends(), before);
         // The hole's rest (one word) takes a one-word range.
         let e = layout.reserve(&lens(0, 1));
-        assert_eq!(e[Region::Topo.index()], 3);
+        assert_eq!(e[Region::Model.index()], 3);
     }
 
     #[test]

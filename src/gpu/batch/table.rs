@@ -22,16 +22,15 @@ use crate::gpu::kernels::{Features, GpuKernels};
 use crate::gpu::layout::{GpuParams, GpuSpring};
 use crate::gpu::path::StepPath;
 use crate::gpu::solver::{limit, plan_inputs, Prepared};
-use crate::kernel_config::{partials, spring_work, status, work, WORKGROUP};
+use crate::kernel_config::status;
 use crate::params::Integrator;
 
 /// Bytes of one element of each [`Region`].
-const ELEMENT_BYTES: Extents = [16, 32, 4, 16, 16, 4, 4, 4, 4];
-const _: () = assert!(ELEMENT_BYTES[1] == std::mem::size_of::<GpuSpring>() as u64);
+const ELEMENT_BYTES: Extents = [16, 16, 16, 4, 4];
 
 /// The smallest buffer made \[bytes\]: a binding must hold one element of
 /// its array, and a batch may have no spring, no dense filter, no cloth
-/// yet; the largest element bound is a `Spring`.
+/// yet; the largest thing read is a spring record.
 const MIN_BUFFER: u64 = std::mem::size_of::<GpuSpring>() as u64;
 
 /// Bytes of a cloth table entry.
@@ -58,58 +57,39 @@ fn usage(region: Region) -> wgpu::BufferUsages {
 fn label(region: Region) -> &'static str {
     match region {
         Region::Particles => "wgcloth.batch.particles",
-        Region::Springs => "wgcloth.batch.springs",
-        Region::Topo => "wgcloth.batch.topo",
+        Region::Model => "wgcloth.batch.model",
         Region::Work => "wgcloth.batch.work",
-        Region::SpringWork => "wgcloth.batch.spring_work",
-        Region::Partials => "wgcloth.batch.partials",
         Region::Status => "wgcloth.batch.status",
-        Region::Dense => "wgcloth.batch.dense",
         Region::Indices => "wgcloth.batch.indices",
     }
 }
 
 /// What a cloth of the table holds in each region \[elements\].
 pub(super) fn extents(a: &ClothArrays, triangles: usize) -> Extents {
-    let n = u64::from(a.params.particle_count);
-    let s = a.springs.len() as u64;
     let mut e = [0; REGIONS];
-    e[Region::Particles.index()] = n;
-    e[Region::Springs.index()] = s;
-    e[Region::Topo.index()] = a.topo.len() as u64;
-    e[Region::Work.index()] = u64::from(work::COUNT) * n;
-    e[Region::SpringWork.index()] = u64::from(spring_work::COUNT) * s;
-    e[Region::Partials.index()] = u64::from(partials::SLOTS) * n.div_ceil(u64::from(WORKGROUP))
-        + u64::from(partials::CG_SCALARS);
+    e[Region::Particles.index()] = u64::from(a.params.particle_count);
+    e[Region::Model.index()] = a.model_len();
+    e[Region::Work.index()] = a.work_len();
     e[Region::Status.index()] = status::COUNT as u64;
-    // Sized for every particle free, as a lone solver's (pins may change).
-    e[Region::Dense.index()] = if a.dense.is_empty() { 0 } else { n * n + n };
     e[Region::Indices.index()] = 3 * triangles as u64;
     e
 }
 
 /// Moves a cloth's arrays, built as a lone cloth's (every index from 0),
-/// to where it lives in the shared buffers: particle and spring indices
-/// become global, `topo` offsets absolute, and its parameters get its
-/// bases (the contract of `shaders/common/layout.wgsl`).
+/// to where it lives in the shared buffers: particle indices become
+/// global, and its parameters get its bases (the contract of
+/// `shaders/common/layout.wgsl`; springs stay numbered within the cloth).
 pub(super) fn place(a: &mut ClothArrays, starts: &Extents) {
-    let base = |r: Region| starts[r.index()] as u32;
-    let (pb, sb, tb) = (
-        base(Region::Particles),
-        base(Region::Springs),
-        base(Region::Topo),
-    );
+    let base = |r: Region| starts[r.index()];
+    let pb = base(Region::Particles) as u32;
     for s in &mut a.springs {
         s.i += pb;
         s.j += pb;
     }
-    let p = &mut a.params;
+    let p = &a.params;
     let entries = p.spring_adj_entries as usize;
     let count = a.topo[p.particle_count as usize] as usize;
     // Each entry is `spring << 1 | end`; then each entry's other particle.
-    for e in &mut a.topo[entries..entries + count] {
-        *e = ((*e >> 1) + sb) << 1 | (*e & 1);
-    }
     for other in &mut a.topo[entries + count..entries + 2 * count] {
         *other += pb;
     }
@@ -118,18 +98,9 @@ pub(super) fn place(a: &mut ClothArrays, starts: &Extents) {
         *q += pb;
     }
     shift_order(&mut a.dense, p.filter_count, pb);
-    p.spring_adj_entries += tb;
-    p.tri_adj_offsets += tb;
-    p.tri_adj_entries += tb;
-    p.triangles += tb;
-    p.particle_base = pb;
-    p.spring_base = sb;
-    p.topo_base = tb;
-    p.work_base = base(Region::Work);
-    p.spring_work_base = base(Region::SpringWork);
-    p.partial_base = base(Region::Partials);
-    p.status_base = base(Region::Status);
-    p.dense_base = base(Region::Dense);
+    a.place(base(Region::Model), base(Region::Work));
+    a.params.particle_base = pb;
+    a.params.status_base = base(Region::Status) as u32;
 }
 
 /// Features with what either has: the kernel variants that step cloths
@@ -368,13 +339,15 @@ impl Table {
         )
     }
 
-    /// Uploads a placed cloth's arrays and `triangles` to its ranges and
-    /// its entry into slot `slot` of the table; zeroes its scratch ranges
-    /// (a reused range holds its last cloth's) and sets its status words.
+    /// Uploads a placed cloth's arrays (`model`: its words of the model
+    /// buffer) and `triangles` to its ranges and its entry into slot
+    /// `slot` of the table; zeroes its scratch range (a reused range holds
+    /// its last cloth's) and sets its status words.
     pub(super) fn upload(
         &self,
         slot: u32,
         a: &ClothArrays,
+        model: &[u32],
         triangles: &[[u32; 3]],
         starts: &Extents,
     ) {
@@ -385,11 +358,9 @@ impl Table {
                 q.write_buffer(self.buffer(r), at(r), bytes);
             }
         };
-        write(Region::Springs, bytemuck::cast_slice(&a.springs));
-        write(Region::Topo, bytemuck::cast_slice(&a.topo));
+        write(Region::Model, bytemuck::cast_slice(model));
         write(Region::Particles, bytemuck::cast_slice(&a.x));
         q.write_buffer(&self.v, at(Region::Particles), bytemuck::cast_slice(&a.v));
-        write(Region::Dense, bytemuck::cast_slice(&a.dense));
         write(Region::Indices, bytemuck::cast_slice(triangles));
         let mut words = [0u32; status::COUNT];
         words[status::BAD_STEP] = u32::MAX;
@@ -401,11 +372,10 @@ impl Table {
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("wgcloth.batch.clear"),
         });
-        for r in [Region::Work, Region::SpringWork, Region::Partials] {
-            let bytes = lens[r.index()] * ELEMENT_BYTES[r.index()];
-            if bytes > 0 {
-                encoder.clear_buffer(self.buffer(r), at(r), Some(bytes));
-            }
+        let r = Region::Work;
+        let bytes = lens[r.index()] * ELEMENT_BYTES[r.index()];
+        if bytes > 0 {
+            encoder.clear_buffer(self.buffer(r), at(r), Some(bytes));
         }
         self.queue.submit([encoder.finish()]);
     }
@@ -545,8 +515,8 @@ fn cloth_table(device: &wgpu::Device, bytes: u64) -> wgpu::Buffer {
     })
 }
 
-/// Bindings 1–10 (see `shaders/common/layout.wgsl`): springs, topo, x, v,
-/// work, spring_work, partials, status, normals, dense.
+/// Bindings 1–6 (see `shaders/common/layout.wgsl`): model, x, v, work,
+/// status, normals.
 fn group_buffers<'a>(
     buffers: &'a [wgpu::Buffer],
     v: &'a wgpu::Buffer,
@@ -554,20 +524,16 @@ fn group_buffers<'a>(
 ) -> Vec<&'a wgpu::Buffer> {
     let b = |r: Region| &buffers[r.index()];
     vec![
-        b(Region::Springs),
-        b(Region::Topo),
+        b(Region::Model),
         b(Region::Particles),
         v,
         b(Region::Work),
-        b(Region::SpringWork),
-        b(Region::Partials),
         b(Region::Status),
         normals,
-        b(Region::Dense),
     ]
 }
 
-/// Group 0 of the workgroup kernels: the cloth table, then bindings 1–10.
+/// Group 0 of the workgroup kernels: the cloth table, then bindings 1–6.
 fn bind_group(
     kernels: &GpuKernels,
     cloths: &wgpu::Buffer,

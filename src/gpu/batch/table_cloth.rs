@@ -119,7 +119,9 @@ impl TableCloth {
             format!("a cloth of {} particles for the batch", counts.particles)
         })?;
         let filter = match params.integrator {
-            Integrator::SemiImplicit => Some(SemiFilter::new(model, params)?),
+            // The shared buffers refuse a dense filter they cannot hold,
+            // naming the limit, when they grow.
+            Integrator::SemiImplicit => Some(SemiFilter::new(model, params, true)?),
             _ => None,
         };
         // The workgroup kernels read the adjacency lists: general layout.
@@ -128,8 +130,15 @@ impl TableCloth {
         let lens = table::extents(&arrays, model.triangles.len());
         let starts = table.reserve(&lens, slots)?;
         table::place(&mut arrays, &starts);
+        let words = match arrays.model_words() {
+            Ok(w) => w,
+            Err(e) => {
+                table.free(slot, &starts, &lens);
+                return Err(e);
+            }
+        };
         let uploaded = guarded(&device, "adding a cloth to the batch", None, || {
-            table.upload(slot, &arrays, &model.triangles, &starts);
+            table.upload(slot, &arrays, &words, &model.triangles, &starts);
             Ok(device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("wgcloth.batch.normals_params"),
                 size: std::mem::size_of::<GpuParams>() as u64,
@@ -348,7 +357,7 @@ impl TableCloth {
         if let Some(mut filter) = change.filter {
             table::shift_order(&mut filter.words, filter.count, self.base() as u32);
             q.write_buffer(
-                table.buffer(Region::Dense),
+                table.buffer(Region::Model),
                 u64::from(self.params.dense_base) * 4,
                 bytemuck::cast_slice(&filter.words),
             );
