@@ -35,15 +35,17 @@ resolution = [2, 500000]
 filter = "dense"
 "#;
 
-/// 600 × 600 particles, explicit: within lavapipe's buffer limits, but
-/// with its buffers (0.7 GiB) and the kernel compiler's reserve more than
-/// [`GPU_ADDRESS_SPACE_KIB`] leaves after lavapipe's own mappings.
-const SIX_HUNDRED: &str = r#"
+/// 440 × 440 particles, explicit: within lavapipe's buffer limits (its
+/// largest buffer, about 108 MB, under the 128 MiB storage binding), and
+/// its own buffers (0.46 GiB) within what [`GPU_ADDRESS_SPACE_KIB`] leaves
+/// after lavapipe's own mappings (0.88 GiB), but not with the kernel
+/// compiler's reserve (0.5 GiB) on top.
+const FOUR_FORTY: &str = r#"
 [simulation]
 integrator = "explicit"
 dt = 0.001
 [cloth]
-resolution = [600, 600]
+resolution = [440, 440]
 "#;
 
 /// `ulimit -v` for the CPU rows \[KiB\]: about 1 GB, which the built-in
@@ -54,7 +56,7 @@ const CPU_ADDRESS_SPACE_KIB: u64 = 1_000_000;
 /// `ulimit -v` for the GPU rows \[KiB\]: about 1.4 GB. Lavapipe maps about
 /// 0.5 GB of address space once a device is open (with
 /// [`MALLOC_ARENAS`] and [`LAVAPIPE_THREADS`]); `hanging` runs in what is
-/// left (the control row), a 600 × 600 cloth or an 8192 × 8192 image,
+/// left (the control row), a 440 × 440 cloth or an 8192 × 8192 image,
 /// with the kernel compiler's reserve, does not.
 const GPU_ADDRESS_SPACE_KIB: u64 = 1_400_000;
 
@@ -208,20 +210,20 @@ fn a_million_particles_on_lavapipe_under_an_address_space_limit_are_refused() {
 
 #[test]
 fn a_cloth_beyond_lavapipes_memory_under_a_limit_is_refused_naming_the_gpu_solver() {
-    let dir = TempDir::new("memdev-gpu-six");
-    dir.write("six.toml", SIX_HUNDRED);
-    let out = run_limited(&dir, "six.toml", Backend::Lavapipe);
+    let dir = TempDir::new("memdev-gpu-four-forty");
+    dir.write("four-forty.toml", FOUR_FORTY);
+    let out = run_limited(&dir, "four-forty.toml", Backend::Lavapipe);
     // The driver's kernel-compiler reserve is said to be the driver's, not
     // counted as the cloth's own need.
     assert_refused(
         &out,
         &[
-            "GPU solver for 360000 particles (",
+            "GPU solver for 193600 particles (",
             " of its own, plus the driver's reserve of 512.0 MiB",
             "ulimit -v",
         ],
     );
-    assert_eq!(dir.files(), ["six.toml"], "nothing else on disk");
+    assert_eq!(dir.files(), ["four-forty.toml"], "nothing else on disk");
 }
 
 #[test]
