@@ -75,7 +75,7 @@ const CPU_DISPATCH_US: f64 = 25.0;
 const CPU_BARRIER_US: f64 = 18.0;
 /// lavapipe: an item on the workgroup path \[µs\] — twice a multi-dispatch
 /// item's cost per core: the one-workgroup kernels read adjacency lists
-/// where the grid kernels gather 4 × 4 blocks.
+/// where the grid kernels gather blocks of particles.
 const CPU_WORKGROUP_ITEM_US: f64 = 0.23;
 /// lavapipe: an item on the multi-dispatch path, per core \[µs\].
 const CPU_DISPATCH_ITEM_US: f64 = 0.104;
