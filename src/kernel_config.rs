@@ -44,6 +44,24 @@ pub const WORKGROUP_STEP_MAX_PARTICLES: u32 = 4096;
 /// WebGPU device allows.
 pub const WORKGROUP_STEP_SHARED_BYTES: u32 = 4096;
 
+/// The scene features as the kernels read them at run time
+/// (`params.features`, WGSL: `FEATURE_*`): a feature's code runs where its
+/// pipeline has it compiled in (`HAS_*`) and the cloth's bit is set, so one
+/// pipeline with every feature compiled in steps any cloth at the cost of a
+/// uniform branch per absent feature.
+pub mod feature {
+    /// Wind on triangles.
+    pub const WIND: u32 = 1;
+    /// A ground plane.
+    pub const GROUND: u32 = 2;
+    /// At least one sphere or capsule.
+    pub const SPHERES: u32 = 4;
+    /// Some particle can be constrained in CG (pins or colliders).
+    pub const FILTER: u32 = 8;
+    /// Some spring is damped.
+    pub const DAMPING: u32 = 16;
+}
+
 /// The integrators as the kernels know them (`params.integrator`,
 /// WGSL: `INTEGRATOR_*`): each workgroup kernel steps the cloths of its
 /// own.
@@ -273,7 +291,7 @@ fn wgsl_u32() -> Vec<(String, u32)> {
             .zip(0u32..)
             .map(|(n, k)| (format!("W_{n}"), k)),
     );
-    let named: [(&str, u32); 33] = [
+    let named: [(&str, u32); 38] = [
         ("INTEGRATOR_EXPLICIT", integrator::EXPLICIT),
         ("INTEGRATOR_IMPLICIT", integrator::IMPLICIT),
         ("INTEGRATOR_SEMI_IMPLICIT", integrator::SEMI_IMPLICIT),
@@ -307,6 +325,11 @@ fn wgsl_u32() -> Vec<(String, u32)> {
         ("STATUS_FIXUP_FLAG", status::FIXUP_FLAG as u32),
         ("STATUS_ALPHA_SLOT", status::ALPHA_SLOT as u32),
         ("STATUS_BETA_SLOT", status::BETA_SLOT as u32),
+        ("FEATURE_WIND", feature::WIND),
+        ("FEATURE_GROUND", feature::GROUND),
+        ("FEATURE_SPHERES", feature::SPHERES),
+        ("FEATURE_FILTER", feature::FILTER),
+        ("FEATURE_DAMPING", feature::DAMPING),
     ];
     out.extend(named.iter().map(|&(n, v)| (n.to_string(), v)));
     out

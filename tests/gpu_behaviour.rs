@@ -275,11 +275,9 @@ fn single_pass_against_general(wind: bool) {
 #[test]
 fn every_grid_block_shape_gives_the_same_bits() {
     // The adapter's default shape meets the CPU mirror in the other tests.
-    let shapes = [
-        GridBlock::ONE,
-        GridBlock { cols: 3, rows: 2 },
-        GridBlock { cols: 2, rows: 3 },
-    ];
+    // 3 × 2 sticks out of the last column and the last row; a transposed
+    // shape would only repeat that in the other order.
+    let shapes = [GridBlock::ONE, GridBlock { cols: 3, rows: 2 }];
     let mut cases: Vec<(String, Params)> = Integrator::ALL
         .iter()
         .map(|&i| (i.as_str().to_string(), busy_params(i)))

@@ -216,6 +216,7 @@ fn pod_twins_match_their_wgsl_structs() {
             integrator,
             fixup_iterations,
             cg_max_iterations,
+            features,
             grid,
             grid_rest_a,
             grid_rest_b,

@@ -120,6 +120,10 @@ fn viewer() -> &'static Path {
         let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
         let mut build = Command::new(cargo);
         build.args(["build", "--example", "viewer"]);
+        // Cargo rebuilds every dependency when RUSTC_BOOTSTRAP differs from
+        // the build that made them; CI's test runner (.ci/test-times) sets
+        // it for this process alone, and it must not reach this build.
+        build.env_remove("RUSTC_BOOTSTRAP");
         match profile {
             "debug" => {}
             "release" => {

@@ -13,7 +13,7 @@ fn wa(section: u32, a: u32) -> u32 {
 
 // Twin: implicit::Filter::apply. `f` is W_Z's w (kind), `n` W_FILTER's xyz.
 fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
-    if (!HAS_FILTER) {
+    if (!has_filter()) {
         return a;
     }
     if (kind == FILTER_FIXED) {
@@ -21,7 +21,7 @@ fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
     }
     // Only colliders make plane filters (lavapipe runs a branch no lane
     // takes, so it is compiled out without them).
-    if ((HAS_GROUND || HAS_SPHERES) && kind == FILTER_PLANE) {
+    if ((has_ground() || has_spheres()) && kind == FILTER_PLANE) {
         return a - n * dot3(a, n);
     }
     return a;
@@ -29,7 +29,7 @@ fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
 
 // Particle p's filter kind (W_Z's w; free without filters).
 fn filter_kind(p: u32) -> f32 {
-    if (!HAS_FILTER) {
+    if (!has_filter()) {
         return FILTER_FREE;
     }
     return work[wi(W_Z, p)].w;
@@ -39,7 +39,7 @@ fn filter_kind(p: u32) -> f32 {
 // its normal.
 fn filter_with(kind: f32, p: u32, a: vec3<f32>) -> vec3<f32> {
     var n = vec3<f32>(0.0);
-    if (HAS_FILTER && (HAS_GROUND || HAS_SPHERES) && kind == FILTER_PLANE) {
+    if (has_filter() && (has_ground() || has_spheres()) && kind == FILTER_PLANE) {
         n = work[wi(W_FILTER, p)].xyz;
     }
     return filter_apply(kind, n, a);

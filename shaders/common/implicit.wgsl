@@ -133,7 +133,7 @@ fn prepare_particle(
     if (inv.ok) {
         pre = inv.m;
     }
-    if (GRID && (HAS_GROUND || HAS_SPHERES)) {
+    if (GRID && (has_ground() || has_spheres())) {
         work[wi(W_X_START, p)] = x0;
     }
     work[wi(W_Z, p)] = vec4<f32>(z, kind);
@@ -172,7 +172,7 @@ fn implicit_finish_item(p: u32) {
     var vp = v0.xyz + work[wi(W_DV, p)].xyz;
     // Only colliders make plane filters: without them the contact code
     // is compiled out (lavapipe runs a branch no lane takes).
-    if ((HAS_GROUND || HAS_SPHERES) && work[wi(W_Z, p)].w == FILTER_PLANE) {
+    if ((has_ground() || has_spheres()) && work[wi(W_Z, p)].w == FILTER_PLANE) {
         let filt = work[wi(W_FILTER, p)];
         let normal = filt.xyz;
         let impulse = dot3(apply_a(W_DV, p) - work[wi(W_RHS, p)].xyz, normal);

@@ -36,6 +36,26 @@ override CONSTANT_BLOCKS: bool = false;
 // preconditioner.
 override COARSE: bool = false;
 
+// Whether a feature's code runs for this cloth: compiled in and present in
+// its scene (params.features, FEATURE_* bits). A specialised pipeline folds
+// an absent feature away; the workgroup kernels, compiled with every
+// feature, skip it by a uniform branch.
+fn has_wind() -> bool {
+    return HAS_WIND && (params.features & FEATURE_WIND) != 0u;
+}
+fn has_ground() -> bool {
+    return HAS_GROUND && (params.features & FEATURE_GROUND) != 0u;
+}
+fn has_spheres() -> bool {
+    return HAS_SPHERES && (params.features & FEATURE_SPHERES) != 0u;
+}
+fn has_filter() -> bool {
+    return HAS_FILTER && (params.features & FEATURE_FILTER) != 0u;
+}
+fn has_damping() -> bool {
+    return HAS_DAMPING && (params.features & FEATURE_DAMPING) != 0u;
+}
+
 // Twin: layout::GpuSphere.
 struct Sphere {
     // Centre when set [m]; it moves at `velocity` [m/s] from there.
@@ -104,7 +124,8 @@ struct Params {
     // Most CG iterations per step (the workgroup kernels' loop; the
     // multi-dispatch path records its budget instead).
     cg_max_iterations: u32,
-    _pad0: u32,
+    // The cloth's scene features (FEATURE_* bits; see has_wind()).
+    features: u32,
     // Grid layout (src/gpu/grid.rs): columns, rows, a bit per spring kind
     // present; rest length per direction; stiffness and damping per kind.
     grid: vec4<u32>,

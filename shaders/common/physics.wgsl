@@ -51,7 +51,7 @@ fn spring_force_of(
         n = d / l;
     }
     let stretch = l - rest;
-    if (!HAS_DAMPING) {
+    if (!has_damping()) {
         return n * (-(k * stretch));
     }
     let rate = dot3(vi - vj, n);
@@ -198,7 +198,7 @@ fn grid_force_term(
 ) -> vec3<f32> {
     let inc = grid_incident(p, rc, t);
     var vo = vec3<f32>(0.0);
-    if (HAS_DAMPING) {
+    if (has_damping()) {
         vo = state_v(inc.other, sec);
     }
     return sum + grid_spring_force(inc, xp, vp, state_x(inc.other, sec), vo);
@@ -292,7 +292,7 @@ fn external_force(p: u32) -> vec3<f32> {
 // `f` plus the wind forces of particle p's triangles, in adjacency order.
 fn add_wind(p: u32, f_in: vec3<f32>, sec: u32) -> vec3<f32> {
     var f = f_in;
-    if (HAS_WIND) {
+    if (has_wind()) {
         let tb = tri_adj(p);
         let te = tri_adj(p + 1u);
         for (var k = tb; k < te; k++) {
@@ -366,13 +366,13 @@ fn ball(xp: vec3<f32>, centre: vec3<f32>, radius: f32, friction: f32, velocity: 
 // the colliders where they are at the particle clock `clock`.
 fn find_contact(xp: vec3<f32>, slop: f32, clock: u32) -> Contact {
     var best = Contact(false, vec3<f32>(0.0, 1.0, 0.0), 0.0, 0.0, vec3<f32>(0.0));
-    if (HAS_GROUND) {
+    if (has_ground()) {
         let d = xp.y - params.ground_height;
         if (d < slop) {
             best = Contact(true, vec3<f32>(0.0, 1.0, 0.0), d, params.ground_friction, vec3<f32>(0.0));
         }
     }
-    if (HAS_SPHERES) {
+    if (has_spheres()) {
         let ts = collider_time(clock, params.motion.y);
         for (var k = 0u; k < params.sphere_count; k++) {
             let sph = params.spheres[k];
@@ -427,7 +427,7 @@ fn after_contact(c: Contact, tangential: vec3<f32>, vn: f32) -> vec3<f32> {
 fn collide_particle(x_in: vec3<f32>, v_in: vec3<f32>, clock: u32) -> array<vec3<f32>, 2> {
     var xp = x_in;
     var vp = v_in;
-    if (HAS_GROUND || HAS_SPHERES) {
+    if (has_ground() || has_spheres()) {
         for (var round = 0u; round < 2u; round++) {
             let c = find_contact(xp, 0.0, clock + 1u);
             if (!c.found) {

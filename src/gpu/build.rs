@@ -10,7 +10,8 @@ use super::layout::{torque_bits, GpuParams, GpuSpring};
 use super::path::{PathChoice, StepPath};
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 use super::solver::{
-    gpu_capsules, gpu_spheres, plan_inputs, scene_features, GpuSolver, Prepared, NO_GROUND, NO_WIND,
+    compiled_features, gpu_capsules, gpu_spheres, plan_inputs, scene_features, GpuSolver, Prepared,
+    NO_GROUND, NO_WIND,
 };
 use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_with_capacity};
@@ -213,7 +214,7 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
         integrator: integrator_code(params.integrator),
         fixup_iterations: shape.fixup_iterations,
         cg_max_iterations: shape.cg_max_iterations,
-        _pad: [0; 1],
+        features: scene_features(model, params, None).bits(),
         grid: grid_words,
         grid_rest_a: [rest[0], rest[1], rest[2], rest[3]],
         grid_rest_b: [rest[4], rest[5], 0.0, 0.0],
@@ -394,7 +395,7 @@ impl GpuSolver {
         path: PathChoice,
     ) -> Result<GpuSolver> {
         let device = &kernels.device().clone();
-        let block = GridBlock::for_adapter(&device.adapter_info());
+        let block = GridBlock::ONE;
         let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
         let cg_max_iterations = if semi_cg {
             FILTER_CG_MAX_ITERATIONS
@@ -424,7 +425,10 @@ impl GpuSolver {
             },
         )?;
         let gpu_params = arrays.params;
-        let features = scene_features(model, params, grid.as_ref().map(|_| block));
+        let features = compiled_features(
+            scene_features(model, params, grid.as_ref().map(|_| block)),
+            path.path,
+        );
         let inputs = plan_inputs(
             params.integrator,
             features,

@@ -8,7 +8,8 @@ use super::kernels::Features;
 use super::layout::{section, torque_bits, GpuParams};
 use super::semi_filter::SemiFilter;
 use super::solver::{
-    check_collider_counts, gpu_capsules, gpu_spheres, scene_features, GpuSolver, NO_GROUND, NO_WIND,
+    check_collider_counts, compiled_features, gpu_capsules, gpu_spheres, scene_features, GpuSolver,
+    NO_GROUND, NO_WIND,
 };
 use crate::cpu::motion;
 use crate::error::{Error, Result};
@@ -355,12 +356,14 @@ impl GpuSolver {
     /// Switches to the kernel variants of the current scene (compiling any
     /// not cached yet) and uploads the parameters.
     fn update_features(&mut self) -> Result<()> {
+        let scene = scene_features(
+            &self.model,
+            &self.host_params,
+            self.grid.then_some(self.block),
+        );
+        self.params.features = scene.bits();
         let features = if self.specialised {
-            scene_features(
-                &self.model,
-                &self.host_params,
-                self.grid.then_some(self.block),
-            )
+            compiled_features(scene, self.path.path)
         } else {
             Features {
                 wind: true,

@@ -186,9 +186,16 @@ impl GridLayout {
 /// lavapipe, where every storage load is a per-lane loop, that is most of
 /// a gather kernel's time (see `docs/performance.md`). On a real
 /// GPU, neighbours come from cache and one particle per invocation keeps
-/// every lane busy, so [`GridBlock::for_adapter`] picks blocks for CPU
-/// adapters only. Results do not depend on the shape: every member sums
-/// its springs in `INCIDENT` order from the same values.
+/// every lane busy. Every adapter starts with [`GridBlock::ONE`]: a block
+/// repeats each member's whole set-up (forces, contacts, filter) in the
+/// kernel, which a CPU adapter's compiler (lavapipe's LLVM) takes several
+/// times as long to compile — seconds per kernel variant at 2 × 2, minutes
+/// at 4 × 4 with colliders — paid by every scene variant on a cold shader
+/// cache, against a step about a third faster at 2 × 2 on lavapipe. A host
+/// that runs long on a CPU adapter can set a block
+/// ([`GpuTuningMut::set_grid_block`](super::GpuTuningMut::set_grid_block)).
+/// Results do not depend on the shape: every member sums its springs in
+/// `INCIDENT` order from the same values.
 ///
 /// The kernels' gather is generated for the shape ([`GridBlock::wgsl`]):
 /// WGSL has no loops the compilers keep in registers across a stencil, and
@@ -211,27 +218,8 @@ impl Default for GridBlock {
 impl GridBlock {
     /// One particle per invocation.
     pub const ONE: GridBlock = GridBlock { cols: 1, rows: 1 };
-    /// The shape for CPU adapters: 2 × 2. A block loads its stencil once
-    /// for all its members and evaluates each spring once for both ends
-    /// inside it, which on a CPU adapter (where every storage load is a
-    /// per-lane loop) makes a step about a third faster than one particle
-    /// per invocation. Larger blocks gain little more at run time but
-    /// repeat each member's whole set-up (forces, contacts, filter) in the
-    /// kernel: a 4 × 4 implicit set-up with colliders takes lavapipe's
-    /// LLVM minutes to compile, which every scene variant pays with a cold
-    /// shader cache (a fresh machine, CI).
-    pub const CPU: GridBlock = GridBlock { cols: 2, rows: 2 };
     /// Largest side: a 4 × 4 block already keeps 52 particle states live.
     pub const MAX: u32 = 4;
-
-    /// [`GridBlock::CPU`] on a CPU adapter, else [`GridBlock::ONE`].
-    pub fn for_adapter(info: &wgpu::AdapterInfo) -> GridBlock {
-        if info.device_type == wgpu::DeviceType::Cpu {
-            GridBlock::CPU
-        } else {
-            GridBlock::ONE
-        }
-    }
 
     /// Whether both sides are within 1 ..= [`GridBlock::MAX`].
     pub fn is_valid(&self) -> bool {

@@ -49,6 +49,42 @@ pub struct Features {
     pub constant_blocks: bool,
 }
 
+impl Features {
+    /// The scene features as `params.features` holds them
+    /// ([`crate::kernel_config::feature`] bits).
+    pub fn bits(&self) -> u32 {
+        use crate::kernel_config::feature;
+        [
+            (self.wind, feature::WIND),
+            (self.ground, feature::GROUND),
+            (self.spheres, feature::SPHERES),
+            (self.filter, feature::FILTER),
+            (self.damping, feature::DAMPING),
+        ]
+        .iter()
+        .filter(|(on, _)| *on)
+        .fold(0, |bits, (_, bit)| bits | bit)
+    }
+
+    /// These features with every scene feature compiled in (wind, ground,
+    /// round colliders, filter, damping): the kernels then skip, by
+    /// `params.features`, what a cloth lacks. The workgroup kernels are
+    /// compiled so — one pipeline per integrator serves every cloth and
+    /// every change of its scene, where a variant per feature set would
+    /// cost a compile of the whole step each (seconds on a GPU driver, tens
+    /// of seconds on a CPU adapter).
+    pub fn with_every_scene_feature(self) -> Features {
+        Features {
+            wind: true,
+            ground: true,
+            spheres: true,
+            filter: true,
+            damping: true,
+            ..self
+        }
+    }
+}
+
 /// The scalar kernels' workgroup size on a device with `limits`:
 /// [`SUM_GROUP`], or the largest workgroup the device allows. Each scalar
 /// kernel sums a term per particle as the CPU mirror does — block sums of

@@ -112,8 +112,9 @@ pub struct GpuParams {
     /// Most CG iterations per step (`implicit.max_iterations`, or the
     /// scalable semi-implicit filter's): the workgroup kernels' loop.
     pub cg_max_iterations: u32,
-    /// Padding to the WGSL struct's 16-byte alignment.
-    pub _pad: [u32; 1],
+    /// The cloth's scene features: [`crate::kernel_config::feature`] bits
+    /// (what runs; the pipeline's `Features` say what is compiled in).
+    pub features: u32,
     /// Grid layout (see `gpu/grid.rs`): columns, rows, a bit per spring
     /// kind present, unused; zero for the general kernels.
     pub grid: [u32; 4],

@@ -238,6 +238,17 @@ pub(super) fn scene_features(model: &Model, params: &Params, grid: Option<GridBl
     }
 }
 
+/// The features a solver's pipelines are compiled with for a scene with
+/// `scene` features on `path`: the scene's own on the multi-dispatch path;
+/// every scene feature on the workgroup path (see
+/// [`Features::with_every_scene_feature`]), as a batch's table does.
+pub(super) fn compiled_features(scene: Features, path: StepPath) -> Features {
+    match path {
+        StepPath::Workgroup => scene.with_every_scene_feature(),
+        StepPath::MultiDispatch => scene,
+    }
+}
+
 /// Uniform values when there is no wind (the kernels compile it out).
 pub(super) const NO_WIND: Wind = Wind {
     velocity: DVec3::ZERO,
@@ -401,7 +412,7 @@ impl GpuSolver {
                 || dense_fits(model, counts, params, &limits));
         let grid = GridLayout::of(model, params);
         let info = device.adapter_info();
-        let block = GridBlock::for_adapter(&info);
+        let block = GridBlock::ONE;
         let path = path::choose(
             &PathInputs {
                 integrator: params.integrator,

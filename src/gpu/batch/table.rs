@@ -402,7 +402,8 @@ impl Table {
         let features = match (self.features, features) {
             (Some(a), Some(b)) => Some(either(a, b)),
             (a, b) => b.or(a),
-        };
+        }
+        .map(Features::with_every_scene_feature);
         if self.steps.iter().map(|s| s.0).eq(present.iter().copied()) && features == self.features {
             // What a setter called every frame finds: nothing to take.
             return Ok(());

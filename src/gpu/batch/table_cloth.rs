@@ -279,6 +279,7 @@ impl TableCloth {
         self.host_params = p;
         f(&mut self.params, self.steps_recorded);
         self.features = scene_features(&self.model, &self.host_params, None);
+        self.params.features = self.features.bits();
         self.upload_params(table, slot);
         Ok(())
     }
@@ -363,6 +364,7 @@ impl TableCloth {
             );
         }
         self.features = scene_features(&self.model, &self.host_params, None);
+        self.params.features = self.features.bits();
         self.upload_params(table, slot);
         Ok(())
     }
