@@ -278,10 +278,21 @@ pub fn build<R: Real>(c: &SelfCollisionR<R>, x: &[Vec3<R>], g: &mut Grid<R>) {
     g.start[0] = 0;
 }
 
-/// The 27 cell offsets in the order every particle visits them.
-fn neighbour_cells() -> impl Iterator<Item = [i32; 3]> {
-    (-1..=1).flat_map(|z| (-1..=1).flat_map(move |y| (-1..=1).map(move |x| [x, y, z])))
-}
+/// The 27 cell offsets in the order every particle visits them: x
+/// fastest, then y, then z.
+const NEIGHBOUR_CELLS: [[i32; 3]; 27] = {
+    let mut cells = [[0; 3]; 27];
+    let mut k = 0;
+    while k < 27 {
+        cells[k] = [
+            (k % 3) as i32 - 1,
+            (k / 3 % 3) as i32 - 1,
+            (k / 9) as i32 - 1,
+        ];
+        k += 1;
+    }
+    cells
+};
 
 /// Twin of `self_collision_respond` for particle `p`: its new position
 /// from the snapshot `g.snapshot`, the step's start `x_old` and the grid.
@@ -301,18 +312,18 @@ pub fn respond<R: Real>(
     let t2 = c.thickness * c.thickness;
     let mut sum = Vec3::ZERO;
     let mut contacts = 0u32;
-    for d in neighbour_cells() {
-        let cell = [0, 1, 2].map(|k| g.cell[p][k].saturating_add(d[k]));
+    let home = g.cell[p];
+    for d in NEIGHBOUR_CELLS {
+        let cell = [0, 1, 2].map(|k| home[k].saturating_add(d[k]));
         let b = bucket(cell, c.table);
         for &q in &g.order[g.start[b] as usize..g.start[b + 1] as usize] {
             let q = q as usize;
-            if q == p || g.cell[q] != cell || (c.rest[p] - c.rest[q]).length_squared() < c.exclude2
-            {
+            if q == p || g.cell[q] != cell {
                 continue;
             }
             let diff = xp - g.snapshot[q];
             let d2 = diff.length_squared();
-            if d2 >= t2 || d2 <= R::ZERO {
+            if d2 >= t2 || d2 <= R::ZERO || (c.rest[p] - c.rest[q]).length_squared() < c.exclude2 {
                 continue;
             }
             let dist = d2.sqrt();
