@@ -2,7 +2,7 @@
 //!
 //! These are the validated, in-memory form of a scene file's
 //! `[simulation]`, `[springs.*]`, `[fixup]`, `[implicit]`, `[semi_implicit]`,
-//! `[ground]`, `[[sphere]]`, `[[capsule]]` and `[wind]` tables. [`Params::validate`] is the
+//! `[ground]`, `[[sphere]]`, `[[capsule]]`, `[wind]` and `[self_collision]` tables. [`Params::validate`] is the
 //! single place that decides what is physically admissible; the scene loader
 //! and the library API both go through it, so a parameter that passes here
 //! never needs re-checking inside a solver.
@@ -251,6 +251,33 @@ pub struct Wind {
     pub lift: f64,
 }
 
+/// Self-collision: particle–particle contact between parts of the cloth
+/// that are not neighbours at rest (`src/cpu/self_collision.rs` describes
+/// the method).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SelfCollision {
+    /// The distance \[m\] two layers keep, `> 0`; `None`: the shortest
+    /// rest length of a stretch spring (the cloth's rest spacing), see
+    /// `cpu::self_collision::thickness`.
+    pub thickness: Option<f64>,
+    /// Coulomb friction coefficient between layers (dimensionless, `≥ 0`).
+    pub friction: f64,
+    /// Jacobi passes over the contacts per step, `1..=100`.
+    pub iterations: u32,
+}
+
+impl Default for SelfCollision {
+    /// The thickness from the rest spacing, cloth-on-cloth friction, two
+    /// passes.
+    fn default() -> Self {
+        SelfCollision {
+            thickness: None,
+            friction: 0.3,
+            iterations: 2,
+        }
+    }
+}
+
 /// Every parameter of a simulation that is not the cloth's topology.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Params {
@@ -276,6 +303,8 @@ pub struct Params {
     pub capsules: Vec<Capsule>,
     /// Optional wind.
     pub wind: Option<Wind>,
+    /// Self-collision; `None`: off, and nothing of it runs.
+    pub self_collision: Option<SelfCollision>,
 }
 
 impl Default for Params {
@@ -321,6 +350,7 @@ impl Default for Params {
             spheres: Vec::new(),
             capsules: Vec::new(),
             wind: None,
+            self_collision: None,
         }
     }
 }
@@ -500,6 +530,23 @@ impl Params {
             check_vec("wind.velocity", w.velocity, "m/s")?;
             check("wind.drag", w.drag, w.drag >= 0.0, "drag ≥ 0 (kg/m³)")?;
             check("wind.lift", w.lift, w.lift >= 0.0, "lift ≥ 0 (kg/m³)")?;
+        }
+        if let Some(c) = &self.self_collision {
+            if let Some(t) = c.thickness {
+                check("self_collision.thickness", t, t > 0.0, "thickness > 0 (m)")?;
+            }
+            check(
+                "self_collision.friction",
+                c.friction,
+                c.friction >= 0.0,
+                "friction ≥ 0",
+            )?;
+            check(
+                "self_collision.iterations",
+                f64::from(c.iterations),
+                (1..=100).contains(&c.iterations),
+                "1 ≤ iterations ≤ 100",
+            )?;
         }
         Ok(())
     }

@@ -7,7 +7,7 @@ use wgcloth::glam::DVec3;
 use wgcloth::model::{ClothSpec, Corner, Edge, Orientation, Pin};
 use wgcloth::params::{
     FilterMethod, FixupMethod, FixupParams, Ground, ImplicitParams, Integrator, Params,
-    SemiImplicitParams, Sphere, SpringKind, SpringParams, Wind,
+    SelfCollision, SemiImplicitParams, Sphere, SpringKind, SpringParams, Wind,
 };
 use wgcloth::scene::MAX_SCENE_BYTES;
 use wgcloth::{Error, Scene};
@@ -148,6 +148,11 @@ friction = 0.0
 velocity = [3.0, 0.0, -1.0]
 drag = 0.7
 lift = 0.2
+
+[self_collision]
+thickness = 0.05
+friction = 0.4
+iterations = 3
 "#;
 
 #[test]
@@ -228,6 +233,11 @@ fn a_file_with_every_key_gives_exactly_those_values() {
             velocity: DVec3::new(3.0, 0.0, -1.0),
             drag: 0.7,
             lift: 0.2,
+        }),
+        self_collision: Some(SelfCollision {
+            thickness: Some(0.05),
+            friction: 0.4,
+            iterations: 3,
         }),
     };
     assert_eq!(scene.cloth, cloth);

@@ -39,6 +39,7 @@ use super::collide::{collide, contact, CONTACT_SLOP};
 use super::forces::{gather_signed, spring_force, spring_frame, total_force, wind_forces};
 use super::mat3::Sym3;
 use super::motion::{self, pin_velocity};
+use super::self_collision;
 use super::{State, StepStats, System, Workspace};
 use crate::real::{Real, Vec3};
 
@@ -259,7 +260,8 @@ pub(crate) fn warm_start<R: Real>(w: &mut Workspace<R>, p: usize) -> Vec3<R> {
 }
 
 /// Twin of `shaders/implicit_finish.wgsl`: `v += Δv`, friction at the
-/// filtered contacts (`contact_friction`), `x += dt v`, collisions.
+/// filtered contacts (`contact_friction`), `x += dt v`, self-collision
+/// ([`self_collision::project`], CPU only for now), collisions.
 /// Reads `dv`, `filter`, `rhs`, `blocks`; writes `x`, `v` (and `q`,
 /// scratch).
 pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) {
@@ -270,11 +272,15 @@ pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>)
         contact_friction(sys, st, w);
     }
     motion::move_pins(sys, &mut st.x, &mut st.v, w);
+    if sys.self_collision.is_some() {
+        w.x_old.copy_from_slice(&st.x);
+    }
     for p in 0..st.x.len() {
         if sys.inv_mass[p] > R::ZERO {
             st.x[p] += st.v[p] * sys.dt;
         }
     }
+    self_collision::project(sys, st, w);
     // Particles that were not touching at the start of the step can still
     // end it inside a collider.
     collide(sys, &mut st.x, &mut st.v, w.clock);

@@ -32,6 +32,8 @@ pub(crate) mod implicit;
 pub(crate) mod mat3;
 #[doc(hidden)]
 pub mod motion;
+#[doc(hidden)]
+pub mod self_collision;
 pub(crate) mod semi_implicit;
 pub(crate) mod torque;
 #[doc(hidden)]
@@ -195,10 +197,14 @@ pub struct System<R> {
     pub cg_max_iterations: u32,
     /// Semi-implicit torque compensation on/off.
     pub torque_compensation: bool,
+    /// Self-collision, `None` when off.
+    pub self_collision: Option<self_collision::SelfCollisionR<R>>,
 }
 
 impl<R: Real> System<R> {
-    /// The model and parameters in precision `R`.
+    /// The model and parameters in precision `R`; self-collision (when
+    /// `params` has it) at the thickness [`self_collision::thickness`]
+    /// gives, the default where that refuses (the solvers call it first).
     pub fn new(model: &Model, params: &Params) -> Self {
         let springs = model
             .springs
@@ -278,6 +284,13 @@ impl<R: Real> System<R> {
             cg_tolerance: params.implicit.tolerance,
             cg_max_iterations: params.implicit.max_iterations,
             torque_compensation: params.semi_implicit.torque_compensation,
+            self_collision: params.self_collision.as_ref().and_then(|c| {
+                let t = self_collision::thickness(model, params)
+                    .ok()
+                    .flatten()
+                    .or_else(|| self_collision::default_thickness(model))?;
+                Some(self_collision::SelfCollisionR::new(model, c, t))
+            }),
         }
     }
 
@@ -383,6 +396,8 @@ pub struct Workspace<R> {
     pub touching: Vec<bool>,
     /// The steps finished (the GPU's per-particle `W_CLOCK`).
     pub clock: u32,
+    /// Self-collision's grid, `None` when it is off.
+    pub self_grid: Option<self_collision::Grid<R>>,
 }
 
 impl<R: Real> Workspace<R> {
@@ -423,6 +438,7 @@ impl<R: Real> Workspace<R> {
             pin_goal: try_vec(particles, motion::PinGoal::default(), WHAT)?,
             touching: try_vec(particles, false, WHAT)?,
             clock: 0,
+            self_grid: None,
         })
     }
 }
@@ -465,14 +481,16 @@ pub fn finish_step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspac
 }
 
 /// The shared tail of the explicit and semi-implicit steps, after their
-/// prediction: the fix-up passes (`fixup_jacobi`), then [`finish_step`].
+/// prediction: the fix-up passes (`fixup_jacobi`), self-collision
+/// ([`self_collision::apply`]), then [`finish_step`].
 pub(crate) fn fixup_and_finish<R: Real>(
     sys: &System<R>,
     st: &mut State<R>,
     w: &mut Workspace<R>,
 ) -> StepStats {
     let passes = fixup::run(sys, &mut st.x, w);
-    finish_step(sys, st, w, passes > 0);
+    let contact = self_collision::apply(sys, &mut st.x, w);
+    finish_step(sys, st, w, passes > 0 || contact);
     StepStats {
         fixup_passes: passes,
         ..StepStats::default()
@@ -514,6 +532,7 @@ impl<R: Real> CpuSolver<R> {
     /// [`crate::budget`]), before anything runs.
     pub fn new(model: &Model, params: &Params) -> Result<Self> {
         params.validate()?;
+        self_collision::thickness(model, params)?;
         let counts = Counts::of_model(model);
         let semi = params.integrator == Integrator::SemiImplicit;
         let dense = FilterSystem::dense(params.semi_implicit.filter, counts.free as usize);
@@ -548,6 +567,10 @@ impl<R: Real> CpuSolver<R> {
         };
         let mut work = Workspace::new(n, model.springs.len(), model.triangles.len())?;
         work.coarse = Aggregation::for_scene(model, params).map(Coarse::new);
+        work.self_grid = match &sys.self_collision {
+            Some(c) => Some(self_collision::Grid::new(n, c.table)?),
+            None => None,
+        };
         let mut solver = CpuSolver {
             integrator: params.integrator,
             filter_method: params.semi_implicit.filter,

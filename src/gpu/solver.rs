@@ -343,6 +343,20 @@ pub(super) fn limit(name: &'static str, what: &str, available: u64, needed: u64)
     }
 }
 
+/// Refuses parameters that only the CPU solver steps (self-collision,
+/// [`Error::NotOnGpu`]), so that no GPU solver silently leaves them out;
+/// `what` names the solver (`GpuSolver`, `--backend gpu`). Every GPU solver
+/// calls it; a host may call it before opening an adapter.
+pub fn refuse_cpu_only(params: &Params, what: &'static str) -> Result<()> {
+    if params.self_collision.is_some() {
+        return Err(Error::NotOnGpu {
+            feature: "self-collision (`[self_collision]`)",
+            what,
+        });
+    }
+    Ok(())
+}
+
 impl GpuSolver {
     /// Builds the solver on the host's `device` and `queue`. Refuses, before
     /// allocating anything, invalid parameters, a cloth that exceeds the
@@ -404,6 +418,7 @@ impl GpuSolver {
     ) -> Result<GpuSolver> {
         let device = kernels.device();
         params.validate()?;
+        refuse_cpu_only(params, "GpuSolver")?;
         let counts = Counts::of_model(model);
         let limits = device.limits();
         let dense = params.integrator == Integrator::SemiImplicit

@@ -21,7 +21,8 @@ use super::shape::{Exactly, Form, List, Number, Table, Whole};
 use super::CameraSpec;
 use crate::model::{ClothSpec, Orientation, Pin, MAX_PARTICLES};
 use crate::params::{
-    Capsule, FilterMethod, FixupMethod, Ground, Integrator, Params, Sphere, SpringKind, Wind,
+    Capsule, FilterMethod, FixupMethod, Ground, Integrator, Params, SelfCollision, Sphere,
+    SpringKind, Wind,
 };
 
 /// `[simulation] duration` when absent \[s\].
@@ -59,6 +60,7 @@ pub(super) struct SceneFile {
     capsule: List<Table<CapsuleTable>>,
     character: Option<Table<CharacterTable>>,
     wind: Option<Table<WindTable>>,
+    self_collision: Option<Table<SelfCollisionTable>>,
     #[serde(default)]
     camera: Table<CameraTable>,
 }
@@ -222,6 +224,14 @@ struct WindTable {
     lift: Option<Number>,
 }
 
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct SelfCollisionTable {
+    thickness: Option<Number>,
+    friction: Option<Number>,
+    iterations: Option<Whole<u32>>,
+}
+
 /// How a table written `[header]` looks, for "expected …".
 macro_rules! table_form {
     ($table:ty, $header:literal) => {
@@ -244,6 +254,7 @@ table_form!(ImplicitTable, "implicit");
 table_form!(SemiImplicitTable, "semi_implicit");
 table_form!(GroundTable, "ground");
 table_form!(WindTable, "wind");
+table_form!(SelfCollisionTable, "self_collision");
 table_form!(CameraTable, "camera");
 table_form!(CharacterTable, "character");
 
@@ -447,6 +458,15 @@ impl SceneFile {
             velocity: w.velocity.into(),
             drag: w.drag.map_or(DEFAULT_WIND_DRAG, f64::from),
             lift: w.lift.map_or(0.0, f64::from),
+        });
+        p.self_collision = self.self_collision.map(|Table(t)| {
+            let mut c = SelfCollision {
+                thickness: t.thickness.map(f64::from),
+                ..SelfCollision::default()
+            };
+            set(&mut c.friction, t.friction);
+            set(&mut c.iterations, t.iterations);
+            c
         });
         let c = self.camera.0;
         let camera = CameraSpec {

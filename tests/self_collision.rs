@@ -1,0 +1,468 @@
+//! Self-collision (`[self_collision]`, `src/cpu/self_collision.rs`) on the
+//! CPU reference, `f64` and `f32`, every integrator: a cloth folded in
+//! three layers dropped on the ground keeps its layers apart and no edge
+//! pierces a triangle; a hanging sheet that never comes near itself moves
+//! bit for bit as without it; bad values are refused naming the key; the
+//! GPU solvers refuse it rather than leave it out.
+
+use wgcloth::cpu::self_collision::{self, EXCLUDE_REST, STEP_CAP};
+use wgcloth::cpu::{CpuSolver, State};
+use wgcloth::glam::DVec3;
+use wgcloth::model::{ClothSpec, Corner, Model, Orientation, Pin};
+use wgcloth::params::{Ground, Integrator, Params, SelfCollision};
+use wgcloth::real::Vec3;
+use wgcloth::{Error, Real, Scene};
+
+/// Columns of the folded cloth.
+const NX: usize = 10;
+/// Rows per layer of the folded cloth.
+const LAYER_ROWS: usize = 7;
+/// Layers of the folded cloth.
+const LAYERS: usize = 3;
+/// Rest spacing of the folded cloth \[m\] (the default thickness).
+const SPACING: f64 = 0.02;
+
+/// The issue's bound: no two particles the exclusion does not pair come
+/// closer than this fraction of the thickness. The Jacobi response
+/// separates a lone pair to the full thickness in one pass; the 10 % is
+/// what a stack under gravity and a landing leave of a step's approach
+/// (at most a thickness, see `STEP_CAP`) after the default two passes.
+const MIN_GAP: f64 = 0.9;
+
+/// A grid cloth of `LAYERS × LAYER_ROWS` rows, its rest flat.
+fn folded_model() -> Model {
+    let rows = LAYERS * LAYER_ROWS;
+    let spec = ClothSpec {
+        nx: NX,
+        ny: rows,
+        size: [SPACING * (NX - 1) as f64, SPACING * (rows - 1) as f64],
+        origin: DVec3::ZERO,
+        orientation: Orientation::Horizontal,
+        mass: 0.05,
+        pins: vec![],
+    };
+    Model::new(&spec, &Params::default().springs).expect("valid cloth")
+}
+
+/// The cloth folded in a Z: layer `l` of rows `l·LAYER_ROWS ..` lies one
+/// thickness (the spacing) above layer `l − 1`, each fold a single stretch
+/// spring standing vertical; the lowest layer `height` above the ground.
+fn folded_positions(height: f64) -> Vec<DVec3> {
+    (0..NX * LAYERS * LAYER_ROWS)
+        .map(|p| {
+            let (i, j) = (p % NX, p / NX);
+            let (layer, s) = (j / LAYER_ROWS, j % LAYER_ROWS);
+            let along = if layer % 2 == 0 {
+                s
+            } else {
+                LAYER_ROWS - 1 - s
+            };
+            DVec3::new(
+                i as f64 * SPACING,
+                height + layer as f64 * SPACING,
+                along as f64 * SPACING,
+            )
+        })
+        .collect()
+}
+
+/// Parameters of the drop: `integrator`, ground, self-collision at its
+/// defaults.
+fn drop_params(integrator: Integrator) -> Params {
+    Params {
+        integrator,
+        dt: 1.0 / 600.0,
+        ground: Some(Ground {
+            height: 0.0,
+            friction: 0.5,
+        }),
+        self_collision: Some(SelfCollision::default()),
+        ..Params::default()
+    }
+}
+
+/// A solver for `model` (the folded cloth) with `params`, the cloth
+/// folded at rest 5 cm above the ground.
+fn folded_solver<R: Real>(model: &Model, params: &Params) -> CpuSolver<R> {
+    let mut solver = CpuSolver::<R>::new(model, params).expect("solver");
+    let start = folded_positions(0.05);
+    let n = start.len();
+    solver
+        .set_state(State {
+            x: start.iter().map(|&p| Vec3::from_f64(p)).collect(),
+            v: vec![Vec3::ZERO; n],
+        })
+        .expect("state");
+    solver
+}
+
+/// Pairs `(p, q)`, `p < q`, that the exclusion does not pair: rest
+/// distance at least `EXCLUDE_REST × thickness`.
+fn colliding_pairs(model: &Model, thickness: f64) -> Vec<(usize, usize)> {
+    let x = &model.rest_positions;
+    let r = EXCLUDE_REST * thickness;
+    let mut pairs = Vec::new();
+    for p in 0..x.len() {
+        for q in p + 1..x.len() {
+            if (x[p] - x[q]).length() >= r {
+                pairs.push((p, q));
+            }
+        }
+    }
+    pairs
+}
+
+/// The smallest distance \[m\] between the pairs.
+fn min_distance(x: &[DVec3], pairs: &[(usize, usize)]) -> f64 {
+    pairs
+        .iter()
+        .map(|&(p, q)| (x[p] - x[q]).length())
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The mesh edges: each triangle side once.
+fn edges(model: &Model) -> Vec<[u32; 2]> {
+    let mut e: Vec<[u32; 2]> = model
+        .triangles
+        .iter()
+        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+        .map(|[a, b]| [a.min(b), a.max(b)])
+        .collect();
+    e.sort_unstable();
+    e.dedup();
+    e
+}
+
+/// Whether segment `a`–`b` passes through triangle `t`: its ends lie
+/// strictly on opposite sides of the triangle's plane and the point where
+/// it meets the plane lies inside the triangle (a segment touching the
+/// plane, or in it, does not pass through).
+fn crosses(a: DVec3, b: DVec3, t: [DVec3; 3]) -> bool {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let (da, db) = (n.dot(a - t[0]), n.dot(b - t[0]));
+    if da * db >= 0.0 {
+        return false;
+    }
+    let hit = a + (b - a) * (da / (da - db));
+    (0..3).all(|k| {
+        let (p, q) = (t[k], t[(k + 1) % 3]);
+        n.dot((q - p).cross(hit - p)) >= 0.0
+    })
+}
+
+/// Edge–triangle crossings at `x`: mesh edges that pass through a
+/// triangle they do not share a corner with, counted apart as
+/// `(between layers, local)`. A local crossing has an edge end and a
+/// triangle corner closer at rest than the exclusion radius `exclude`
+/// \[m\]: a cell folding over its neighbour, which no particle pair the
+/// method looks at can see (the springs alone resist it).
+fn crossings(model: &Model, edges: &[[u32; 2]], x: &[DVec3], exclude: f64) -> (usize, usize) {
+    let rest = &model.rest_positions;
+    let boxes: Vec<(DVec3, DVec3)> = model
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| x[i as usize]);
+            (a.min(b).min(c), a.max(b).max(c))
+        })
+        .collect();
+    let (mut far, mut near) = (0, 0);
+    for e in edges {
+        let (a, b) = (x[e[0] as usize], x[e[1] as usize]);
+        let (lo, hi) = (a.min(b), a.max(b));
+        for (t, (tlo, thi)) in model.triangles.iter().zip(&boxes) {
+            if t.contains(&e[0]) || t.contains(&e[1]) {
+                continue;
+            }
+            if lo.cmpgt(*thi).any() || hi.cmplt(*tlo).any() {
+                continue;
+            }
+            if crosses(a, b, t.map(|i| x[i as usize])) {
+                let local = e.iter().any(|&p| {
+                    t.iter()
+                        .any(|&c| (rest[p as usize] - rest[c as usize]).length() < exclude)
+                });
+                if local {
+                    near += 1;
+                } else {
+                    far += 1;
+                }
+            }
+        }
+    }
+    (far, near)
+}
+
+/// Positions as `f64` vectors.
+fn positions<R: Real>(solver: &CpuSolver<R>) -> Vec<DVec3> {
+    solver
+        .state()
+        .x
+        .iter()
+        .map(|p| DVec3::from_array(p.to_f64()))
+        .collect()
+}
+
+/// Drops the folded cloth for `steps` steps on `integrator` in precision
+/// `R`, checking every step: no colliding pair closer than `MIN_GAP`
+/// thicknesses, no edge–triangle crossing between layers. Returns the
+/// lowest height of the cloth at the end \[m\] and the most local
+/// crossings (a cell folded over its neighbour) at a step.
+fn folded_drop<R: Real>(integrator: Integrator, steps: u64) -> (f64, usize) {
+    let model = folded_model();
+    let params = drop_params(integrator);
+    let thickness = self_collision::thickness(&model, &params)
+        .expect("default thickness")
+        .expect("self-collision on");
+    assert!(
+        (thickness - SPACING).abs() <= SPACING_ROUNDING * SPACING,
+        "the default {thickness} is the rest spacing"
+    );
+    let pairs = colliding_pairs(&model, thickness);
+    let edges = edges(&model);
+    let mut solver = folded_solver::<R>(&model, &params);
+    let mut most_local = 0;
+    for step in 1..=steps {
+        solver.step().expect("finite");
+        let x = positions(&solver);
+        let gap = min_distance(&x, &pairs);
+        assert!(
+            gap >= MIN_GAP * thickness,
+            "{integrator} {}: step {step}: two layers {gap} m apart, below {MIN_GAP} × {thickness}",
+            R::NAME
+        );
+        let (crossed, local) = crossings(&model, &edges, &x, EXCLUDE_REST * thickness);
+        assert_eq!(
+            crossed,
+            0,
+            "{integrator} {}: step {step}: {crossed} edges pierce a triangle of another layer",
+            R::NAME
+        );
+        most_local = most_local.max(local);
+    }
+    let lowest = positions(&solver)
+        .iter()
+        .map(|p| p.y)
+        .fold(f64::INFINITY, f64::min);
+    (lowest, most_local)
+}
+
+/// Relative rounding of a rest length computed from grid positions
+/// (`size / (n − 1)` then a difference of two coordinates): a few `f64`
+/// ulps.
+const SPACING_ROUNDING: f64 = 1e-12;
+
+/// Steps of the drop: 0.5 s, enough for the stack to land (it falls 5 cm)
+/// and settle on the ground.
+const DROP_STEPS: u64 = 300;
+
+#[test]
+fn folded_drop_keeps_layers_apart_f64() {
+    for integrator in Integrator::ALL {
+        let (lowest, local) = folded_drop::<f64>(integrator, DROP_STEPS);
+        // The drop is real: the cloth reaches the ground.
+        assert!(lowest < 0.5 * SPACING, "{integrator}: lowest {lowest} m");
+        println!("{integrator} f64: at most {local} local crossings at a step");
+    }
+}
+
+#[test]
+fn folded_drop_keeps_layers_apart_f32() {
+    for integrator in Integrator::ALL {
+        let (_, local) = folded_drop::<f32>(integrator, DROP_STEPS);
+        println!("{integrator} f32: at most {local} local crossings at a step");
+    }
+}
+
+/// Without self-collision the same drop lets the layers into one another
+/// and edges through triangles: the checks above can fail.
+#[test]
+fn without_self_collision_the_layers_meet() {
+    let model = folded_model();
+    let mut params = drop_params(Integrator::Explicit);
+    params.self_collision = None;
+    let pairs = colliding_pairs(&model, SPACING);
+    let mut solver = folded_solver::<f64>(&model, &params);
+    let edges = edges(&model);
+    let (mut closest, mut crossed) = (f64::INFINITY, 0);
+    for _ in 0..DROP_STEPS {
+        solver.step().expect("finite");
+        let x = positions(&solver);
+        closest = closest.min(min_distance(&x, &pairs));
+        crossed = crossed.max(crossings(&model, &edges, &x, EXCLUDE_REST * SPACING).0);
+    }
+    assert!(closest < MIN_GAP * SPACING, "closest {closest} m");
+    assert!(crossed > 0, "no edge ever crossed a triangle");
+}
+
+/// A hanging sheet pinned at its top corners, swinging from rest: no
+/// particle comes near another part of the cloth, so self-collision has
+/// nothing to do, and the sheet must move bit for bit as without it.
+#[test]
+fn a_hanging_sheet_moves_exactly_as_without_it() {
+    let spec = ClothSpec {
+        nx: 12,
+        ny: 12,
+        size: [0.5, 0.5],
+        origin: DVec3::new(-0.25, 1.0, 0.0),
+        orientation: Orientation::Horizontal,
+        mass: 0.1,
+        pins: vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)],
+    };
+    let model = Model::new(&spec, &Params::default().springs).expect("model");
+    for integrator in Integrator::ALL {
+        let off = Params {
+            integrator,
+            ..Params::default()
+        };
+        let on = Params {
+            self_collision: Some(SelfCollision::default()),
+            ..off.clone()
+        };
+        let thickness = self_collision::thickness(&model, &on)
+            .expect("thickness")
+            .expect("on");
+        let pairs = colliding_pairs(&model, thickness);
+        let mut a = CpuSolver::<f32>::new(&model, &off).expect("off");
+        let mut b = CpuSolver::<f32>::new(&model, &on).expect("on");
+        let mut closest = f64::INFINITY;
+        let mut fastest: f64 = 0.0;
+        for step in 1..=300 {
+            let before = positions(&a);
+            a.step().expect("off");
+            b.step().expect("on");
+            let x = positions(&a);
+            closest = closest.min(min_distance(&x, &pairs));
+            for (p, q) in x.iter().zip(&before) {
+                fastest = fastest.max((*p - *q).length());
+            }
+            assert_eq!(
+                a.state(),
+                b.state(),
+                "{integrator}: step {step}: self-collision changed a sheet that never \
+                 touches itself"
+            );
+        }
+        // The premise: no pair came within the thickness and no particle
+        // moved by the cap in a step, so equality is what must hold.
+        assert!(closest > thickness, "{integrator}: closest {closest} m");
+        assert!(
+            fastest < STEP_CAP * thickness,
+            "{integrator}: {fastest} m in a step"
+        );
+    }
+}
+
+/// A scene with `[self_collision]` holding `keys`.
+fn scene(keys: &str) -> wgcloth::Result<Scene> {
+    let text =
+        format!("[cloth]\nresolution = [9, 9]\nsize = [0.4, 0.4]\n\n[self_collision]\n{keys}\n");
+    Scene::from_toml(&text, std::path::Path::new("t.toml"))
+}
+
+#[test]
+fn bad_values_are_refused_naming_the_key() {
+    for (keys, key) in [
+        ("thickness = -0.01", "self_collision.thickness"),
+        ("thickness = 0", "self_collision.thickness"),
+        ("thickness = inf", "self_collision.thickness"),
+        ("thickness = nan", "self_collision.thickness"),
+        ("friction = -1", "self_collision.friction"),
+        ("iterations = 0", "self_collision.iterations"),
+        ("iterations = 101", "self_collision.iterations"),
+    ] {
+        let message = match scene(keys) {
+            Ok(_) => panic!("`{keys}` accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(message.contains(key), "`{keys}`: {message}");
+    }
+    // The model's limits: a particle slips through a triangle's middle
+    // below the gap; beyond `MAX_THICKNESS_DEFAULTS` the exclusion swallows
+    // folds. The spacing here is 0.05 m, the gap 0.05/√2.
+    for thickness in [0.03, 0.21] {
+        let s = scene(&format!("thickness = {thickness}")).expect("in range for the file");
+        let model = s.model().expect("model");
+        match CpuSolver::<f64>::new(&model, &s.params) {
+            Err(Error::InvalidParameter { key, .. }) => {
+                assert_eq!(key, "self_collision.thickness");
+            }
+            other => panic!("thickness {thickness}: {other:?}"),
+        }
+    }
+    let s = scene("thickness = 0.05").expect("scene");
+    let model = s.model().expect("model");
+    assert!(CpuSolver::<f64>::new(&model, &s.params).is_ok());
+    // Present and empty: on, with defaults.
+    let s = scene("").expect("empty table");
+    assert_eq!(s.params.self_collision, Some(SelfCollision::default()));
+    // Unknown keys are typos.
+    assert!(scene("thicknes = 0.01").is_err());
+}
+
+/// The GPU solvers do not step self-collision yet: `--backend gpu` refuses
+/// the scene before any adapter is opened (so no GPU is needed here),
+/// naming the feature and the way out, with the status of a rejected
+/// input; the CPU runs it.
+#[test]
+fn the_gpu_backend_refuses_it_and_the_cpu_runs_it() {
+    let dir = std::env::temp_dir().join(format!("wgcloth-selfcol-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let scene = dir.join("folded.toml");
+    std::fs::write(
+        &scene,
+        "[simulation]\nduration = 0.02\n[cloth]\nresolution = [9, 9]\n[self_collision]\n",
+    )
+    .expect("write scene");
+    let run = |backend: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_wgcloth"))
+            .args([
+                "run",
+                scene.to_str().expect("utf-8 path"),
+                "--backend",
+                backend,
+            ])
+            .output()
+            .expect("run wgcloth")
+    };
+    let gpu = run("gpu");
+    let err = String::from_utf8_lossy(&gpu.stderr);
+    // 2: the scene was rejected, nothing ran (docs/cli.md).
+    assert_eq!(gpu.status.code(), Some(2), "stderr: {err}");
+    assert!(
+        err.contains("self-collision") && err.contains("use --backend cpu"),
+        "stderr: {err}"
+    );
+    let cpu = run("cpu");
+    assert_eq!(
+        cpu.status.code(),
+        Some(0),
+        "stderr: {}",
+        String::from_utf8_lossy(&cpu.stderr)
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `GpuSolver` and `GpuBatch` refuse self-collision with
+/// [`Error::NotOnGpu`] rather than step the cloth without it (an adapter is
+/// opened, no kernel compiled: the refusal comes first).
+#[test]
+fn the_gpu_solvers_refuse_it() {
+    let ctx = match wgcloth::GpuContext::new(None) {
+        Ok(c) => c,
+        Err(e) => panic!("this test needs an adapter (lavapipe works): {e}"),
+    };
+    let model = folded_model();
+    let params = drop_params(Integrator::Implicit);
+    match wgcloth::GpuSolver::new(&ctx.device, &ctx.queue, &model, &params) {
+        Err(Error::NotOnGpu { what, .. }) => assert_eq!(what, "GpuSolver"),
+        Err(e) => panic!("GpuSolver: {e}"),
+        Ok(_) => panic!("GpuSolver stepped self-collision it does not have"),
+    }
+    let mut batch = wgcloth::gpu::GpuBatch::new(&ctx.device, &ctx.queue);
+    match batch.add(&model, &params) {
+        Err(Error::NotOnGpu { what, .. }) => assert_eq!(what, "GpuBatch"),
+        Err(e) => panic!("GpuBatch: {e}"),
+        Ok(_) => panic!("GpuBatch took self-collision it does not have"),
+    }
+}
