@@ -22,10 +22,9 @@
 //!    that removes their relative tangential displacement over the step,
 //!    capped by `friction ×` its normal push. A particle moves by the sum
 //!    of its contacts' corrections and writes only itself: no float
-//!    atomics, no order that depends on scheduling. (The sum rather than
-//!    the average: on the folded drop of `tests/self_collision.rs` the
-//!    average left pairs at 0.90 thickness after a landing, the sum at
-//!    0.91 or more, and the heap settled slower.)
+//!    atomics, no order that depends on scheduling. The sum rather than
+//!    the average: a particle between layers pressed from both sides needs
+//!    every push, where the average undoes part of each.
 //! 3. **Exclusion**: a pair whose *rest* distance is below
 //!    [`EXCLUDE_REST`] `× thickness` never collides. Rest distance rather
 //!    than mesh rings because it needs no per-particle list (one rest
