@@ -261,7 +261,7 @@ pub(crate) fn warm_start<R: Real>(w: &mut Workspace<R>, p: usize) -> Vec3<R> {
 
 /// Twin of `shaders/implicit_finish.wgsl`: `v += Δv`, friction at the
 /// filtered contacts (`contact_friction`), `x += dt v`, self-collision
-/// ([`self_collision::project`], CPU only for now), collisions.
+/// (`self_collision::project`, CPU only for now), collisions.
 /// Reads `dv`, `filter`, `rhs`, `blocks`; writes `x`, `v` (and `q`,
 /// scratch).
 pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) {

@@ -98,8 +98,8 @@ impl GpuTuningMut<'_> {
     }
 
     /// Sets how many particles (columns × rows) each invocation of the grid
-    /// gather kernels handles (see [`GridBlock`]; the default suits the
-    /// adapter: [`GridBlock::for_adapter`]). Results are the same for every
+    /// gather kernels handles (see [`GridBlock`]; the default is
+    /// [`GridBlock::ONE`]). Results are the same for every
     /// shape; speed is not. No effect on a cloth without grid layout.
     pub fn set_grid_block(&mut self, block: GridBlock) -> Result<()> {
         self.solver.set_grid_block(block)
