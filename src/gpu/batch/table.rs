@@ -9,7 +9,8 @@
 //! grows a buffer that is too small by allocating a larger one and copying
 //! the old contents on the device (so the other cloths' state is kept
 //! bit for bit), and rebuilds the bind groups; pipelines are taken from
-//! the shared kernel library for the union of the cloths' features.
+//! the shared kernel library, compiled with every scene feature (each
+//! cloth skips what it lacks by its `params.features` bits).
 
 use super::ranges::{grown, Extents, Layout, Region, REGIONS};
 use crate::budget;
@@ -147,7 +148,7 @@ pub(super) struct Table {
     /// Group 0 of the workgroup kernels over these buffers.
     group: wgpu::BindGroup,
     /// A workgroup kernel's step per integrator present, with its
-    /// pipeline, for the union of the cloths' features.
+    /// pipeline, compiled with every scene feature.
     steps: Vec<(Integrator, (Dispatch, wgpu::ComputePipeline))>,
     /// The vertex-normal pass for those features.
     normals_pass: Option<wgpu::ComputePipeline>,
@@ -390,7 +391,8 @@ impl Table {
     }
 
     /// Takes the pipelines of every integrator in `present` for the union
-    /// `features` (compiling those the library lacks); none without.
+    /// `features` with every scene feature added (compiling those the
+    /// library lacks); none without.
     pub(super) fn prepare(
         &mut self,
         present: &[Integrator],
