@@ -365,20 +365,16 @@ impl GpuSolver {
         let features = if self.specialised {
             compiled_features(scene, self.path.path)
         } else {
+            // The general kernels: every feature, the adjacency lists. The
+            // coarse levels change the iterates (the CPU mirror follows the
+            // scene's choice), not which code is compiled in, so they and
+            // the constant blocks stay as they are.
             Features {
-                wind: true,
-                ground: true,
-                spheres: true,
-                filter: true,
-                damping: true,
                 grid: false,
                 block: GridBlock::ONE,
-                // The coarse levels change the iterates (the CPU mirror
-                // follows the scene's choice), not which code is compiled
-                // in.
-                coarse: self.features.coarse,
-                constant_blocks: self.features.constant_blocks,
+                ..self.features
             }
+            .with_every_scene_feature()
         };
         let previous = std::mem::replace(&mut self.features, features);
         if let Err(e) = self.prepare() {
