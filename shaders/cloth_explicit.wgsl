@@ -35,5 +35,6 @@ fn cloth_explicit(
     }
     phase_barrier();
     fixup_passes(lid.x);
+    self_collision_phases(lid.x);
     finish_phase(lid.x);
 }

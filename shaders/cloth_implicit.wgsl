@@ -7,7 +7,8 @@
 // the first update (cg_update, first), CG's start (cg_init, cg_start),
 // then CG's iterations — cg_apply, cg_alpha, cg_update, cg_beta and with
 // coarse levels cg_prolong — until CG converges, breaks down or has run
-// its maximum, and the step's end (implicit_finish). Twin: the CPU
+// its maximum, and the step's end (implicit_finish; with
+// self-collision its two stages around self_collision_*). Twin: the CPU
 // solver's implicit step (cpu::implicit::step). General (adjacency)
 // layout only; whether the cloth has coarse levels is read from
 // params.coarse, so one pipeline serves cloths with and without them.
@@ -22,6 +23,7 @@
 #include "common/cg.wgsl"
 #include "common/coarse.wgsl"
 #include "common/implicit.wgsl"
+#include "common/cloth_self_collision.wgsl"
 
 @compute @workgroup_size(SUM_GROUP)
 fn cloth_implicit(
@@ -97,8 +99,19 @@ fn cloth_implicit(
     if (l == 0u) {
         record_cg_max();
     }
-    for (var p = first + l; p < end; p += SUM_GROUP) {
-        implicit_finish_item(p);
+    if (broadcast(l, u32(has_self_collision())) != 0u) {
+        for (var p = first + l; p < end; p += SUM_GROUP) {
+            implicit_store_prediction(p);
+        }
+        phase_barrier();
+        self_collision_phases(l);
+        for (var p = first + l; p < end; p += SUM_GROUP) {
+            implicit_project_item(p);
+        }
+    } else {
+        for (var p = first + l; p < end; p += SUM_GROUP) {
+            implicit_finish_item(p);
+        }
     }
 }
 

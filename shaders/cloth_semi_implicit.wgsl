@@ -7,7 +7,8 @@
 // pins the global torque compensation (torque_centre, torque_moments,
 // torque_apply: their sums in the CPU mirror's order), the integration
 // (semi_integrate), every fix-up pass until one moves nothing
-// (fixup_jacobi), the step's end (finish_step). Twin: the CPU solver's
+// (fixup_jacobi), self-collision (self_collision_*), the step's end
+// (finish_step). Twin: the CPU solver's
 // semi-implicit step with the dense filter (cpu::semi_implicit). General
 // (adjacency) layout only; a cloth whose filter is solved by CG takes the
 // multi-dispatch path.
@@ -55,6 +56,7 @@ fn cloth_semi_implicit(
     }
     phase_barrier();
     fixup_passes(lid.x);
+    self_collision_phases(lid.x);
     finish_phase(lid.x);
 }
 

@@ -88,19 +88,6 @@ pub enum Error {
         needed: u64,
     },
 
-    /// A feature the CPU solver has but the GPU solver does not yet:
-    /// refused before anything is built, never silently left out.
-    #[error(
-        "{feature} is not yet implemented on the GPU solver ({what}): use --backend cpu \
-         (the CPU solver, `CpuSolver`), or remove {feature}"
-    )]
-    NotOnGpu {
-        /// The feature, as the scene writes it (`[self_collision]`).
-        feature: &'static str,
-        /// Which GPU solver refused it (`GpuSolver`, `GpuBatch`).
-        what: &'static str,
-    },
-
     /// A wgpu operation failed (validation, out of memory, lost device).
     #[error("GPU error: {0}")]
     Gpu(String),

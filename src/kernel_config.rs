@@ -38,9 +38,10 @@ pub const SUM_GROUP: u32 = 256;
 pub const WORKGROUP_STEP_MAX_PARTICLES: u32 = 4096;
 
 /// Workgroup memory the workgroup kernels need at most \[bytes\]: the
-/// cloth's parameters (`Params`, 1 584 bytes), the staging of the block
-/// sums (`SUM_GROUP` words), the reduction scratch (`WORKGROUP` words) and
-/// a few shared words, rounded up to 4 KiB — a quarter of the 16 KiB every
+/// cloth's parameters (`Params`, 1 616 bytes), the staging of the block
+/// sums (`SUM_GROUP` words), self-collision's scan (`SUM_GROUP` words), the
+/// reduction scratch (`WORKGROUP` words) and a few shared words, within
+/// 4 KiB — a quarter of the 16 KiB every
 /// WebGPU device allows.
 pub const WORKGROUP_STEP_SHARED_BYTES: u32 = 4096;
 
@@ -60,6 +61,8 @@ pub mod feature {
     pub const FILTER: u32 = 8;
     /// Some spring is damped.
     pub const DAMPING: u32 = 16;
+    /// Self-collision (`[self_collision]`).
+    pub const SELF_COLLISION: u32 = 32;
 }
 
 /// The integrators as the kernels know them (`params.integrator`,
@@ -73,6 +76,12 @@ pub mod integrator {
     /// The semi-implicit filter.
     pub const SEMI_IMPLICIT: u32 = 2;
 }
+
+/// Multipliers of the self-collision cell hash (Teschner et al. 2003,
+/// "Optimized Spatial Hashing for Collision Detection of Deformable
+/// Objects"), in wrapping `u32` arithmetic on both sides (WGSL:
+/// `SC_HASH_*`).
+pub const SELF_COLLISION_HASH: [u32; 3] = [73_856_093, 19_349_663, 83_492_791];
 
 /// Most spheres the GPU solver takes (they live in the uniform block).
 pub const MAX_SPHERES: usize = 16;
@@ -157,6 +166,33 @@ pub mod work {
     pub const LEVEL2_D: u32 = Q;
     /// The same for the level-2 aggregate (off-diagonal).
     pub const LEVEL2_O: u32 = S;
+
+    // Self-collision (`shaders/common/self_collision.wgsl`) runs after the
+    // integrator's solve, when the CG sections are free in every
+    // integrator (the explicit one has no CG; the others set them up
+    // afresh each step); the single-pass explicit step, whose snapshot
+    // is in R and C, is not used with it.
+    /// Self-collision: the positions its passes start from \[m\] (the
+    /// implicit step's `v += Δx / dt` reads them at the end).
+    pub const SC_A: u32 = R;
+    /// Self-collision: a pass's positions \[m\] (ping-pong with
+    /// [`SC_C`]).
+    pub const SC_B: u32 = C;
+    /// Self-collision: a pass's positions \[m\] (ping-pong with
+    /// [`SC_B`]).
+    pub const SC_C: u32 = PRE_DIAG;
+    /// Self-collision: each particle's cell (xyz, `i32` bits) and bucket
+    /// (w, `u32` bits) at the build.
+    pub const SC_CELL: u32 = Q;
+    /// Self-collision, by position in the grid: the particle index (x,
+    /// `u32` bits), each bucket's run in scatter order.
+    pub const SC_UNORDERED: u32 = Z;
+    /// Self-collision, by position in the grid: the particle index and its
+    /// cell (`u32` bits), each bucket's run in index order.
+    pub const SC_ORDER: u32 = S;
+    /// Self-collision, two buckets per entry: each one's run in the grid
+    /// (`u32` bits: start, end of the even bucket, then of the odd one).
+    pub const SC_BUCKETS: u32 = RHS;
 
     /// The name of each of the [`COUNT`] sections, by index (without the
     /// WGSL prefix `W_`).
@@ -291,7 +327,7 @@ fn wgsl_u32() -> Vec<(String, u32)> {
             .zip(0u32..)
             .map(|(n, k)| (format!("W_{n}"), k)),
     );
-    let named: [(&str, u32); 38] = [
+    let named: [(&str, u32); 50] = [
         ("INTEGRATOR_EXPLICIT", integrator::EXPLICIT),
         ("INTEGRATOR_IMPLICIT", integrator::IMPLICIT),
         ("INTEGRATOR_SEMI_IMPLICIT", integrator::SEMI_IMPLICIT),
@@ -300,6 +336,17 @@ fn wgsl_u32() -> Vec<(String, u32)> {
         ("W_LEVEL1_O", work::LEVEL1_O),
         ("W_LEVEL2_D", work::LEVEL2_D),
         ("W_LEVEL2_O", work::LEVEL2_O),
+        ("W_SC_A", work::SC_A),
+        ("W_SC_B", work::SC_B),
+        ("W_SC_C", work::SC_C),
+        ("W_SC_CELL", work::SC_CELL),
+        ("W_SC_UNORDERED", work::SC_UNORDERED),
+        ("W_SC_ORDER", work::SC_ORDER),
+        ("W_SC_BUCKETS", work::SC_BUCKETS),
+        ("SC_HASH_X", SELF_COLLISION_HASH[0]),
+        ("SC_HASH_Y", SELF_COLLISION_HASH[1]),
+        ("SC_HASH_Z", SELF_COLLISION_HASH[2]),
+        ("STATUS_WORDS", status::COUNT as u32),
         ("S_BLOCK", spring_work::BLOCK),
         ("S_KV", spring_work::KV),
         ("S_FORCE", spring_work::FORCE),
@@ -330,6 +377,7 @@ fn wgsl_u32() -> Vec<(String, u32)> {
         ("FEATURE_SPHERES", feature::SPHERES),
         ("FEATURE_FILTER", feature::FILTER),
         ("FEATURE_DAMPING", feature::DAMPING),
+        ("FEATURE_SELF_COLLISION", feature::SELF_COLLISION),
     ];
     out.extend(named.iter().map(|&(n, v)| (n.to_string(), v)));
     out

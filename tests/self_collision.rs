@@ -400,12 +400,10 @@ fn bad_values_are_refused_naming_the_key() {
     assert!(scene("thicknes = 0.01").is_err());
 }
 
-/// The GPU solvers do not step self-collision yet: `--backend gpu` refuses
-/// the scene before any adapter is opened (so no GPU is needed here),
-/// naming the feature and the way out, with the status of a rejected
-/// input; the CPU runs it.
+/// `wgcloth run --backend gpu` steps a self-collision scene (on both step
+/// paths) and `--verbose` lists its kernels on the multi-dispatch path.
 #[test]
-fn the_gpu_backend_refuses_it_and_the_cpu_runs_it() {
+fn the_gpu_backend_runs_it_and_shows_its_kernels() {
     let dir = std::env::temp_dir().join(format!("wgcloth-selfcol-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("temp dir");
     let scene = dir.join("folded.toml");
@@ -414,55 +412,164 @@ fn the_gpu_backend_refuses_it_and_the_cpu_runs_it() {
         "[simulation]\nduration = 0.02\n[cloth]\nresolution = [9, 9]\n[self_collision]\n",
     )
     .expect("write scene");
-    let run = |backend: &str| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_wgcloth"))
+    for path in ["multi-dispatch", "workgroup"] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_wgcloth"))
             .args([
                 "run",
                 scene.to_str().expect("utf-8 path"),
                 "--backend",
-                backend,
+                "gpu",
+                "--step-path",
+                path,
+                "--verbose",
             ])
             .output()
-            .expect("run wgcloth")
-    };
-    let gpu = run("gpu");
-    let err = String::from_utf8_lossy(&gpu.stderr);
-    // 2: the scene was rejected, nothing ran (docs/cli.md).
-    assert_eq!(gpu.status.code(), Some(2), "stderr: {err}");
-    assert!(
-        err.contains("self-collision") && err.contains("use --backend cpu"),
-        "stderr: {err}"
-    );
-    let cpu = run("cpu");
-    assert_eq!(
-        cpu.status.code(),
-        Some(0),
-        "stderr: {}",
-        String::from_utf8_lossy(&cpu.stderr)
-    );
+            .expect("run wgcloth");
+        let all = format!(
+            "{}{}",
+            String::from_utf8_lossy(&out.stdout),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert_eq!(out.status.code(), Some(0), "{path}: {all}");
+        if path == "multi-dispatch" {
+            for kernel in [
+                "self_collision_count",
+                "self_collision_scan",
+                "self_collision_scatter",
+                "self_collision_rank",
+                "self_collision_respond",
+            ] {
+                assert!(all.contains(kernel), "{path}: no {kernel} in: {all}");
+            }
+        }
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// `GpuSolver` and `GpuBatch` refuse self-collision with
-/// [`Error::NotOnGpu`] rather than step the cloth without it (an adapter is
-/// opened, no kernel compiled: the refusal comes first).
+/// Steps of the GPU drops: the stack lands (it falls 5 cm in ~60 steps)
+/// and its layers press on one another for the rest.
+const GPU_STEPS: u32 = 120;
+
+/// CG's cap in the GPU drops: the GPU records the whole cap every step
+/// (adaptive budget off, as the mirror comparisons run it), and the stack
+/// needs far fewer; both sides use the same cap.
+const GPU_CG_MAX_ITERATIONS: u32 = 40;
+
+/// The drop's parameters for the GPU comparisons: the GPU's Jacobi
+/// fix-up (the CPU's default is Gauss–Seidel).
+fn gpu_drop_params(integrator: Integrator) -> Params {
+    let mut p = drop_params(integrator);
+    p.implicit.max_iterations = GPU_CG_MAX_ITERATIONS;
+    p.fixup.method = wgcloth::params::FixupMethod::Jacobi;
+    p
+}
+
+/// Positions whose bits differ between `a` and `b`, and the first.
+fn differing(a: &[wgcloth::glam::Vec3], b: &[wgcloth::glam::Vec3]) -> (usize, Option<usize>) {
+    let bits = |v: &wgcloth::glam::Vec3| v.to_array().map(f32::to_bits);
+    let differ: Vec<usize> = (0..a.len())
+        .filter(|&p| bits(&a[p]) != bits(&b[p]))
+        .collect();
+    (differ.len(), differ.first().copied())
+}
+
+/// The folded drop on the GPU, on both step paths and every integrator:
+/// the `f32` mirror's positions bit for bit after every layer has landed,
+/// and a second run's bytes the same (the grid's order does not depend on
+/// scheduling).
 #[test]
-fn the_gpu_solvers_refuse_it() {
+fn the_gpu_drop_is_the_f32_mirrors_bit_for_bit() {
+    use wgcloth::gpu::{GpuSolver, StepPath};
     let ctx = match wgcloth::GpuContext::new(None) {
         Ok(c) => c,
         Err(e) => panic!("this test needs an adapter (lavapipe works): {e}"),
     };
     let model = folded_model();
-    let params = drop_params(Integrator::Implicit);
-    match wgcloth::GpuSolver::new(&ctx.device, &ctx.queue, &model, &params) {
-        Err(Error::NotOnGpu { what, .. }) => assert_eq!(what, "GpuSolver"),
-        Err(e) => panic!("GpuSolver: {e}"),
-        Ok(_) => panic!("GpuSolver stepped self-collision it does not have"),
+    let start = folded_positions(0.05);
+    for integrator in Integrator::ALL {
+        let params = gpu_drop_params(integrator);
+        let mut cpu = folded_solver::<f32>(&model, &params);
+        cpu.step_n(u64::from(GPU_STEPS)).expect("CPU run");
+        let mirror = cpu.positions();
+        for path in [StepPath::MultiDispatch, StepPath::Workgroup] {
+            let run = || {
+                let mut g =
+                    GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, &model, &params, path)
+                        .unwrap_or_else(|e| panic!("{integrator} on {path}: {e}"));
+                g.tuning_mut().set_adaptive_cg_budget(false);
+                for (p, x) in start.iter().enumerate() {
+                    g.set_position(p, x.as_vec3()).expect("position");
+                }
+                g.step(GPU_STEPS).expect("GPU run");
+                g.read_state().expect("read-back").x
+            };
+            let first = run();
+            let (n, p) = differing(&first, &mirror);
+            assert_eq!(
+                n, 0,
+                "{integrator} on {path}: {n} positions differ from the f32 mirror's, the first \
+                 particle {p:?}"
+            );
+            assert_eq!(
+                differing(&first, &run()).0,
+                0,
+                "{integrator} on {path}: two runs differ"
+            );
+        }
     }
-    let mut batch = wgcloth::gpu::GpuBatch::new(&ctx.device, &ctx.queue);
-    match batch.add(&model, &params) {
-        Err(Error::NotOnGpu { what, .. }) => assert_eq!(what, "GpuBatch"),
-        Err(e) => panic!("GpuBatch: {e}"),
-        Ok(_) => panic!("GpuBatch took self-collision it does not have"),
+}
+
+/// A batch of the folded drop, one cloth per integrator plus a second
+/// implicit one, steps each cloth as a lone solver on the workgroup path
+/// does, bit for bit.
+#[test]
+fn a_batch_drops_it_as_lone_solvers_do() {
+    use wgcloth::gpu::{GpuBatch, GpuSolver, StepPath};
+    let ctx = match wgcloth::GpuContext::new(None) {
+        Ok(c) => c,
+        Err(e) => panic!("this test needs an adapter (lavapipe works): {e}"),
+    };
+    let model = folded_model();
+    let start = folded_positions(0.05);
+    let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+    let integrators = [
+        Integrator::Implicit,
+        Integrator::Explicit,
+        Integrator::SemiImplicit,
+        Integrator::Implicit,
+    ];
+    let ids: Vec<_> = integrators
+        .iter()
+        .map(|&i| {
+            let id = batch.add(&model, &gpu_drop_params(i)).expect("added");
+            for (p, x) in start.iter().enumerate() {
+                batch.set_position(id, p, x.as_vec3()).expect("position");
+            }
+            id
+        })
+        .collect();
+    batch.step(GPU_STEPS).expect("batch run");
+    for (&id, &integrator) in ids.iter().zip(&integrators) {
+        let params = gpu_drop_params(integrator);
+        let mut lone = GpuSolver::with_step_path(
+            ctx.kernels(),
+            &ctx.queue,
+            &model,
+            &params,
+            StepPath::Workgroup,
+        )
+        .expect("lone solver");
+        for (p, x) in start.iter().enumerate() {
+            lone.set_position(p, x.as_vec3()).expect("position");
+        }
+        lone.step(GPU_STEPS).expect("lone run");
+        let (n, p) = differing(
+            &batch.read_state(id).expect("batch read-back").x,
+            &lone.read_state().expect("lone read-back").x,
+        );
+        assert_eq!(
+            n, 0,
+            "{integrator}: {n} positions differ from the lone solver's, the first {p:?}"
+        );
     }
 }

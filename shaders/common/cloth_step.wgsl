@@ -7,6 +7,7 @@
 #include "common/physics.wgsl"
 #include "common/fixup.wgsl"
 #include "common/step.wgsl"
+#include "common/cloth_self_collision.wgsl"
 
 // The fix-up of a workgroup step: up to params.fixup_iterations Jacobi
 // passes, alternating X_PRED and X_ALT, stopping after the first pass

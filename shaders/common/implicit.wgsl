@@ -15,6 +15,10 @@
 // Once per step, by one invocation.
 fn implicit_step_start() {
     atomicAdd(&status[sw(STATUS_STEP)], 1u);
+    // Self-collision's: nothing moved yet; its passes start from, and
+    // end in, the prediction's section.
+    atomicStore(&status[sw(STATUS_FIXUP_MOVED)], 0u);
+    atomicStore(&status[sw(STATUS_FIXUP_RESULT)], W_X_ALT);
     atomicStore(&status[sw(STATUS_CG_ITERATIONS)], 0u);
     atomicStore(&status[sw(STATUS_CG_STOPPED)], 0u);
 }
@@ -160,12 +164,13 @@ fn record_cg_max() {
     atomicMax(&status[sw(STATUS_CG_MAX_ITERATIONS)], atomicLoad(&status[sw(STATUS_CG_ITERATIONS)]));
 }
 
-// The end of particle p's step (twin: cpu::implicit::finish): v += Δv,
-// friction at its filtered contact from the constraint impulse, x += dt v,
-// collisions (pins: towards their goals), the clock, store. It reads its
-// neighbours' Δv, never their x or v, so the particles may finish in any
-// order.
-fn implicit_finish_item(p: u32) {
+// Particle p's state at the end of an implicit step before collisions
+// (twin: cpu::implicit::finish up to its self-collision): v += Δv,
+// friction at a filtered contact from the constraint impulse, then
+// x += dt v for a free particle, the pin's step for a pinned one.
+// Returns (x, v). It reads its neighbours' Δv, never their x or v, so the
+// particles may finish in any order.
+fn implicit_predict_item(p: u32) -> array<vec3<f32>, 2> {
     let x0 = x[p];
     let v0 = v[p];
     let clock = particle_clock(p);
@@ -190,17 +195,49 @@ fn implicit_finish_item(p: u32) {
             vp = vc + unseen3(normal * dot3(rel, normal) + tangential * kept);
         }
     }
-    var xp = x0.xyz;
     if (x0.w > 0.0) {
-        xp += vp * params.dt;
-        let r = collide_particle(xp, vp, clock);
-        xp = r[0];
-        vp = r[1];
-    } else {
-        let r = pin_step(p, clock, xp);
-        xp = r[0];
-        vp = r[1];
+        return array<vec3<f32>, 2>(x0.xyz + vp * params.dt, vp);
+    }
+    return pin_step(p, clock, x0.xyz);
+}
+
+// The end of particle p's implicit step from its predicted state `xp`,
+// `vp` (twin: the end of cpu::implicit::finish): collisions for a free
+// particle, the clock advanced, the state stored.
+fn implicit_end_item(p: u32, xp: vec3<f32>, vp: vec3<f32>) {
+    let x0 = x[p];
+    let clock = particle_clock(p);
+    var r = array<vec3<f32>, 2>(xp, vp);
+    if (x0.w > 0.0) {
+        r = collide_particle(xp, vp, clock);
     }
     advance_clock(p, clock);
-    _ = store_state(p, xp, vp, x0.w, v0.w);
+    _ = store_state(p, r[0], r[1], x0.w, v[p].w);
+}
+
+// The implicit step's end for particle p without self-collision.
+fn implicit_finish_item(p: u32) {
+    let r = implicit_predict_item(p);
+    implicit_end_item(p, r[0], r[1]);
+}
+
+// With self-collision, the prediction stored for its passes: x where they
+// start from (STATUS_FIXUP_RESULT, set to W_X_ALT by implicit_step_start),
+// v in W_V_NEW.
+fn implicit_store_prediction(p: u32) {
+    let r = implicit_predict_item(p);
+    work[wi(W_X_ALT, p)] = vec4<f32>(r[0], 0.0);
+    work[wi(W_V_NEW, p)] = vec4<f32>(r[1], 0.0);
+}
+
+// With self-collision, particle p's step end after its passes (twin:
+// cpu::self_collision::project's v += Δx / dt, where it moved anything,
+// then the end of cpu::implicit::finish).
+fn implicit_project_item(p: u32) {
+    var xp = work[wi(W_X_ALT, p)].xyz;
+    var vp = work[wi(W_V_NEW, p)].xyz;
+    if (x[p].w > 0.0 && atomicLoad(&status[sw(STATUS_FIXUP_MOVED)]) != 0u) {
+        vp += unseen3((xp - work[wi(W_SC_A, p)].xyz) * (1.0 / params.dt));
+    }
+    implicit_end_item(p, xp, vp);
 }

@@ -25,6 +25,8 @@ override HAS_SPHERES: bool = true;
 override HAS_FILTER: bool = true;
 // Some spring has damping.
 override HAS_DAMPING: bool = true;
+// Self-collision ([self_collision]).
+override HAS_SELF_COLLISION: bool = true;
 // The springs are in grid layout (src/gpu/grid.rs) and the kernels find
 // them by row and column instead of through the adjacency lists.
 override GRID: bool = false;
@@ -54,6 +56,9 @@ fn has_filter() -> bool {
 }
 fn has_damping() -> bool {
     return HAS_DAMPING && (params.features & FEATURE_DAMPING) != 0u;
+}
+fn has_self_collision() -> bool {
+    return HAS_SELF_COLLISION && (params.features & FEATURE_SELF_COLLISION) != 0u;
 }
 
 // Twin: layout::GpuSphere.
@@ -144,6 +149,13 @@ struct Params {
     // Moving colliders: capsules in use, the step counts at which the
     // spheres and the capsules were set, unused.
     motion: vec4<u32>,
+    // Self-collision (common/self_collision.wgsl): thickness [m], Coulomb
+    // friction, the cap on a step's displacement [m], the grid's inverse
+    // cell size [1/m]; then its passes per step, its buckets (a power of
+    // two), unused, and the vec4 index in `model` of its rest positions
+    // (in exclusion radii).
+    self_collision: vec4<f32>,
+    self_grid: vec4<u32>,
     spheres: array<Sphere, MAX_SPHERES>,
     capsules: array<Capsule, MAX_CAPSULES>,
 }

@@ -667,7 +667,6 @@ fn library_status(e: &wgcloth::Error) -> u8 {
         | wgcloth::Error::UnknownScene { .. }
         | wgcloth::Error::DeviceLimit { .. }
         | wgcloth::Error::NotAFile { .. }
-        | wgcloth::Error::NotOnGpu { .. }
         | wgcloth::Error::OutOfMemory { .. } => EXIT_INVALID,
         _ => EXIT_FAILURE,
     }

@@ -83,10 +83,6 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         trace: args.trace_out.as_deref(),
         trace_every: args.trace_every,
     };
-    if matches!(args.backend, Backend::Gpu) {
-        // Before an adapter is opened: the scene, not the device, is at fault.
-        wgcloth::gpu::refuse_cpu_only(params, "--backend gpu")?;
-    }
     let outcome = match (args.backend, precision, args.batch) {
         (Backend::Cpu, Precision::F64, _) => run.simulate(Cpu::<f64>::new(model, params)?)?,
         (Backend::Cpu, Precision::F32, _) => run.simulate(Cpu::<f32>::new(model, params)?)?,

@@ -261,7 +261,7 @@ pub(crate) fn warm_start<R: Real>(w: &mut Workspace<R>, p: usize) -> Vec3<R> {
 
 /// Twin of `shaders/implicit_finish.wgsl`: `v += Δv`, friction at the
 /// filtered contacts (`contact_friction`), `x += dt v`, self-collision
-/// (`self_collision::project`, CPU only for now), collisions.
+/// (`self_collision::project`), collisions.
 /// Reads `dv`, `filter`, `rhs`, `blocks`; writes `x`, `v` (and `q`,
 /// scratch).
 pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) {
@@ -271,10 +271,14 @@ pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>)
     if w.filter.iter().any(|f| matches!(f, Filter::Plane(..))) {
         contact_friction(sys, st, w);
     }
-    motion::move_pins(sys, &mut st.x, &mut st.v, w);
+    // Self-collision's start of the step: before the pins move, so that
+    // a moving pin's displacement counts in its contacts' friction (and
+    // the GPU reads it from x, which holds the step's start until the
+    // step's end).
     if sys.self_collision.is_some() {
         w.x_old.copy_from_slice(&st.x);
     }
+    motion::move_pins(sys, &mut st.x, &mut st.v, w);
     for p in 0..st.x.len() {
         if sys.inv_mass[p] > R::ZERO {
             st.x[p] += st.v[p] * sys.dt;

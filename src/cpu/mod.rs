@@ -284,13 +284,7 @@ impl<R: Real> System<R> {
             cg_tolerance: params.implicit.tolerance,
             cg_max_iterations: params.implicit.max_iterations,
             torque_compensation: params.semi_implicit.torque_compensation,
-            self_collision: params.self_collision.as_ref().and_then(|c| {
-                let t = self_collision::thickness(model, params)
-                    .ok()
-                    .flatten()
-                    .or_else(|| self_collision::default_thickness(model))?;
-                Some(self_collision::SelfCollisionR::new(model, c, t))
-            }),
+            self_collision: self_collision::SelfCollisionR::of(model, params),
         }
     }
 

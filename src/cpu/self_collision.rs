@@ -5,13 +5,15 @@
 //! and semi-implicit: after the fix-up; implicit: after `x += dt v`), and
 //! before the colliders:
 //!
-//! 1. **Build** a uniform spatial hash grid of cell size `thickness`: each
-//!    particle's integer cell `floor(x / thickness)` is hashed into a table
-//!    of a power-of-two size at least twice the particle count; the
+//! 1. **Build** a uniform spatial hash grid of cells a little larger than
+//!    `thickness` ([`CELL_SLACK`]): each particle's integer cell is hashed
+//!    into a table of a power-of-two size at least the particle count; the
 //!    particles are counted per bucket, the counts prefix-summed, and the
 //!    particles scattered so that each bucket's run lists its particles in
-//!    index order (the GPU will reach the same order by ranking each
-//!    particle among the same-bucket particles of lower index).
+//!    index order. The GPU (`self_collision_count`, `_scan`, `_scatter`,
+//!    `_rank`) counts with integer atomics, scatters in whatever order
+//!    they leave, then ranks each particle among its bucket's particles of
+//!    lower index: the same runs, whatever the scheduling.
 //! 2. **Respond**, `iterations` Jacobi passes: each free particle `p`
 //!    visits the 27 cells around its own in a fixed order and, for every
 //!    other particle `q` in that cell (index order; a hash collision that
@@ -26,7 +28,8 @@
 //!    the average: a particle between layers pressed from both sides needs
 //!    every push, where the average undoes part of each.
 //! 3. **Exclusion**: a pair whose *rest* distance is below
-//!    [`EXCLUDE_REST`] `× thickness` never collides. Rest distance rather
+//!    [`EXCLUDE_REST`] `× thickness` never collides (the rest positions
+//!    are kept in units of that radius, so the test is `|Δ|² < 1`). Rest distance rather
 //!    than mesh rings because it needs no per-particle list (one rest
 //!    position per particle) and is the same rule on grids and meshes; the
 //!    factor 2 keeps a cloth's own in-plane neighbours (compressed as it
@@ -64,10 +67,12 @@ pub const STEP_CAP: f64 = 0.5;
 /// particles of one layer (the cost grows with its square).
 pub const MAX_THICKNESS_DEFAULTS: f64 = 4.0;
 
-/// Multipliers of the cell hash (Teschner et al. 2003, "Optimized Spatial
-/// Hashing for Collision Detection of Deformable Objects"), wrapping `u32`
-/// arithmetic as the GPU's.
-const HASH: [u32; 3] = [73_856_093, 19_349_663, 83_492_791];
+/// The grid's cell size over the thickness: a little over one, so that
+/// two particles closer than a thickness always lie in neighbouring cells
+/// however the cell's inverse size is rounded.
+pub const CELL_SLACK: f64 = 1.0 + 1e-4;
+
+const HASH: [u32; 3] = crate::kernel_config::SELF_COLLISION_HASH;
 
 /// Self-collision in the solver's precision, with what the model fixes.
 #[derive(Clone, Debug)]
@@ -79,20 +84,25 @@ pub struct SelfCollisionR<R> {
     pub friction: R,
     /// Jacobi passes per step.
     pub iterations: u32,
-    /// Squared exclusion radius \[m²\]: `(EXCLUDE_REST × thickness)²`.
-    pub exclude2: R,
     /// Largest displacement per step \[m\]: `STEP_CAP × thickness`.
     pub cap: R,
-    /// Rest positions \[m\] (the exclusion's distances).
+    /// The inverse of the cell size \[1/m\]: `1 / (CELL_SLACK ×
+    /// thickness)`.
+    pub inv_cell: R,
+    /// Rest positions in units of the exclusion radius
+    /// (`EXCLUDE_REST × thickness`): a pair less than 1 apart never
+    /// collides.
     pub rest: Vec<Vec3<R>>,
-    /// Hash table size (a power of two ≥ 2 × particles).
+    /// Hash table size (a power of two ≥ particles, at least 2).
     pub table: usize,
 }
 
-/// The hash table size for `particles`: the power of two at least twice
-/// the count, so that most buckets hold one cell.
+/// The hash table size for `particles`: the power of two at least the
+/// count (and at least 2: the GPU keeps two buckets' runs per entry), so
+/// that most buckets hold at most one cell. Which bucket a cell falls in
+/// changes no result: a run's other cells are skipped.
 pub fn table_size(particles: usize) -> usize {
-    particles.saturating_mul(2).max(1).next_power_of_two()
+    particles.max(2).next_power_of_two()
 }
 
 /// The shortest rest length \[m\] of a stretch spring (of any spring if
@@ -189,18 +199,30 @@ pub fn thickness(model: &Model, params: &Params) -> Result<Option<f64>> {
 }
 
 impl<R: Real> SelfCollisionR<R> {
+    /// Self-collision of `model` under `params`, at the thickness they give
+    /// it (the default where theirs is out of range: a solver refuses that
+    /// first, see [`thickness`]); `None` without self-collision or springs.
+    pub fn of(model: &Model, params: &Params) -> Option<Self> {
+        let c = params.self_collision.as_ref()?;
+        let t = thickness(model, params)
+            .ok()
+            .flatten()
+            .or_else(|| default_thickness(model))?;
+        Some(SelfCollisionR::new(model, c, t))
+    }
+
     /// Self-collision of `model` with `c` at `thickness` \[m\].
     pub fn new(model: &Model, c: &SelfCollision, thickness: f64) -> Self {
         SelfCollisionR {
             thickness: R::from_f64(thickness),
             friction: R::from_f64(c.friction),
             iterations: c.iterations,
-            exclude2: R::from_f64((EXCLUDE_REST * thickness).powi(2)),
             cap: R::from_f64(STEP_CAP * thickness),
+            inv_cell: R::from_f64(1.0 / (CELL_SLACK * thickness)),
             rest: model
                 .rest_positions
                 .iter()
-                .map(|&p| Vec3::from_f64(p))
+                .map(|&p| Vec3::from_f64(p / (EXCLUDE_REST * thickness)))
                 .collect(),
             table: table_size(model.particle_count()),
         }
@@ -237,11 +259,11 @@ impl<R: Real> Grid<R> {
     }
 }
 
-/// The cell of a point at `x` in a grid of cell size `h` (twin of the
-/// GPU's `floor(x / h)`: the quotient rounded in `R`, then floored
-/// exactly; saturating at `i32`'s range).
-fn cell_of<R: Real>(x: Vec3<R>, h: R) -> [i32; 3] {
-    [0, 1, 2].map(|k| (x.get(k) / h).to_f64().floor() as i32)
+/// The cell of a point at `x` in a grid of inverse cell size `inv` (twin
+/// of the GPU's `vec3<i32>(floor(x * inv))`: the product rounded in `R`,
+/// then floored exactly; saturating at `i32`'s range).
+fn cell_of<R: Real>(x: Vec3<R>, inv: R) -> [i32; 3] {
+    [0, 1, 2].map(|k| (x.get(k) * inv).to_f64().floor() as i32)
 }
 
 /// The bucket of cell `c` in a table of `table` (a power of two) buckets.
@@ -258,7 +280,7 @@ fn bucket(c: [i32; 3], table: usize) -> usize {
 pub fn build<R: Real>(c: &SelfCollisionR<R>, x: &[Vec3<R>], g: &mut Grid<R>) {
     g.start.fill(0);
     for (p, &xp) in x.iter().enumerate() {
-        g.cell[p] = cell_of(xp, c.thickness);
+        g.cell[p] = cell_of(xp, c.inv_cell);
         g.start[bucket(g.cell[p], c.table) + 1] += 1;
     }
     for b in 0..c.table {
@@ -313,7 +335,10 @@ pub fn respond<R: Real>(
     let mut contacts = 0u32;
     let home = g.cell[p];
     for d in NEIGHBOUR_CELLS {
-        let cell = [0, 1, 2].map(|k| home[k].saturating_add(d[k]));
+        // Wrapping, as the GPU's `i32` sum: only a cell at the edge of the
+        // range (a blown-up position) wraps, and the distance test then
+        // rejects what it finds.
+        let cell = [0, 1, 2].map(|k| home[k].wrapping_add(d[k]));
         let b = bucket(cell, c.table);
         for &q in &g.order[g.start[b] as usize..g.start[b + 1] as usize] {
             let q = q as usize;
@@ -322,7 +347,7 @@ pub fn respond<R: Real>(
             }
             let diff = xp - g.snapshot[q];
             let d2 = diff.length_squared();
-            if d2 >= t2 || d2 <= R::ZERO || (c.rest[p] - c.rest[q]).length_squared() < c.exclude2 {
+            if d2 >= t2 || d2 <= R::ZERO || (c.rest[p] - c.rest[q]).length_squared() < R::ONE {
                 continue;
             }
             let dist = d2.sqrt();

@@ -26,6 +26,8 @@ pub(super) struct Uploads<'a> {
     pub springs: &'a [GpuSpring],
     /// `vec4` entries of `work`.
     pub work_len: u64,
+    /// Words of `status` (see `ClothArrays::status_len`).
+    pub status_len: u64,
     /// Positions and inverse masses, velocities and masses.
     pub x: &'a [[f32; 4]],
     /// Velocities and masses.
@@ -152,7 +154,7 @@ impl ClothBuffers {
             STORAGE,
         );
         let work = work_buffer(device, queue, up)?;
-        let status = status_buffer(device);
+        let status = status_buffer(device, up.status_len)?;
         let normals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("wgcloth.normals"),
             size: (n * 16).max(16),
@@ -240,17 +242,24 @@ fn work_buffer(
     Ok(work)
 }
 
-/// `status`, with no step found non-finite yet.
-fn status_buffer(device: &wgpu::Device) -> wgpu::Buffer {
-    let mut words = [0u32; status::COUNT];
+/// `status` of `len` words (the status words, then self-collision's
+/// bucket counters, zero), with no step found non-finite yet.
+fn status_buffer(device: &wgpu::Device, len: u64) -> Result<wgpu::Buffer> {
+    let mut words = try_vec(
+        usize::try_from(len)
+            .unwrap_or(usize::MAX)
+            .max(status::COUNT),
+        0u32,
+        UPLOAD,
+    )?;
     words[status::BAD_STEP] = u32::MAX;
     words[status::BAD_PARTICLE] = u32::MAX;
-    init(
+    Ok(init(
         device,
         "wgcloth.status",
         bytemuck::cast_slice(&words),
         STORAGE,
-    )
+    ))
 }
 
 /// `alpha_args` and `beta_args`, every slot cleared (workgroups 0).

@@ -15,9 +15,10 @@ use super::solver::{
 };
 use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_with_capacity};
+use crate::cpu::self_collision::SelfCollisionR;
 use crate::diagnostics::Motion;
 use crate::error::Result;
-use crate::kernel_config::{integrator, partials, spring_work, work, WORKGROUP};
+use crate::kernel_config::{integrator, partials, spring_work, status, work, WORKGROUP};
 use crate::model::Model;
 use crate::params::{Integrator, Params, SpringParams};
 
@@ -140,6 +141,8 @@ struct Shape<'a> {
     /// Most CG iterations per step.
     cg_max_iterations: u32,
     fixup_iterations: u32,
+    /// Self-collision in the GPU's precision (the `f32` mirror's values).
+    self_collision: Option<&'a SelfCollisionR<f32>>,
 }
 
 /// The integrator as the kernels know it (`params.integrator`).
@@ -231,6 +234,13 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
             [a.nx, a.ny, a.count(0), a.count(1)].map(|c| c as u32)
         }),
         motion: [params.capsules.len() as u32, 0, 0, 0],
+        self_collision: shape
+            .self_collision
+            .map_or([0.0; 4], |c| [c.thickness, c.friction, c.cap, c.inv_cell]),
+        // The rest positions' place is set by `ClothArrays::place`.
+        self_grid: shape
+            .self_collision
+            .map_or([0; 4], |c| [c.iterations, c.table as u32, 0, 0]),
         spheres: gpu_spheres(&params.spheres),
         capsules: gpu_capsules(&params.capsules),
     }
@@ -253,6 +263,9 @@ pub(crate) struct ClothArrays {
     pub v: Vec<[f32; 4]>,
     /// The dense semi-implicit filter (empty without one).
     pub dense: Vec<f32>,
+    /// Self-collision's rest positions, in exclusion radii (empty
+    /// without it).
+    pub rest: Vec<[f32; 4]>,
 }
 
 /// `u32` words of a spring record in `model` (two `vec4<u32>`).
@@ -279,8 +292,25 @@ impl ClothArrays {
     /// `topo` and the dense filter, as `u32` words, padded to a whole
     /// `vec4` so the next cloth's records start aligned.
     pub(crate) fn model_len(&self) -> u64 {
-        let words = SPRING_WORDS * self.spring_count() + self.topo.len() as u64;
+        let words = SPRING_WORDS * self.spring_count() + self.rest_words() + self.topo.len() as u64;
         (words + self.dense_capacity()).div_ceil(4)
+    }
+
+    /// `u32` words of self-collision's rest positions in `model`.
+    fn rest_words(&self) -> u64 {
+        4 * self.rest.len() as u64
+    }
+
+    /// Words of the cloth's part of `status`: its status words, then with
+    /// self-collision a counter per bucket (see `sc_counter` in
+    /// `shaders/common/self_collision.wgsl`).
+    pub(crate) fn status_len(&self) -> u64 {
+        status::COUNT as u64
+            + if self.rest.is_empty() {
+                0
+            } else {
+                u64::from(self.params.self_grid[1])
+            }
     }
 
     /// `vec4` entries of the cloth's part of `work`: the per-particle
@@ -295,13 +325,15 @@ impl ClothArrays {
     }
 
     /// The cloth's part of `model` as uploaded: the spring records,
-    /// `topo`, the dense filter's bits (its unused capacity is left out:
+    /// self-collision's rest positions, `topo`, the dense filter's bits (its unused capacity is left out:
     /// a new buffer is zeroed, and no kernel reads past the filter).
     pub(crate) fn model_words(&self) -> Result<Vec<u32>> {
         let springs: &[u32] = bytemuck::cast_slice(&self.springs);
-        let len = springs.len() + self.topo.len() + self.dense.len();
+        let rest: &[u32] = bytemuck::cast_slice(&self.rest);
+        let len = springs.len() + rest.len() + self.topo.len() + self.dense.len();
         let mut words: Vec<u32> = try_with_capacity(len, UPLOAD)?;
         words.extend_from_slice(springs);
+        words.extend_from_slice(rest);
         words.extend_from_slice(&self.topo);
         words.extend(self.dense.iter().map(|w| w.to_bits()));
         Ok(words)
@@ -315,9 +347,11 @@ impl ClothArrays {
     pub(crate) fn place(&mut self, model_at: u64, work_at: u64) {
         let n = u64::from(self.params.particle_count);
         let s = self.spring_count();
-        let topo_at = (4 * model_at + SPRING_WORDS * s) as u32;
+        let rest_at = 4 * model_at + SPRING_WORDS * s;
+        let topo_at = (rest_at + self.rest_words()) as u32;
         let p = &mut self.params;
         p.spring_base = model_at as u32;
+        p.self_grid[3] = (rest_at / 4) as u32;
         p.topo_base = topo_at;
         p.spring_adj_entries += topo_at;
         p.tri_adj_offsets += topo_at;
@@ -347,6 +381,7 @@ pub(super) fn cloth_arrays(
     block: GridBlock,
 ) -> Result<ClothArrays> {
     let semi_cg = filter.as_ref().is_some_and(|f| f.words.is_empty());
+    let self_collision = SelfCollisionR::<f32>::of(model, params);
     let (cg_tolerance, cg_max_iterations) = if semi_cg {
         (FILTER_CG_TOLERANCE, FILTER_CG_MAX_ITERATIONS)
     } else {
@@ -369,8 +404,12 @@ pub(super) fn cloth_arrays(
         cg_tolerance,
         cg_max_iterations,
         fixup_iterations: fixup_iterations(params),
+        self_collision: self_collision.as_ref(),
     };
     let params = uniform_block(model, params, shape);
+    let no_rest = Vec::new();
+    let rest = self_collision.as_ref().map_or(&no_rest, |c| &c.rest);
+    let rest = try_collect(rest.iter().map(|r| [r.x, r.y, r.z, 0.0]), UPLOAD)?;
     Ok(ClothArrays {
         params,
         springs,
@@ -378,6 +417,7 @@ pub(super) fn cloth_arrays(
         x,
         v,
         dense: filter.map_or_else(Vec::new, |f| f.words),
+        rest,
     })
 }
 
@@ -416,6 +456,7 @@ impl GpuSolver {
                 model_len: arrays.model_len(),
                 springs: &arrays.springs,
                 work_len: arrays.work_len(),
+                status_len: arrays.status_len(),
                 x: &arrays.x,
                 v: &arrays.v,
                 triangles: &model.triangles,

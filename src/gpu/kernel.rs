@@ -45,8 +45,20 @@ pub enum Kernel {
     CgUpdate,
     /// One workgroup: β and the convergence test.
     CgBeta,
-    /// Per particle: the implicit step's end.
+    /// Per particle: the implicit step's end (with self-collision, its
+    /// stages before and after it: [`Variant::ImplicitPredict`],
+    /// [`Variant::ImplicitProject`]).
     ImplicitFinish,
+    /// Per particle: self-collision's cells and bucket counts.
+    SelfCollisionCount,
+    /// One workgroup: self-collision's bucket runs (a prefix sum).
+    SelfCollisionScan,
+    /// Per particle: self-collision's scatter into the bucket runs.
+    SelfCollisionScatter,
+    /// Per particle: self-collision's runs in index order.
+    SelfCollisionRank,
+    /// Per particle: one Jacobi pass of self-collision's response.
+    SelfCollisionRespond,
     /// Per particle: the semi-implicit right-hand side.
     SemiRhs,
     /// Per free particle: the dense semi-implicit filter's product.
@@ -116,6 +128,11 @@ kernels! {
     CgUpdate = "cg_update",
     CgBeta = "cg_beta",
     ImplicitFinish = "implicit_finish",
+    SelfCollisionCount = "self_collision_count",
+    SelfCollisionScan = "self_collision_scan",
+    SelfCollisionScatter = "self_collision_scatter",
+    SelfCollisionRank = "self_collision_rank",
+    SelfCollisionRespond = "self_collision_respond",
     SemiRhs = "semi_rhs",
     FilterDense = "filter_dense",
     TorqueCentre = "torque_centre",
@@ -232,6 +249,34 @@ pub enum Variant {
     CgFirst,
     /// `semi_rhs` keeping Δv for the CG's warm start.
     KeepDv,
+    /// `implicit_finish` storing the prediction for self-collision.
+    ImplicitPredict,
+    /// `implicit_finish` ending the step after self-collision.
+    ImplicitProject,
+    /// A `self_collision_respond` pass.
+    Respond(RespondPass),
+}
+
+/// Which pass of a step a `self_collision_respond` pipeline runs: its
+/// sections (the first reads `SC_A`, then `SC_B` and `SC_C` alternate,
+/// see `sc_pass_src` in `shaders/common/self_collision.wgsl`) and whether
+/// it is the last (which caps and writes where the step's end reads).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct RespondPass {
+    /// 0 the first pass, 1 an odd one, 2 an even one after the first.
+    phase: u8,
+    last: bool,
+}
+
+impl RespondPass {
+    /// Pass `k` of `passes`.
+    pub const fn of(k: u32, passes: u32) -> RespondPass {
+        let phase = if k == 0 { 0 } else { 2 - (k % 2) as u8 };
+        RespondPass {
+            phase,
+            last: k + 1 == passes,
+        }
+    }
 }
 
 /// `STATE_BUFFERS` in the kernels: read or write x and v.
@@ -249,6 +294,8 @@ impl Variant {
             Variant::FixupFirst | Variant::Fixup(_) => Some(Kernel::FixupJacobi),
             Variant::CgFirst => Some(Kernel::CgUpdate),
             Variant::KeepDv => Some(Kernel::SemiRhs),
+            Variant::ImplicitPredict | Variant::ImplicitProject => Some(Kernel::ImplicitFinish),
+            Variant::Respond(_) => Some(Kernel::SelfCollisionRespond),
         }
     }
 
@@ -290,6 +337,12 @@ impl Variant {
             ],
             (Kernel::CgUpdate, Variant::CgFirst) => vec![("FIRST", 1.0)],
             (Kernel::SemiRhs, Variant::KeepDv) => vec![("ZERO_DV", 0.0)],
+            (Kernel::ImplicitFinish, Variant::ImplicitPredict) => vec![("STAGE", 1.0)],
+            (Kernel::ImplicitFinish, Variant::ImplicitProject) => vec![("STAGE", 2.0)],
+            (Kernel::SelfCollisionRespond, Variant::Respond(pass)) => vec![
+                ("PASS", f64::from(pass.phase)),
+                ("LAST", f64::from(u8::from(pass.last))),
+            ],
             _ => Vec::new(),
         }
     }

@@ -47,6 +47,8 @@ pub struct Features {
     /// The CG matrix is the semi-implicit constant one (`CONSTANT_BLOCKS`
     /// in `shaders/common/bindings.wgsl`).
     pub constant_blocks: bool,
+    /// Self-collision (`[self_collision]`).
+    pub self_collision: bool,
 }
 
 impl Features {
@@ -60,6 +62,7 @@ impl Features {
             (self.spheres, feature::SPHERES),
             (self.filter, feature::FILTER),
             (self.damping, feature::DAMPING),
+            (self.self_collision, feature::SELF_COLLISION),
         ]
         .iter()
         .filter(|(on, _)| *on)
@@ -67,7 +70,7 @@ impl Features {
     }
 
     /// These features with every scene feature compiled in (wind, ground,
-    /// round colliders, filter, damping): the kernels then skip, by
+    /// round colliders, filter, damping, self-collision): the kernels then skip, by
     /// `params.features`, what a cloth lacks. The workgroup kernels are
     /// compiled so — one pipeline per integrator serves every cloth and
     /// every change of its scene, where a variant per feature set would
@@ -80,6 +83,7 @@ impl Features {
             spheres: true,
             filter: true,
             damping: true,
+            self_collision: true,
             ..self
         }
     }
@@ -417,6 +421,7 @@ impl GpuKernels {
             ("HAS_SPHERES", flag(features.spheres)),
             ("HAS_FILTER", flag(features.filter)),
             ("HAS_DAMPING", flag(features.damping)),
+            ("HAS_SELF_COLLISION", flag(features.self_collision)),
             ("GRID", flag(features.grid)),
             ("CONSTANT_BLOCKS", flag(features.constant_blocks)),
             ("COARSE", flag(features.coarse)),

@@ -140,18 +140,26 @@ pub struct GpuParams {
     /// Moving colliders: capsules in use, the step counts at which the
     /// spheres and the capsules were set (their time origin), unused.
     pub motion: [u32; 4],
+    /// Self-collision (`cpu::self_collision`): thickness \[m\], Coulomb
+    /// friction, the largest displacement per step \[m\], the grid's
+    /// inverse cell size \[1/m\]; zero without it.
+    pub self_collision: [f32; 4],
+    /// Self-collision: passes per step, buckets (a power of two), unused,
+    /// and the `vec4` index in `model` of the rest positions (in exclusion
+    /// radii); zero without it.
+    pub self_grid: [u32; 4],
     /// Sphere colliders; the first `sphere_count` are used.
     pub spheres: [GpuSphere; MAX_SPHERES],
     /// Capsule colliders; the first `motion[0]` are used.
     pub capsules: [GpuCapsule; MAX_CAPSULES],
 }
 const _: () =
-    assert!(std::mem::size_of::<GpuParams>() == 304 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES);
-// A workgroup kernel's copy of its cloth's parameters, its staging and
-// reduction words and its shared words fit the memory it is chosen for.
+    assert!(std::mem::size_of::<GpuParams>() == 336 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES);
+// A workgroup kernel's copy of its cloth's parameters, its staging,
+// self-collision scan and reduction words and its shared words fit the memory it is chosen for.
 const _: () = assert!(
     std::mem::size_of::<GpuParams>()
-        + 4 * (crate::kernel_config::SUM_GROUP + crate::kernel_config::WORKGROUP) as usize
+        + 4 * (2 * crate::kernel_config::SUM_GROUP + crate::kernel_config::WORKGROUP) as usize
         + 64
         <= crate::kernel_config::WORKGROUP_STEP_SHARED_BYTES as usize
 );

@@ -52,7 +52,7 @@ pub use grid::GridBlock;
 pub use host_env::quiet_mesa;
 pub use path::StepPath;
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
-pub use solver::{refuse_cpu_only, GpuSolver, GpuState};
+pub use solver::{GpuSolver, GpuState};
 // The kernels' typed identity and the debug API that runs them one by one:
 // reached by `tests/kernel_twins.rs` and `tests/gpu_skipping.rs`.
 /// The workgroup size of every per-particle and per-spring kernel (see

@@ -250,6 +250,7 @@ pub(super) fn work(
             torque: torque_bits(params.semi_implicit.torque_compensation, pinned) & TORQUE_GLOBAL
                 != 0,
             fixup_iterations: super::build::fixup_iterations(params),
+            self_collision_passes: params.self_collision.as_ref().map_or(0, |c| c.iterations),
             path: StepPath::MultiDispatch,
         });
         let (mut dispatches, mut items) = (0, 0);

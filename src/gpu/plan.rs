@@ -25,7 +25,7 @@
 //! particle and step. An odd number of steps starts with `explicit_seed`
 //! (a copy into the snapshot), so the last step always writes x and v.
 
-use super::kernel::{Dispatch, FixupPhase, Kernel, Launch, Variant};
+use super::kernel::{Dispatch, FixupPhase, Kernel, Launch, RespondPass, Variant};
 use super::kernels::Features;
 use super::path::StepPath;
 use crate::kernel_config::{SUM_GROUP, WORKGROUP};
@@ -53,6 +53,8 @@ pub(super) struct PlanInputs {
     pub torque: bool,
     /// Fix-up passes per step.
     pub fixup_iterations: u32,
+    /// Self-collision passes per step (0: none).
+    pub self_collision_passes: u32,
     /// How a step is recorded.
     pub path: StepPath,
 }
@@ -236,7 +238,33 @@ fn workgroup_kernel(i: &PlanInputs) -> Option<Kernel> {
 /// Explicit steps on a grid without fix-up integrate and finish in one
 /// kernel.
 fn single_pass_explicit(i: &PlanInputs) -> bool {
-    i.integrator == Integrator::Explicit && i.fixup_iterations == 0 && i.features.grid
+    i.integrator == Integrator::Explicit
+        && i.fixup_iterations == 0
+        && i.features.grid
+        && !i.features.self_collision
+}
+
+/// Self-collision (see `shaders/common/self_collision.wgsl`): the grid's
+/// build, then its passes, the last capping the step's displacement.
+fn self_collision(i: &PlanInputs, plan: &mut Vec<Part<Dispatch>>) {
+    if !i.features.self_collision {
+        return;
+    }
+    let n = i.particles;
+    let once = |k: Kernel, items: u32| Part::Once(Dispatch::direct(k, items));
+    plan.extend([
+        once(Kernel::SelfCollisionCount, n),
+        once(Kernel::SelfCollisionScan, WORKGROUP),
+        once(Kernel::SelfCollisionScatter, n),
+        once(Kernel::SelfCollisionRank, n),
+    ]);
+    let passes = i.self_collision_passes;
+    for k in 0..passes {
+        let pass = Variant::Respond(RespondPass::of(k, passes));
+        plan.push(Part::Once(
+            Dispatch::direct(Kernel::SelfCollisionRespond, n).of(pass),
+        ));
+    }
 }
 
 /// The parts of a step that is not single-pass.
@@ -257,7 +285,14 @@ fn step(i: &PlanInputs) -> Vec<Part<Dispatch>> {
                 plan.push(once(Kernel::CoarseSetup, i.aggregates[0] + i.aggregates[1]));
             }
             cg(i, &mut plan);
-            plan.push(once(Kernel::ImplicitFinish, n));
+            if f.self_collision {
+                let finish = Dispatch::direct(Kernel::ImplicitFinish, n);
+                plan.push(Part::Once(finish.of(Variant::ImplicitPredict)));
+                self_collision(i, &mut plan);
+                plan.push(Part::Once(finish.of(Variant::ImplicitProject)));
+            } else {
+                plan.push(once(Kernel::ImplicitFinish, n));
+            }
             return plan;
         }
         Integrator::Explicit if f.grid => {
@@ -265,7 +300,7 @@ fn step(i: &PlanInputs) -> Vec<Part<Dispatch>> {
         }
         Integrator::Explicit => {
             plan.push(once(Kernel::SpringForces, s));
-            if i.fixup_iterations == 0 && !f.wind {
+            if i.fixup_iterations == 0 && !f.wind && !f.self_collision {
                 let fused = Dispatch::direct(Kernel::ExplicitIntegrate, n).of(Variant::Fused);
                 plan.push(Part::Once(fused));
                 return plan;
@@ -305,6 +340,7 @@ fn step(i: &PlanInputs) -> Vec<Part<Dispatch>> {
             Dispatch::direct(Kernel::FixupJacobi, gather).of(variant),
         ));
     }
+    self_collision(i, &mut plan);
     plan.push(once(Kernel::FinishStep, n));
     plan
 }

@@ -57,6 +57,8 @@ pub const COMMON: &[(&str, &str)] = &[
     wgsl!("common/apply_block"),
     wgsl!("common/no_spring_data"),
     wgsl!("common/torque"),
+    wgsl!("common/self_collision"),
+    wgsl!("common/cloth_self_collision"),
 ];
 
 /// A composed source (its grid gather generated for `block`), or what is

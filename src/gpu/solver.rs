@@ -175,6 +175,11 @@ pub(super) fn plan_inputs(
         filter_count: params.filter_count,
         torque: params.torque_compensation & layout::TORQUE_GLOBAL != 0,
         fixup_iterations,
+        self_collision_passes: if features.self_collision {
+            params.self_grid[0]
+        } else {
+            0
+        },
         path,
     }
 }
@@ -235,6 +240,7 @@ pub(super) fn scene_features(model: &Model, params: &Params, grid: Option<GridBl
         block: grid.unwrap_or(GridBlock::ONE),
         coarse: Aggregation::for_scene(model, params).is_some(),
         constant_blocks: params.integrator == Integrator::SemiImplicit,
+        self_collision: params.self_collision.is_some(),
     }
 }
 
@@ -343,20 +349,6 @@ pub(super) fn limit(name: &'static str, what: &str, available: u64, needed: u64)
     }
 }
 
-/// Refuses parameters that only the CPU solver steps (self-collision,
-/// [`Error::NotOnGpu`]), so that no GPU solver silently leaves them out;
-/// `what` names the solver (`GpuSolver`, `--backend gpu`). Every GPU solver
-/// calls it; a host may call it before opening an adapter.
-pub fn refuse_cpu_only(params: &Params, what: &'static str) -> Result<()> {
-    if params.self_collision.is_some() {
-        return Err(Error::NotOnGpu {
-            feature: "self-collision (`[self_collision]`)",
-            what,
-        });
-    }
-    Ok(())
-}
-
 impl GpuSolver {
     /// Builds the solver on the host's `device` and `queue`. Refuses, before
     /// allocating anything, invalid parameters, a cloth that exceeds the
@@ -418,7 +410,7 @@ impl GpuSolver {
     ) -> Result<GpuSolver> {
         let device = kernels.device();
         params.validate()?;
-        refuse_cpu_only(params, "GpuSolver")?;
+        crate::cpu::self_collision::thickness(model, params)?;
         let counts = Counts::of_model(model);
         let limits = device.limits();
         let dense = params.integrator == Integrator::SemiImplicit

@@ -196,6 +196,23 @@ impl Kernel {
             Kernel::TorqueMoments => const { &[term(Particle, 3 * VEC4, 0)] },
             // x, Δv; Δv.
             Kernel::TorqueApply => const { &[term(Particle, 2 * VEC4, VEC4)] },
+            // Self-collision, per particle. The predicted x; its copy, its
+            // cell and bucket, and its bucket's count.
+            Kernel::SelfCollisionCount => const { &[term(Particle, VEC4, 2 * VEC4 + W)] },
+            // Up to two counts per particle (the table has at most twice
+            // as many buckets as particles), read twice; a half entry of
+            // runs written.
+            Kernel::SelfCollisionScan => const { &[term(Particle, 4 * W, VEC4 / 2)] },
+            // The cell and the bucket's run, the count; the grid entry.
+            Kernel::SelfCollisionScatter => const { &[term(Particle, 2 * VEC4 + W, VEC4)] },
+            // The cell, the run and at least its own unordered entry; the
+            // ordered entry.
+            Kernel::SelfCollisionRank => const { &[term(Particle, 3 * VEC4, VEC4)] },
+            // Its position, x, cell and rest position and the runs of the
+            // 27 cells around it (the entries and positions of the
+            // particles found there, which depend on the folds, are not
+            // counted); its new position.
+            Kernel::SelfCollisionRespond => const { &[term(Particle, 31 * VEC4, VEC4)] },
             // x, v, Δv; the predicted x and new v.
             Kernel::SemiIntegrate => const { &[term(Particle, 3 * VEC4, 2 * VEC4)] },
             // The whole explicit step of spring_forces, explicit_integrate

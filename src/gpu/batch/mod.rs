@@ -135,7 +135,6 @@ impl GpuBatch {
     /// every WebGPU device): a cloth for a slot beyond is refused, naming
     /// the limit.
     pub fn add(&mut self, model: &Model, params: &Params) -> Result<ClothId> {
-        super::solver::refuse_cpu_only(params, "GpuBatch")?;
         let free = self.slots.iter().position(|s| s.member.is_none());
         let slot = free.unwrap_or(self.slots.len());
         let slot32 = u32::try_from(slot).map_err(|_| Error::InvalidParameter {

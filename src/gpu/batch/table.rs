@@ -71,7 +71,7 @@ pub(super) fn extents(a: &ClothArrays, triangles: usize) -> Extents {
     e[Region::Particles.index()] = u64::from(a.params.particle_count);
     e[Region::Model.index()] = a.model_len();
     e[Region::Work.index()] = a.work_len();
-    e[Region::Status.index()] = status::COUNT as u64;
+    e[Region::Status.index()] = a.status_len();
     e[Region::Indices.index()] = 3 * triangles as u64;
     e
 }
@@ -363,12 +363,14 @@ impl Table {
         write(Region::Particles, bytemuck::cast_slice(&a.x));
         q.write_buffer(&self.v, at(Region::Particles), bytemuck::cast_slice(&a.v));
         write(Region::Indices, bytemuck::cast_slice(triangles));
-        let mut words = [0u32; status::COUNT];
+        let lens = extents(a, triangles.len());
+        // The status words, then self-collision's counters at zero (the
+        // range may have held another cloth's words).
+        let mut words = vec![0u32; lens[Region::Status.index()] as usize];
         words[status::BAD_STEP] = u32::MAX;
         words[status::BAD_PARTICLE] = u32::MAX;
         write(Region::Status, bytemuck::cast_slice(&words));
         self.write_entry(slot, &a.params);
-        let lens = extents(a, triangles.len());
         let device = self.kernels.device();
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("wgcloth.batch.clear"),

@@ -31,6 +31,7 @@ use crate::stats::StepStats;
 /// of its own on the multi-dispatch path.
 pub(super) fn path(kernels: &GpuKernels, model: &Model, params: &Params) -> Result<StepPath> {
     params.validate()?;
+    crate::cpu::self_collision::thickness(model, params)?;
     let counts = Counts::of_model(model);
     let dense = dense_filter(model, params);
     let limits = kernels.device().limits();
