@@ -25,8 +25,6 @@ override HAS_SPHERES: bool = true;
 override HAS_FILTER: bool = true;
 // Some spring has damping.
 override HAS_DAMPING: bool = true;
-// Self-collision ([self_collision]).
-override HAS_SELF_COLLISION: bool = true;
 // The springs are in grid layout (src/gpu/grid.rs) and the kernels find
 // them by row and column instead of through the adjacency lists.
 override GRID: bool = false;
@@ -57,8 +55,11 @@ fn has_filter() -> bool {
 fn has_damping() -> bool {
     return HAS_DAMPING && (params.features & FEATURE_DAMPING) != 0u;
 }
+// Self-collision has no HAS_ constant: only the workgroup kernels ask
+// (the multi-dispatch path records its kernels or not), so a kernel's code
+// is the same with it or without, and a driver's shader cache serves both.
 fn has_self_collision() -> bool {
-    return HAS_SELF_COLLISION && (params.features & FEATURE_SELF_COLLISION) != 0u;
+    return (params.features & FEATURE_SELF_COLLISION) != 0u;
 }
 
 // Twin: layout::GpuSphere.

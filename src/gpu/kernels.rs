@@ -421,7 +421,6 @@ impl GpuKernels {
             ("HAS_SPHERES", flag(features.spheres)),
             ("HAS_FILTER", flag(features.filter)),
             ("HAS_DAMPING", flag(features.damping)),
-            ("HAS_SELF_COLLISION", flag(features.self_collision)),
             ("GRID", flag(features.grid)),
             ("CONSTANT_BLOCKS", flag(features.constant_blocks)),
             ("COARSE", flag(features.coarse)),

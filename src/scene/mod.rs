@@ -217,6 +217,7 @@ impl Scene {
             "tablecloth",
             "banner",
             "cape",
+            "heap",
         ]
     }
 
@@ -231,6 +232,7 @@ impl Scene {
             "tablecloth" => include_str!("../../scenes/tablecloth.toml"),
             "banner" => include_str!("../../scenes/banner.toml"),
             "cape" => include_str!("../../scenes/cape.toml"),
+            "heap" => include_str!("../../scenes/heap.toml"),
             _ => {
                 return Err(Error::UnknownScene {
                     name: name.to_string(),
