@@ -24,6 +24,7 @@ last_frame() {
 last_frame hanging     # the README's top picture: the quick start's last frame
 last_frame tablecloth # a mesh cloth (OBJ)
 last_frame banner     # a mesh cloth (glTF) with a hole
+last_frame heap       # self-collision: a cloth folded onto itself
 
 target/release/examples/cape "$images/cape.png"
 target/release/examples/batch "$images/batch.png"
