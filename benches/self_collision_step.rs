@@ -58,7 +58,11 @@ fn gpu_time(ctx: &GpuContext, model: &Model, params: &Params) -> f64 {
         .unwrap_or_else(|e| panic!("GPU solver: {e}"));
     g.step(warm_up(model.particle_count()))
         .unwrap_or_else(|e| panic!("GPU warm-up: {e}"));
-    let batch = if model.particle_count() <= 65 * 65 { 8 } else { 2 };
+    let batch = if model.particle_count() <= 65 * 65 {
+        8
+    } else {
+        2
+    };
     common::median(if common::quick() { 3 } else { 5 }, || {
         let t = Instant::now();
         g.step(batch).unwrap_or_else(|e| panic!("GPU step: {e}"));
@@ -95,7 +99,10 @@ fn table(ctx: &GpuContext) {
     for (label, name, n) in rows {
         let (off_model, off) = scene(name, n, false);
         let (on_model, on) = scene(name, n, true);
-        let (g_off, g_on) = (gpu_time(ctx, &off_model, &off), gpu_time(ctx, &on_model, &on));
+        let (g_off, g_on) = (
+            gpu_time(ctx, &off_model, &off),
+            gpu_time(ctx, &on_model, &on),
+        );
         let (c_off, c_on) = (cpu_time(&off_model, &off), cpu_time(&on_model, &on));
         println!(
             "{label:>16} {:>9.3} {:>9.3} {:>6.2}× {:>9.3} {:>9.3} {:>6.2}×",

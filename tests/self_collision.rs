@@ -5,6 +5,9 @@
 //! bit for bit as without it; bad values are refused naming the key; the
 //! GPU solvers refuse it rather than leave it out.
 
+mod gpu_common;
+
+use gpu_common::{folded_model, folded_positions, FOLD_SPACING as SPACING};
 use wgcloth::cpu::self_collision::{self, EXCLUDE_REST, STEP_CAP};
 use wgcloth::cpu::{CpuSolver, State};
 use wgcloth::glam::DVec3;
@@ -13,58 +16,12 @@ use wgcloth::params::{Ground, Integrator, Params, SelfCollision};
 use wgcloth::real::Vec3;
 use wgcloth::{Error, Real, Scene};
 
-/// Columns of the folded cloth.
-const NX: usize = 10;
-/// Rows per layer of the folded cloth.
-const LAYER_ROWS: usize = 7;
-/// Layers of the folded cloth.
-const LAYERS: usize = 3;
-/// Rest spacing of the folded cloth \[m\] (the default thickness).
-const SPACING: f64 = 0.02;
-
 /// The bound: no two particles the exclusion does not pair come
 /// closer than this fraction of the thickness. The Jacobi response
 /// separates a lone pair to the full thickness in one pass; the 10 % is
 /// what a stack under gravity and a landing leave of a step's approach
 /// (at most a thickness, see `STEP_CAP`) after the default two passes.
 const MIN_GAP: f64 = 0.9;
-
-/// A grid cloth of `LAYERS × LAYER_ROWS` rows, its rest flat.
-fn folded_model() -> Model {
-    let rows = LAYERS * LAYER_ROWS;
-    let spec = ClothSpec {
-        nx: NX,
-        ny: rows,
-        size: [SPACING * (NX - 1) as f64, SPACING * (rows - 1) as f64],
-        origin: DVec3::ZERO,
-        orientation: Orientation::Horizontal,
-        mass: 0.05,
-        pins: vec![],
-    };
-    Model::new(&spec, &Params::default().springs).expect("valid cloth")
-}
-
-/// The cloth folded in a Z: layer `l` of rows `l·LAYER_ROWS ..` lies one
-/// thickness (the spacing) above layer `l − 1`, each fold a single stretch
-/// spring standing vertical; the lowest layer `height` above the ground.
-fn folded_positions(height: f64) -> Vec<DVec3> {
-    (0..NX * LAYERS * LAYER_ROWS)
-        .map(|p| {
-            let (i, j) = (p % NX, p / NX);
-            let (layer, s) = (j / LAYER_ROWS, j % LAYER_ROWS);
-            let along = if layer % 2 == 0 {
-                s
-            } else {
-                LAYER_ROWS - 1 - s
-            };
-            DVec3::new(
-                i as f64 * SPACING,
-                height + layer as f64 * SPACING,
-                along as f64 * SPACING,
-            )
-        })
-        .collect()
-}
 
 /// Parameters of the drop: `integrator`, ground, self-collision at its
 /// defaults.
@@ -480,10 +437,7 @@ fn differing(a: &[wgcloth::glam::Vec3], b: &[wgcloth::glam::Vec3]) -> (usize, Op
 #[test]
 fn the_gpu_drop_is_the_f32_mirrors_bit_for_bit() {
     use wgcloth::gpu::{GpuSolver, StepPath};
-    let ctx = match wgcloth::GpuContext::new(None) {
-        Ok(c) => c,
-        Err(e) => panic!("this test needs an adapter (lavapipe works): {e}"),
-    };
+    let ctx = gpu_common::gpu();
     let model = folded_model();
     let start = folded_positions(0.05);
     for integrator in Integrator::ALL {
@@ -525,10 +479,7 @@ fn the_gpu_drop_is_the_f32_mirrors_bit_for_bit() {
 #[test]
 fn a_batch_drops_it_as_lone_solvers_do() {
     use wgcloth::gpu::{GpuBatch, GpuSolver, StepPath};
-    let ctx = match wgcloth::GpuContext::new(None) {
-        Ok(c) => c,
-        Err(e) => panic!("this test needs an adapter (lavapipe works): {e}"),
-    };
+    let ctx = gpu_common::gpu();
     let model = folded_model();
     let start = folded_positions(0.05);
     let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);

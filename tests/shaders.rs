@@ -227,6 +227,8 @@ fn pod_twins_match_their_wgsl_structs() {
             kind_a,
             coarse,
             motion,
+            self_collision,
+            self_grid,
             spheres,
             capsules
         }),

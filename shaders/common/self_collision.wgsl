@@ -25,9 +25,18 @@ fn sc_counter(b: u32) -> u32 {
     return params.status_base + STATUS_WORDS + b;
 }
 
-// Twin: cpu::self_collision::cell_of.
+// The cell of a point at `xp` (twin: cpu::self_collision::cell_of).
 fn sc_cell(xp: vec3<f32>) -> vec3<i32> {
     return vec3<i32>(floor(xp * params.self_collision.w));
+}
+
+// The lowest of the 2 × 2 × 2 cells a particle built at `xp` visits: per
+// axis its cell less one where it lies in the cell's lower half (twin:
+// cpu::self_collision::cell_of; s − floor(s) is exact).
+fn sc_corner(xp: vec3<f32>) -> vec3<i32> {
+    let s = xp * params.self_collision.w;
+    let lower = (s - floor(s)) < vec3<f32>(0.5);
+    return vec3<i32>(floor(s)) - vec3<i32>(select(vec3<u32>(0u), vec3<u32>(1u), lower));
 }
 
 // Twin: cpu::self_collision::bucket (params.self_grid.y buckets, a power
@@ -135,12 +144,13 @@ fn self_collision_respond_item(p: u32, src: u32, dst: u32, last: bool) -> bool {
         let friction = params.self_collision.y;
         let t2 = t * t;
         let rest = sc_rest(p);
-        let home = bitcast<vec3<i32>>(work[wi(W_SC_CELL, p)].xyz);
+        let corner = sc_corner(work[wi(W_SC_A, p)].xyz);
         var sum = vec3<f32>(0.0);
         var contacts = 0u;
-        // The 27 cells around, x fastest (cpu's NEIGHBOUR_CELLS).
-        for (var d = 0u; d < 27u; d++) {
-            let cell = home + vec3<i32>(vec3<u32>(d % 3u, d / 3u % 3u, d / 9u)) - vec3<i32>(1);
+        // The 2 × 2 × 2 cells from the corner, x fastest (cpu's
+        // NEIGHBOUR_CELLS).
+        for (var d = 0u; d < 8u; d++) {
+            let cell = corner + vec3<i32>(vec3<u32>(d & 1u, (d >> 1u) & 1u, d >> 2u));
             let run = sc_run(sc_bucket(cell));
             for (var k = run.x; k < run.y; k++) {
                 let e = bitcast<vec4<u32>>(work[sc_entry(W_SC_ORDER, k)]);

@@ -5,8 +5,8 @@
 //! and semi-implicit: after the fix-up; implicit: after `x += dt v`), and
 //! before the colliders:
 //!
-//! 1. **Build** a uniform spatial hash grid of cells a little larger than
-//!    `thickness` ([`CELL_SLACK`]): each particle's integer cell is hashed
+//! 1. **Build** a uniform spatial hash grid of cells a little over two
+//!    thicknesses wide ([`CELL_THICKNESSES`]): each particle's integer cell is hashed
 //!    into a table of a power-of-two size at least the particle count; the
 //!    particles are counted per bucket, the counts prefix-summed, and the
 //!    particles scattered so that each bucket's run lists its particles in
@@ -15,7 +15,11 @@
 //!    they leave, then ranks each particle among its bucket's particles of
 //!    lower index: the same runs, whatever the scheduling.
 //! 2. **Respond**, `iterations` Jacobi passes: each free particle `p`
-//!    visits the 27 cells around its own in a fixed order and, for every
+//!    visits the 2 × 2 × 2 cells that hold every point within a thickness
+//!    of where it was at the build (along each axis its own cell and the
+//!    neighbour on the side of the cell's nearer face: a cell two
+//!    thicknesses wide has a particle at least a thickness from its
+//!    farther face), in a fixed order, and, for every
 //!    other particle `q` in that cell (index order; a hash collision that
 //!    puts another cell's particles in the bucket is skipped by comparing
 //!    cells), closer than `thickness` and not excluded, takes its share
@@ -67,10 +71,12 @@ pub const STEP_CAP: f64 = 0.5;
 /// particles of one layer (the cost grows with its square).
 pub const MAX_THICKNESS_DEFAULTS: f64 = 4.0;
 
-/// The grid's cell size over the thickness: a little over one, so that
-/// two particles closer than a thickness always lie in neighbouring cells
-/// however the cell's inverse size is rounded.
-pub const CELL_SLACK: f64 = 1.0 + 1e-4;
+/// The grid's cell size in thicknesses: a little over two, so that every
+/// point within a thickness of a particle lies in the 2 × 2 × 2 cells its
+/// respond visits however the cell's inverse size is rounded — 8 bucket
+/// look-ups per particle and pass where cells one thickness wide need 27,
+/// for about four times the particles per cell of a flat layer.
+pub const CELL_THICKNESSES: f64 = 2.0 * (1.0 + 1e-4);
 
 const HASH: [u32; 3] = crate::kernel_config::SELF_COLLISION_HASH;
 
@@ -86,7 +92,7 @@ pub struct SelfCollisionR<R> {
     pub iterations: u32,
     /// Largest displacement per step \[m\]: `STEP_CAP × thickness`.
     pub cap: R,
-    /// The inverse of the cell size \[1/m\]: `1 / (CELL_SLACK ×
+    /// The inverse of the cell size \[1/m\]: `1 / (CELL_THICKNESSES ×
     /// thickness)`.
     pub inv_cell: R,
     /// Rest positions in units of the exclusion radius
@@ -218,7 +224,7 @@ impl<R: Real> SelfCollisionR<R> {
             friction: R::from_f64(c.friction),
             iterations: c.iterations,
             cap: R::from_f64(STEP_CAP * thickness),
-            inv_cell: R::from_f64(1.0 / (CELL_SLACK * thickness)),
+            inv_cell: R::from_f64(1.0 / (CELL_THICKNESSES * thickness)),
             rest: model
                 .rest_positions
                 .iter()
@@ -235,6 +241,8 @@ impl<R: Real> SelfCollisionR<R> {
 pub struct Grid<R> {
     /// Each particle's cell at the build.
     pub cell: Vec<[i32; 3]>,
+    /// The lowest of the 2 × 2 × 2 cells each particle visits.
+    pub corner: Vec<[i32; 3]>,
     /// Per bucket, the start of its run in `order`; `table + 1` entries.
     pub start: Vec<u32>,
     /// The particles, bucket by bucket, each run in index order.
@@ -251,6 +259,7 @@ impl<R: Real> Grid<R> {
         const WHAT: &str = "the self-collision grid";
         Ok(Grid {
             cell: try_vec(particles, [0; 3], WHAT)?,
+            corner: try_vec(particles, [0; 3], WHAT)?,
             start: try_vec(table.saturating_add(1), 0, WHAT)?,
             order: try_vec(particles, 0, WHAT)?,
             snapshot: try_vec(particles, Vec3::ZERO, WHAT)?,
@@ -259,15 +268,21 @@ impl<R: Real> Grid<R> {
     }
 }
 
-/// The cell of a point at `x` in a grid of inverse cell size `inv` (twin
-/// of the GPU's `vec3<i32>(floor(x * inv))`: the product rounded in `R`,
-/// then floored exactly; saturating at `i32`'s range).
-fn cell_of<R: Real>(x: Vec3<R>, inv: R) -> [i32; 3] {
-    [0, 1, 2].map(|k| (x.get(k) * inv).to_f64().floor() as i32)
+/// The cell of a point at `x` in a grid of inverse cell size `inv`, and
+/// the lowest corner of the 2 × 2 × 2 cells its respond visits: per axis
+/// its own cell less one where it lies in the cell's lower half (twin of
+/// `sc_cell` and `sc_corner`: the product rounded in `R`, floored exactly,
+/// the fraction `s − floor(s)` exact; saturating at `i32`'s range).
+fn cell_of<R: Real>(x: Vec3<R>, inv: R) -> ([i32; 3], [i32; 3]) {
+    let s = [0, 1, 2].map(|k| (x.get(k) * inv).to_f64());
+    let cell = s.map(|s| s.floor() as i32);
+    let corner = [0, 1, 2].map(|k| cell[k].wrapping_sub(i32::from(s[k] - s[k].floor() < 0.5)));
+    (cell, corner)
 }
 
-/// The bucket of cell `c` in a table of `table` (a power of two) buckets.
-fn bucket(c: [i32; 3], table: usize) -> usize {
+/// The bucket of cell `c` in a table of `table` (a power of two) buckets
+/// (twin: `sc_bucket`).
+pub fn bucket(c: [i32; 3], table: usize) -> usize {
     let h = (c[0] as u32).wrapping_mul(HASH[0])
         ^ (c[1] as u32).wrapping_mul(HASH[1])
         ^ (c[2] as u32).wrapping_mul(HASH[2]);
@@ -280,7 +295,7 @@ fn bucket(c: [i32; 3], table: usize) -> usize {
 pub fn build<R: Real>(c: &SelfCollisionR<R>, x: &[Vec3<R>], g: &mut Grid<R>) {
     g.start.fill(0);
     for (p, &xp) in x.iter().enumerate() {
-        g.cell[p] = cell_of(xp, c.inv_cell);
+        (g.cell[p], g.corner[p]) = cell_of(xp, c.inv_cell);
         g.start[bucket(g.cell[p], c.table) + 1] += 1;
     }
     for b in 0..c.table {
@@ -299,17 +314,13 @@ pub fn build<R: Real>(c: &SelfCollisionR<R>, x: &[Vec3<R>], g: &mut Grid<R>) {
     g.start[0] = 0;
 }
 
-/// The 27 cell offsets in the order every particle visits them: x
-/// fastest, then y, then z.
-const NEIGHBOUR_CELLS: [[i32; 3]; 27] = {
-    let mut cells = [[0; 3]; 27];
+/// The 8 cell offsets from a particle's corner cell in the order every
+/// particle visits them: x fastest, then y, then z.
+const NEIGHBOUR_CELLS: [[i32; 3]; 8] = {
+    let mut cells = [[0; 3]; 8];
     let mut k = 0;
-    while k < 27 {
-        cells[k] = [
-            (k % 3) as i32 - 1,
-            (k / 3 % 3) as i32 - 1,
-            (k / 9) as i32 - 1,
-        ];
+    while k < 8 {
+        cells[k] = [(k & 1) as i32, (k >> 1 & 1) as i32, (k >> 2) as i32];
         k += 1;
     }
     cells
@@ -333,7 +344,7 @@ pub fn respond<R: Real>(
     let t2 = c.thickness * c.thickness;
     let mut sum = Vec3::ZERO;
     let mut contacts = 0u32;
-    let home = g.cell[p];
+    let home = g.corner[p];
     for d in NEIGHBOUR_CELLS {
         // Wrapping, as the GPU's `i32` sum: only a cell at the edge of the
         // range (a blown-up position) wraps, and the distance test then
@@ -377,25 +388,43 @@ pub fn apply<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], w: &mut Workspace<R>) 
     };
     build(c, x, g);
     let mut moved = false;
-    for _ in 0..c.iterations {
+    for k in 0..c.iterations {
         g.snapshot.copy_from_slice(x);
+        let last = k + 1 == c.iterations;
         for (p, xp) in x.iter_mut().enumerate() {
-            if let Some(new) = respond(sys, c, g, &w.x_old, p) {
-                *xp = new;
-                moved = true;
-            }
-        }
-    }
-    let cap2 = c.cap * c.cap;
-    for (p, xp) in x.iter_mut().enumerate() {
-        let dx = *xp - w.x_old[p];
-        let l2 = dx.length_squared();
-        if sys.inv_mass[p] > R::ZERO && l2 > cap2 {
-            *xp = w.x_old[p] + dx * (c.cap / l2.sqrt());
-            moved = true;
+            let (new, m) = pass(sys, c, g, &w.x_old, p, last);
+            *xp = new;
+            moved |= m;
         }
     }
     moved
+}
+
+/// Twin of `self_collision_respond` (one pass) for particle `p`: its
+/// position after the pass from the snapshot `g.snapshot` ([`respond`]),
+/// on the `last` pass with its displacement since `x_old` capped at
+/// `c.cap`; and whether the pass moved it (a contact or the cap).
+pub fn pass<R: Real>(
+    sys: &System<R>,
+    c: &SelfCollisionR<R>,
+    g: &Grid<R>,
+    x_old: &[Vec3<R>],
+    p: usize,
+    last: bool,
+) -> (Vec3<R>, bool) {
+    let (mut x, mut moved) = match respond(sys, c, g, x_old, p) {
+        Some(new) => (new, true),
+        None => (g.snapshot[p], false),
+    };
+    if last && sys.inv_mass[p] > R::ZERO {
+        let dx = x - x_old[p];
+        let l2 = dx.length_squared();
+        if l2 > c.cap * c.cap {
+            x = x_old[p] + dx * (c.cap / l2.sqrt());
+            moved = true;
+        }
+    }
+    (x, moved)
 }
 
 /// The implicit step's projection: [`apply`] to `st.x`, which the step

@@ -69,6 +69,13 @@ pub mod semi_implicit {
     pub use crate::cpu::semi_implicit::{cg_prepare, integrate, rhs};
 }
 
+/// Self-collision's twins: `build` (of `self_collision_count`, `_scan`,
+/// `_scatter` and `_rank` together), `bucket`, `pass` (of
+/// `self_collision_respond`).
+pub mod self_collision {
+    pub use crate::cpu::self_collision::{bucket, build, pass, Grid, SelfCollisionR};
+}
+
 /// The torque compensation's twins.
 pub mod torque {
     pub use crate::cpu::torque::{apply, centre, centre_of_mass, moments, SLOTS};

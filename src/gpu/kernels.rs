@@ -47,7 +47,10 @@ pub struct Features {
     /// The CG matrix is the semi-implicit constant one (`CONSTANT_BLOCKS`
     /// in `shaders/common/bindings.wgsl`).
     pub constant_blocks: bool,
-    /// Self-collision (`[self_collision]`).
+    /// Self-collision (`[self_collision]`): its dispatches in the plan.
+    /// No kernel's code depends on it (the workgroup kernels skip it by
+    /// the cloth's feature bit), so it is not a compiled feature: every
+    /// variant leaves it as the scene has it, and the pipelines are shared.
     pub self_collision: bool,
 }
 
@@ -70,7 +73,7 @@ impl Features {
     }
 
     /// These features with every scene feature compiled in (wind, ground,
-    /// round colliders, filter, damping, self-collision): the kernels then skip, by
+    /// round colliders, filter, damping): the kernels then skip, by
     /// `params.features`, what a cloth lacks. The workgroup kernels are
     /// compiled so — one pipeline per integrator serves every cloth and
     /// every change of its scene, where a variant per feature set would
@@ -83,7 +86,6 @@ impl Features {
             spheres: true,
             filter: true,
             damping: true,
-            self_collision: true,
             ..self
         }
     }
@@ -316,6 +318,12 @@ impl GpuKernels {
                 "the kernel {kernel} has no variant {variant:?}"
             )));
         }
+        // Self-collision changes which kernels a plan records, not the code
+        // of any (no HAS_ constant): one pipeline serves both.
+        let features = Features {
+            self_collision: false,
+            ..features
+        };
         let mut built = self.built();
         let missing: Vec<Key> = wanted
             .iter()

@@ -208,11 +208,11 @@ impl Kernel {
             // The cell, the run and at least its own unordered entry; the
             // ordered entry.
             Kernel::SelfCollisionRank => const { &[term(Particle, 3 * VEC4, VEC4)] },
-            // Its position, x, cell and rest position and the runs of the
-            // 27 cells around it (the entries and positions of the
+            // Its position, x, build position and rest position and the
+            // runs of the 8 cells around it (the entries and positions of the
             // particles found there, which depend on the folds, are not
             // counted); its new position.
-            Kernel::SelfCollisionRespond => const { &[term(Particle, 31 * VEC4, VEC4)] },
+            Kernel::SelfCollisionRespond => const { &[term(Particle, 12 * VEC4, VEC4)] },
             // x, v, Δv; the predicted x and new v.
             Kernel::SemiIntegrate => const { &[term(Particle, 3 * VEC4, 2 * VEC4)] },
             // The whole explicit step of spring_forces, explicit_integrate

@@ -7,7 +7,7 @@ use std::sync::OnceLock;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::{DVec3, Vec3};
 use wgcloth::gpu::{GpuContext, GpuSolver, StepPath};
-use wgcloth::model::{ClothSpec, Corner, Pin};
+use wgcloth::model::{ClothSpec, Corner, Orientation, Pin};
 use wgcloth::params::{FixupMethod, Ground, Integrator, Sphere, Wind};
 use wgcloth::{Model, Params};
 
@@ -163,4 +163,56 @@ pub fn decode_png(path: &std::path::Path) -> (u32, u32, Vec<u8>) {
     assert_eq!(info.color_type, png::ColorType::Rgba, "{}", path.display());
     rgba.truncate(info.buffer_size());
     (info.width, info.height, rgba)
+}
+
+// The folded cloth of the self-collision tests (tests/self_collision.rs,
+// tests/kernel_twins.rs).
+
+/// Columns of the folded cloth.
+pub const FOLD_NX: usize = 10;
+/// Rows per layer of the folded cloth.
+pub const FOLD_LAYER_ROWS: usize = 7;
+/// Layers of the folded cloth.
+pub const FOLD_LAYERS: usize = 3;
+/// Rest spacing of the folded cloth \[m\] (the default thickness).
+pub const FOLD_SPACING: f64 = 0.02;
+
+/// A grid cloth of `FOLD_LAYERS × FOLD_LAYER_ROWS` rows, its rest flat.
+pub fn folded_model() -> Model {
+    let rows = FOLD_LAYERS * FOLD_LAYER_ROWS;
+    let spec = ClothSpec {
+        nx: FOLD_NX,
+        ny: rows,
+        size: [
+            FOLD_SPACING * (FOLD_NX - 1) as f64,
+            FOLD_SPACING * (rows - 1) as f64,
+        ],
+        origin: DVec3::ZERO,
+        orientation: Orientation::Horizontal,
+        mass: 0.05,
+        pins: vec![],
+    };
+    Model::new(&spec, &Params::default().springs).expect("valid cloth")
+}
+
+/// The cloth folded in a Z: layer `l` of rows `l·FOLD_LAYER_ROWS ..` lies one
+/// thickness (the spacing) above layer `l − 1`, each fold a single stretch
+/// spring standing vertical; the lowest layer `height` above the ground.
+pub fn folded_positions(height: f64) -> Vec<DVec3> {
+    (0..FOLD_NX * FOLD_LAYERS * FOLD_LAYER_ROWS)
+        .map(|p| {
+            let (i, j) = (p % FOLD_NX, p / FOLD_NX);
+            let (layer, s) = (j / FOLD_LAYER_ROWS, j % FOLD_LAYER_ROWS);
+            let along = if layer % 2 == 0 {
+                s
+            } else {
+                FOLD_LAYER_ROWS - 1 - s
+            };
+            DVec3::new(
+                i as f64 * FOLD_SPACING,
+                height + layer as f64 * FOLD_SPACING,
+                along as f64 * FOLD_SPACING,
+            )
+        })
+        .collect()
 }
