@@ -2,19 +2,20 @@
 //! same step without it, at 33², 65², 129², 257² and on a mesh, on the GPU
 //! and on the CPU reference in `f32`, as ratios measured in one run.
 //!
-//! `cargo bench --bench self_collision_step` prints, for the `heap` scene
-//! (a 1 m cloth folding onto itself on the floor, implicit at 1/240 s)
-//! grown to each size at constant extent, and for the `tablecloth` mesh
-//! scene (631 vertices) with `[self_collision]` added, the median wall
-//! time per step with and without self-collision and their ratio: on the
-//! GPU a run of steps recorded into one encoder, one submit, a wait; on the
-//! CPU single `f32` steps. Each solver is first stepped to where the heap
-//! has folded (96 steps, 0.4 s) at up to 65², and 8 steps beyond (the
-//! grid's build and passes cost the same whether or not particles touch;
-//! the contacts' own work is what the folded state adds). Then criterion
-//! times the GPU step with self-collision (`iter_custom`: submit plus
-//! wait). `WGCLOTH_BENCH_QUICK=1` shortens the run; `WGCLOTH_BENCH_SIZES=33,65`
-//! picks sizes.
+//! `cargo bench --bench self_collision_step` prints, for the `hanging`
+//! scene grown at constant spacing (`benches/common`: no ground, explicit
+//! at 1/1000 s without fix-up, implicit at 0.02 s) and for the
+//! `tablecloth` mesh scene (631 vertices, implicit), the median wall time
+//! per step without and with an empty `[self_collision]` table and their
+//! ratio: on the GPU a run of steps recorded into one encoder, one submit,
+//! a wait; on the CPU single `f32` steps; the two solvers of a row timed
+//! in turn, sample by sample, so that a load on the machine hits both.
+//! Nothing in these scenes comes near another part of its cloth (the first
+//! steps of the tablecloth's fall), so both solvers step the same states
+//! and iterate CG as often: the ratio is what the grid's build and passes
+//! add to a step. Then criterion times the GPU step with self-collision
+//! (`iter_custom`: submit plus wait). `WGCLOTH_BENCH_QUICK=1` shortens the
+//! run; `WGCLOTH_BENCH_SIZES=33,65` picks sizes.
 
 mod common;
 
@@ -23,63 +24,82 @@ use std::time::Instant;
 use criterion::{criterion_group, BenchmarkId, Criterion, Throughput};
 use wgcloth::cpu::CpuSolver;
 use wgcloth::gpu::{GpuContext, GpuSolver};
-use wgcloth::params::SelfCollision;
+use wgcloth::params::{Integrator, SelfCollision};
 use wgcloth::{Model, Params, Scene};
 
 fn sizes() -> Vec<usize> {
     common::sizes(&[33, 65, 129, 257])
 }
 
-/// The built-in scene `name` at `n × n` particles (`None`: as it is),
-/// with self-collision on or off.
-fn scene(name: &str, n: Option<usize>, on: bool) -> (Model, Params) {
-    let mut scene = Scene::builtin(name).unwrap_or_else(|e| panic!("{e}"));
-    if let Some(n) = n {
-        scene.cloth.nx = n;
-        scene.cloth.ny = n;
-    }
-    scene.params.self_collision = on.then(SelfCollision::default);
-    let model = scene.model().unwrap_or_else(|e| panic!("{name}: {e}"));
-    (model, scene.params)
-}
+/// Steps before timing.
+const WARM_UP: u32 = 8;
 
-/// Steps before timing: to the folded heap where that is cheap.
-fn warm_up(particles: usize) -> u32 {
-    if particles <= 65 * 65 {
-        96
-    } else {
-        8
-    }
-}
-
-/// Seconds per GPU step, median of runs of `batch` steps.
-fn gpu_time(ctx: &GpuContext, model: &Model, params: &Params) -> f64 {
-    let mut g = GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, model, params)
-        .unwrap_or_else(|e| panic!("GPU solver: {e}"));
-    g.step(warm_up(model.particle_count()))
-        .unwrap_or_else(|e| panic!("GPU warm-up: {e}"));
-    let batch = if model.particle_count() <= 65 * 65 {
-        8
-    } else {
-        2
+/// `scene`'s cloth and its parameters without and with self-collision.
+fn pair(scene: Scene) -> (Model, [Params; 2]) {
+    let model = scene
+        .model()
+        .unwrap_or_else(|e| panic!("{}: {e}", scene.name));
+    let on = Params {
+        self_collision: Some(SelfCollision::default()),
+        ..scene.params.clone()
     };
-    common::median(if common::quick() { 3 } else { 5 }, || {
-        let t = Instant::now();
-        g.step(batch).unwrap_or_else(|e| panic!("GPU step: {e}"));
-        t.elapsed().as_secs_f64() / f64::from(batch)
-    })
+    (model, [scene.params, on])
 }
 
-/// Seconds per CPU `f32` step, median of single steps.
-fn cpu_time(model: &Model, params: &Params) -> f64 {
-    let mut c = CpuSolver::<f32>::new(model, params).unwrap_or_else(|e| panic!("CPU solver: {e}"));
-    c.step_n(u64::from(warm_up(model.particle_count())))
-        .unwrap_or_else(|e| panic!("CPU warm-up: {e}"));
-    common::median(if common::quick() { 3 } else { 5 }, || {
-        let t = Instant::now();
-        c.step().unwrap_or_else(|e| panic!("CPU step: {e}"));
-        t.elapsed().as_secs_f64()
-    })
+/// The median of `times` (not empty).
+fn middle(mut times: Vec<f64>) -> f64 {
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+/// Samples per median.
+fn samples() -> usize {
+    if common::quick() {
+        3
+    } else {
+        7
+    }
+}
+
+/// Seconds per GPU step without and with self-collision, medians of runs
+/// of `batch` steps taken in turn.
+fn gpu_times(ctx: &GpuContext, model: &Model, params: &[Params; 2], batch: u32) -> [f64; 2] {
+    let mut solvers = params.clone().map(|p| {
+        let mut g = GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, model, &p)
+            .unwrap_or_else(|e| panic!("GPU solver: {e}"));
+        g.step(WARM_UP)
+            .unwrap_or_else(|e| panic!("GPU warm-up: {e}"));
+        g
+    });
+    let mut times = [Vec::new(), Vec::new()];
+    for _ in 0..samples() {
+        for (g, t) in solvers.iter_mut().zip(&mut times) {
+            let start = Instant::now();
+            g.step(batch).unwrap_or_else(|e| panic!("GPU step: {e}"));
+            t.push(start.elapsed().as_secs_f64() / f64::from(batch));
+        }
+    }
+    times.map(middle)
+}
+
+/// Seconds per CPU `f32` step without and with self-collision, medians of
+/// single steps taken in turn.
+fn cpu_times(model: &Model, params: &[Params; 2]) -> [f64; 2] {
+    let mut solvers = params.clone().map(|p| {
+        let mut c = CpuSolver::<f32>::new(model, &p).unwrap_or_else(|e| panic!("CPU solver: {e}"));
+        c.step_n(u64::from(WARM_UP))
+            .unwrap_or_else(|e| panic!("CPU warm-up: {e}"));
+        c
+    });
+    let mut times = [Vec::new(), Vec::new()];
+    for _ in 0..samples() {
+        for (c, t) in solvers.iter_mut().zip(&mut times) {
+            let start = Instant::now();
+            c.step().unwrap_or_else(|e| panic!("CPU step: {e}"));
+            t.push(start.elapsed().as_secs_f64());
+        }
+    }
+    times.map(middle)
 }
 
 fn table(ctx: &GpuContext) {
@@ -88,24 +108,27 @@ fn table(ctx: &GpuContext) {
         ctx.describe()
     );
     println!(
-        "{:>16} {:>9} {:>9} {:>7} {:>9} {:>9} {:>7}",
+        "{:>22} {:>9} {:>9} {:>7} {:>9} {:>9} {:>7}",
         "scene", "GPU off", "GPU on", "ratio", "CPU off", "CPU on", "ratio"
     );
-    let mut rows: Vec<(String, &str, Option<usize>)> = sizes()
-        .into_iter()
-        .map(|n| (format!("heap {n}²"), "heap", Some(n)))
-        .collect();
-    rows.push(("tablecloth mesh".to_string(), "tablecloth", None));
-    for (label, name, n) in rows {
-        let (off_model, off) = scene(name, n, false);
-        let (on_model, on) = scene(name, n, true);
-        let (g_off, g_on) = (
-            gpu_time(ctx, &off_model, &off),
-            gpu_time(ctx, &on_model, &on),
-        );
-        let (c_off, c_on) = (cpu_time(&off_model, &off), cpu_time(&on_model, &on));
+    let mut rows: Vec<(String, Scene)> = Vec::new();
+    for n in sizes() {
+        for integrator in [Integrator::Explicit, Integrator::Implicit] {
+            let mut scene = common::grown_hanging(integrator, n);
+            scene.params.fixup.iterations = 0;
+            rows.push((format!("hanging {n}² {}", integrator.as_str()), scene));
+        }
+    }
+    let tablecloth = Scene::builtin("tablecloth").unwrap_or_else(|e| panic!("{e}"));
+    rows.push(("tablecloth mesh implicit".to_string(), tablecloth));
+    for (label, scene) in rows {
+        let explicit = scene.params.integrator == Integrator::Explicit;
+        let (model, params) = pair(scene);
+        let batch = if explicit { 20 } else { 2 };
+        let [g_off, g_on] = gpu_times(ctx, &model, &params, batch);
+        let [c_off, c_on] = cpu_times(&model, &params);
         println!(
-            "{label:>16} {:>9.3} {:>9.3} {:>6.2}× {:>9.3} {:>9.3} {:>6.2}×",
+            "{label:>22} {:>9.3} {:>9.3} {:>6.2}× {:>9.3} {:>9.3} {:>6.2}×",
             g_off * 1e3,
             g_on * 1e3,
             g_on / g_off,
@@ -121,13 +144,13 @@ fn self_collision_step(c: &mut Criterion) {
     let mut group = c.benchmark_group("self_collision_step");
     group.sample_size(10);
     for n in sizes() {
-        let (model, params) = scene("heap", Some(n), true);
+        let (model, [_, params]) = pair(common::grown_hanging(Integrator::Implicit, n));
         let mut g = GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &model, &params)
             .unwrap_or_else(|e| panic!("GPU solver: {e}"));
-        g.step(warm_up(model.particle_count()))
+        g.step(WARM_UP)
             .unwrap_or_else(|e| panic!("GPU warm-up: {e}"));
         group.throughput(Throughput::Elements((n * n) as u64));
-        group.bench_function(BenchmarkId::new("heap", n * n), |b| {
+        group.bench_function(BenchmarkId::new("hanging implicit", n * n), |b| {
             b.iter_custom(|iters| common::submit_and_wait(&ctx, &mut g, iters))
         });
     }
