@@ -1324,14 +1324,29 @@ fn self_collision_count_matches_its_twin() {
     }
 }
 
-#[test]
-fn self_collision_scan_matches_its_twin() {
+/// The folded explicit drop after the build kernel `kernel` ran alone:
+/// the twins, the device's `work` words and the mirror's grid built from
+/// the positions the device's build started from.
+fn after_build_kernel(
+    kernel: Kernel,
+) -> (
+    Twins,
+    Vec<u32>,
+    cpu::self_collision::SelfCollisionR<f32>,
+    cpu::self_collision::Grid<f32>,
+) {
     let mut t = folded(Explicit);
-    let i = t.run_to(Kernel::SelfCollisionScan, 0);
+    let i = t.run_to(kernel, 0);
     let built = t.work_xyz(at(work::SC_A));
     t.run_alone(i);
-    let work = t.read(DebugBuffer::Work);
+    let words = t.read(DebugBuffer::Work);
     let (c, g) = cpu_grid(&mut t, &built);
+    (t, words, c, g)
+}
+
+#[test]
+fn self_collision_scan_matches_its_twin() {
+    let (t, work, c, g) = after_build_kernel(Kernel::SelfCollisionScan);
     let runs: Vec<u32> = (0..c.table / 2)
         .flat_map(|k| {
             let s = &g.start[2 * k..2 * k + 3];
@@ -1344,12 +1359,7 @@ fn self_collision_scan_matches_its_twin() {
 
 #[test]
 fn self_collision_scatter_matches_its_twin() {
-    let mut t = folded(Explicit);
-    let i = t.run_to(Kernel::SelfCollisionScatter, 0);
-    let built = t.work_xyz(at(work::SC_A));
-    t.run_alone(i);
-    let work = t.read(DebugBuffer::Work);
-    let (c, g) = cpu_grid(&mut t, &built);
+    let (t, work, c, g) = after_build_kernel(Kernel::SelfCollisionScatter);
     // Each run holds its bucket's particles in whatever order the atomics
     // left them: the same set as the twin's.
     let scattered = first_words(&work, work::SC_UNORDERED, t.n);
@@ -1374,12 +1384,7 @@ fn self_collision_scatter_matches_its_twin() {
 
 #[test]
 fn self_collision_rank_matches_its_twin() {
-    let mut t = folded(Explicit);
-    let i = t.run_to(Kernel::SelfCollisionRank, 0);
-    let built = t.work_xyz(at(work::SC_A));
-    t.run_alone(i);
-    let work = t.read(DebugBuffer::Work);
-    let (_, g) = cpu_grid(&mut t, &built);
+    let (t, work, _, g) = after_build_kernel(Kernel::SelfCollisionRank);
     let ordered: Vec<u32> = g
         .order
         .iter()
