@@ -153,8 +153,8 @@ struct Params {
     // Self-collision (common/self_collision.wgsl): thickness [m], Coulomb
     // friction, the cap on a step's displacement [m], the grid's inverse
     // cell size [1/m]; then its passes per step, its buckets (a power of
-    // two), unused, and the vec4 index in `model` of its rest positions
-    // (in exclusion radii).
+    // two), the cap's reference particle (within the cloth), and the vec4
+    // index in `model` of its rest positions (in exclusion radii).
     self_collision: vec4<f32>,
     self_grid: vec4<u32>,
     spheres: array<Sphere, MAX_SPHERES>,

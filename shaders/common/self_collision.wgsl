@@ -130,8 +130,8 @@ fn self_collision_rank_item(p: u32) {
 
 // One Jacobi pass for particle p (twin: cpu::self_collision::respond):
 // its contacts from section `src`, its new position into `dst`; on the
-// `last` pass also the displacement cap of cpu::self_collision::apply
-// against the step's start (x). Returns whether it moved the particle
+// `last` pass also the cap on its displacement since the step's start (x)
+// relative to the reference particle's. Returns whether it moved the particle
 // (a contact or the cap), as the CPU's `moved`.
 fn self_collision_respond_item(p: u32, src: u32, dst: u32, last: bool) -> bool {
     let xp = work[wi(src, p)].xyz;
@@ -187,11 +187,15 @@ fn self_collision_respond_item(p: u32, src: u32, dst: u32, last: bool) -> bool {
             moved = true;
         }
         if (last) {
+            // The cap on the displacement relative to the reference
+            // particle's (params.self_grid.z) in this pass's snapshot.
+            let r = params.particle_base + params.self_grid.z;
+            let carried = work[wi(src, r)].xyz - x[r].xyz;
             let cap = params.self_collision.z;
-            let dx = out - start.xyz;
+            let dx = (out - start.xyz) - carried;
             let l2 = dot3(dx, dx);
             if (l2 > cap * cap) {
-                out = start.xyz + unseen3(dx * (cap / sqrt(l2)));
+                out = (start.xyz + carried) + unseen3(dx * (cap / sqrt(l2)));
                 moved = true;
             }
         }

@@ -40,10 +40,15 @@
 //!    buckles) from pushing one another apart unless it is compressed to
 //!    half its rest size.
 //! 4. **Tunnelling guard**: at the end, each free particle's displacement
-//!    over the step is capped at [`STEP_CAP`] `× thickness` (a speed limit
-//!    of `thickness / (2 dt)`), so two particles close the distance between
-//!    them by at most one thickness per step: a pair found at least a
-//!    thickness apart can meet but not pass through each other.
+//!    over the step *relative to a reference particle's* (see
+//!    [`reference_particle`]) is capped at [`STEP_CAP`] `× thickness`, so
+//!    two free particles close the distance between them by at most one
+//!    thickness per step (their displacements differ by at most twice the
+//!    cap): a pair found at least a thickness apart can meet but not pass
+//!    through each other. Relative, so that a cloth carried along (by a
+//!    running character's pins, or falling as a whole) is not slowed: only
+//!    its parts' motion against one another is limited, to
+//!    `thickness / (2 dt)`.
 //!
 //! The explicit and semi-implicit steps rebuild `v = Δx / dt` after it (as
 //! after the fix-up); the implicit one adds `Δx / dt` of the projection to
@@ -90,8 +95,11 @@ pub struct SelfCollisionR<R> {
     pub friction: R,
     /// Jacobi passes per step.
     pub iterations: u32,
-    /// Largest displacement per step \[m\]: `STEP_CAP × thickness`.
+    /// Largest displacement per step relative to the reference particle's
+    /// \[m\]: `STEP_CAP × thickness`.
     pub cap: R,
+    /// The reference particle of the cap ([`reference_particle`]).
+    pub reference: usize,
     /// The inverse of the cell size \[1/m\]: `1 / (CELL_THICKNESSES ×
     /// thickness)`.
     pub inv_cell: R,
@@ -224,6 +232,7 @@ impl<R: Real> SelfCollisionR<R> {
             friction: R::from_f64(c.friction),
             iterations: c.iterations,
             cap: R::from_f64(STEP_CAP * thickness),
+            reference: reference_particle(model),
             inv_cell: R::from_f64(1.0 / (CELL_THICKNESSES * thickness)),
             rest: model
                 .rest_positions
@@ -233,6 +242,24 @@ impl<R: Real> SelfCollisionR<R> {
             table: table_size(model.particle_count()),
         }
     }
+}
+
+/// The particle whose displacement the cap is relative to: the free
+/// particle nearest the rest positions' centroid, which moves with the
+/// cloth as a whole (falling, or carried by its pins: a pinned particle
+/// would not do, as the explicit and semi-implicit steps move the pins
+/// after self-collision); 0 for a cloth without a free particle.
+pub fn reference_particle(model: &Model) -> usize {
+    let x = &model.rest_positions;
+    let centroid = x.iter().copied().sum::<glam::DVec3>() / (x.len().max(1) as f64);
+    (0..x.len())
+        .filter(|&p| !model.pinned[p])
+        .min_by(|&a, &b| {
+            (x[a] - centroid)
+                .length_squared()
+                .total_cmp(&(x[b] - centroid).length_squared())
+        })
+        .unwrap_or(0)
 }
 
 /// The grid and scratch of self-collision, allocated once per solver.
@@ -402,8 +429,9 @@ pub fn apply<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], w: &mut Workspace<R>) 
 
 /// Twin of `self_collision_respond` (one pass) for particle `p`: its
 /// position after the pass from the snapshot `g.snapshot` ([`respond`]),
-/// on the `last` pass with its displacement since `x_old` capped at
-/// `c.cap`; and whether the pass moved it (a contact or the cap).
+/// on the `last` pass with its displacement since `x_old`, less the
+/// reference particle's in the snapshot, capped at `c.cap`; and whether
+/// the pass moved it (a contact or the cap).
 pub fn pass<R: Real>(
     sys: &System<R>,
     c: &SelfCollisionR<R>,
@@ -417,10 +445,12 @@ pub fn pass<R: Real>(
         None => (g.snapshot[p], false),
     };
     if last && sys.inv_mass[p] > R::ZERO {
-        let dx = x - x_old[p];
+        let r = c.reference;
+        let carried = g.snapshot[r] - x_old[r];
+        let dx = (x - x_old[p]) - carried;
         let l2 = dx.length_squared();
         if l2 > c.cap * c.cap {
-            x = x_old[p] + dx * (c.cap / l2.sqrt());
+            x = (x_old[p] + carried) + dx * (c.cap / l2.sqrt());
             moved = true;
         }
     }

@@ -238,9 +238,9 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
             .self_collision
             .map_or([0.0; 4], |c| [c.thickness, c.friction, c.cap, c.inv_cell]),
         // The rest positions' place is set by `ClothArrays::place`.
-        self_grid: shape
-            .self_collision
-            .map_or([0; 4], |c| [c.iterations, c.table as u32, 0, 0]),
+        self_grid: shape.self_collision.map_or([0; 4], |c| {
+            [c.iterations, c.table as u32, c.reference as u32, 0]
+        }),
         spheres: gpu_spheres(&params.spheres),
         capsules: gpu_capsules(&params.capsules),
     }

@@ -144,9 +144,9 @@ pub struct GpuParams {
     /// friction, the largest displacement per step \[m\], the grid's
     /// inverse cell size \[1/m\]; zero without it.
     pub self_collision: [f32; 4],
-    /// Self-collision: passes per step, buckets (a power of two), unused,
-    /// and the `vec4` index in `model` of the rest positions (in exclusion
-    /// radii); zero without it.
+    /// Self-collision: passes per step, buckets (a power of two), the cap's
+    /// reference particle (within the cloth), and the `vec4` index in
+    /// `model` of the rest positions (in exclusion radii); zero without it.
     pub self_grid: [u32; 4],
     /// Sphere colliders; the first `sphere_count` are used.
     pub spheres: [GpuSphere; MAX_SPHERES],
