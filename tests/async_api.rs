@@ -1,0 +1,128 @@
+//! The async forms of the operations that wait on the device (what a
+//! browser's event loop awaits: `GpuContext::new_async`,
+//! `GpuSolver::new_async`, `step_async`, `check_async`,
+//! `read_state_async`, `read_buffers_async`), driven natively on lavapipe
+//! by `pollster::block_on`: they give the blocking forms' bits, and a
+//! device error they capture is an `Err`, never a panic.
+
+mod gpu_common;
+
+use gpu_common::{busy_params, corners, gpu, grid};
+use pollster::block_on;
+use wgcloth::glam::Vec3;
+use wgcloth::gpu::readback::read_buffers_async;
+use wgcloth::gpu::{GpuContext, GpuSolver};
+use wgcloth::params::Integrator;
+use wgcloth::Error;
+
+/// Steps of each run: enough for the fix-up, CG and the filter to move the
+/// busy parameters' falling cloth, few enough for lavapipe.
+const STEPS: u32 = 6;
+
+/// The bits of each vector, so that equality is bit for bit.
+fn bits(v: &[Vec3]) -> Vec<[u32; 3]> {
+    v.iter().map(|p| p.to_array().map(f32::to_bits)).collect()
+}
+
+/// Every integrator: a solver built, stepped and read back through the
+/// async forms holds the same bits as one through the blocking forms, and
+/// both report the same step count.
+#[test]
+fn the_async_forms_give_the_blocking_forms_bits() {
+    let ctx = gpu();
+    for integrator in [
+        Integrator::Explicit,
+        Integrator::Implicit,
+        Integrator::SemiImplicit,
+    ] {
+        let params = busy_params(integrator);
+        let model = grid(10, 9, corners(), &params);
+
+        let mut blocking = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params)
+            .unwrap_or_else(|e| panic!("{integrator}: blocking solver: {e}"));
+        let blocking_stats = blocking
+            .step(STEPS)
+            .unwrap_or_else(|e| panic!("{integrator}: blocking step: {e}"));
+        let want = blocking
+            .read_state()
+            .unwrap_or_else(|e| panic!("{integrator}: blocking read-back: {e}"));
+
+        let (async_stats, got) = block_on(async {
+            let mut solver = GpuSolver::new_async(&ctx.device, &ctx.queue, &model, &params).await?;
+            // Half through step_async, half recorded and then checked.
+            let half = STEPS / 2;
+            solver.step_async(half).await?;
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            solver.encode_steps(&mut encoder, STEPS - half);
+            ctx.queue.submit([encoder.finish()]);
+            let stats = solver.check_async().await?;
+            Ok::<_, Error>((stats, solver.read_state_async().await?))
+        })
+        .unwrap_or_else(|e| panic!("{integrator}: async forms: {e}"));
+
+        assert_eq!(async_stats.steps, blocking_stats.steps, "{integrator}");
+        assert!(
+            bits(&got.x) == bits(&want.x) && bits(&got.v) == bits(&want.v),
+            "{integrator}: the async forms' state differs from the blocking forms' \
+             (particle 0 at {:?} vs {:?} m)",
+            got.x[0],
+            want.x[0]
+        );
+        // The cloth moved: equal bits are not two untouched initial states.
+        assert!(
+            got.x
+                .iter()
+                .zip(&model.rest_positions)
+                .any(|(g, p)| *g != p.as_vec3()),
+            "{integrator}: no particle moved in {STEPS} steps"
+        );
+    }
+}
+
+/// `GpuContext::new_async` opens the adapter the blocking form opens, and
+/// a solver runs on its device.
+#[test]
+fn the_async_context_opens_the_same_adapter() {
+    let blocking = gpu();
+    let ctx = block_on(GpuContext::new_async(None)).expect("async context");
+    assert_eq!(ctx.adapter.get_info(), blocking.adapter.get_info());
+    let params = busy_params(Integrator::Explicit);
+    let model = grid(4, 4, corners(), &params);
+    let mut solver = block_on(GpuSolver::with_kernels_async(
+        ctx.kernels(),
+        &ctx.queue,
+        &model,
+        &params,
+    ))
+    .expect("a solver on the async context's device");
+    block_on(solver.step_async(2)).expect("two steps");
+    ctx.check().expect("no uncaptured device error");
+}
+
+/// A read-back the device refuses (the buffer cannot be copied from) is an
+/// `Error::Gpu` naming the read-back, captured by the async form's error
+/// scopes rather than reaching the device's handler.
+#[test]
+fn an_async_read_back_the_device_refuses_is_an_error() {
+    let ctx = GpuContext::new(None).expect("a context of its own");
+    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("not copyable"),
+        size: 16,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    let result = block_on(read_buffers_async(
+        &ctx.device,
+        &ctx.queue,
+        &[(&buffer, 0, 16)],
+    ));
+    match result {
+        Err(Error::Gpu(message)) => assert!(
+            message.starts_with("a read-back"),
+            "the error names what was done: {message}"
+        ),
+        other => panic!("expected Error::Gpu, got {other:?}"),
+    }
+    ctx.check()
+        .expect("the scopes caught it: nothing reached the handler");
+}
