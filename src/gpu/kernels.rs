@@ -375,7 +375,7 @@ impl GpuKernels {
                 .map_or(1, usize::from)
                 .min(keys.len());
             std::thread::scope(|scope| {
-                let workers: Vec<_> = (0..threads).map(|_| scope.spawn(&work)).collect();
+                let workers: Vec<_> = (0..threads).map(|_| scope.spawn(work)).collect();
                 workers
                     .into_iter()
                     .map(|w| {
