@@ -6,7 +6,8 @@
 //   positions equal the f32 CPU reference's bit for bit;
 // - the check's screenshot shows the cloth (cloth-coloured pixels counted);
 // - a scripted mouse drag moves the cloth: the same frames stepped with and
-//   without the drag differ, the cloth pulled the way the mouse went.
+//   without the drag differ, the cloth pulled the way the mouse went;
+// - a check that fails logs its line with the error.
 // Screenshots go to SHOTS (default: a fresh temporary folder). Ends with
 // the line `N passed, N failed`; exits 1 on any failure.
 import { chromium } from 'playwright-core';
@@ -222,6 +223,17 @@ async function main() {
       const cloth = clothPixels(png);
       ok(`${scene} picture`, cloth.count >= MIN_CLOTH_PIXELS,
         `${cloth.count} cloth pixels (at least ${MIN_CLOTH_PIXELS}) in ${shot}`);
+      await tab.close();
+    }
+
+    // An unknown scene: the check's line carries the library's error,
+    // which names the scene and the built-in ones.
+    {
+      const { tab, record } = await open(
+        browser, base, 'scene=no-such-scene&steps=5&check=1', 'wgcloth-check ', CHECK_TIMEOUT_MS);
+      ok('error line', typeof record.error === 'string' && record.error.includes('no-such-scene')
+        && record.error.includes('hanging') && record.max_diff_m === undefined,
+        `error: ${record.error}`);
       await tab.close();
     }
 
