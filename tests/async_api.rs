@@ -1,7 +1,7 @@
 //! The async forms of the operations that wait on the device (what a
 //! browser's event loop awaits: `GpuContext::new_async`,
 //! `GpuSolver::new_async`, `step_async`, `check_async`,
-//! `read_state_async`, `read_buffers_async`), driven natively on lavapipe
+//! `read_state_async`, the divergence check's, `read_buffers_async`), driven natively on lavapipe
 //! by `pollster::block_on`: they give the blocking forms' bits, and a
 //! device error they capture is an `Err`, never a panic.
 
@@ -125,4 +125,24 @@ fn an_async_read_back_the_device_refuses_is_an_error() {
     }
     ctx.check()
         .expect("the scopes caught it: nothing reached the handler");
+}
+
+/// The divergence rule taken and applied through the async forms judges
+/// the same state as through the blocking forms, and passes it.
+#[test]
+fn the_async_divergence_check_judges_the_same_state() {
+    let ctx = gpu();
+    let params = busy_params(Integrator::Implicit);
+    let model = grid(8, 8, corners(), &params);
+    let mut solver =
+        GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &model, &params).expect("solver");
+    let rule = solver.divergence_rule().expect("blocking rule");
+    let rule_async = block_on(solver.divergence_rule_async()).expect("async rule");
+    solver.step(STEPS).expect("steps");
+    let judged = solver.check_divergence(&rule).expect("blocking check");
+    let judged_async = block_on(solver.check_divergence_async(&rule_async)).expect("async check");
+    assert!(
+        bits(&judged.x) == bits(&judged_async.x) && bits(&judged.v) == bits(&judged_async.v),
+        "the async check judged another state"
+    );
 }
