@@ -1,7 +1,8 @@
 //! The async forms of the operations that wait on the device (what a
 //! browser's event loop awaits: `GpuContext::new_async`,
 //! `GpuSolver::new_async`, `step_async`, `check_async`,
-//! `read_state_async`, the divergence check's, `read_buffers_async`), driven natively on lavapipe
+//! `read_state_async`, the divergence check's, `read_buffers_async`, and
+//! `GpuBatch`'s), driven natively on lavapipe
 //! by `pollster::block_on`: they give the blocking forms' bits, and a
 //! device error they capture is an `Err`, never a panic.
 
@@ -9,9 +10,10 @@ mod gpu_common;
 
 use gpu_common::{busy_params, corners, gpu, grid};
 use pollster::block_on;
-use wgcloth::glam::Vec3;
+use wgcloth::diagnostics::Divergence;
+use wgcloth::glam::{DVec3, Vec3};
 use wgcloth::gpu::readback::read_buffers_async;
-use wgcloth::gpu::{GpuContext, GpuSolver};
+use wgcloth::gpu::{GpuBatch, GpuContext, GpuSolver};
 use wgcloth::params::Integrator;
 use wgcloth::Error;
 
@@ -145,4 +147,62 @@ fn the_async_divergence_check_judges_the_same_state() {
         bits(&judged.x) == bits(&judged_async.x) && bits(&judged.v) == bits(&judged_async.v),
         "the async check judged another state"
     );
+}
+
+/// A `GpuBatch` of two cloths (explicit and implicit) added, stepped,
+/// checked and read back through the async forms holds the blocking
+/// forms' bits, and its divergence check judges the same state.
+#[test]
+fn the_async_batch_forms_give_the_blocking_forms_bits() {
+    let ctx = gpu();
+    let cloths: Vec<_> = [Integrator::Explicit, Integrator::Implicit]
+        .into_iter()
+        .map(|integrator| {
+            let params = busy_params(integrator);
+            (grid(6, 5, corners(), &params), params)
+        })
+        .collect();
+
+    let mut blocking = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+    let ids: Vec<_> = cloths
+        .iter()
+        .map(|(model, params)| blocking.add(model, params).expect("blocking add"))
+        .collect();
+    blocking.step(STEPS).expect("blocking steps");
+    let want: Vec<_> = ids
+        .iter()
+        .map(|&id| blocking.read_state(id).expect("blocking read-back"))
+        .collect();
+
+    let got = block_on(async {
+        let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+        let mut ids = Vec::new();
+        for (model, params) in &cloths {
+            ids.push(batch.add_async(model, params).await?);
+        }
+        batch.step_async(STEPS).await?;
+        batch.check_async().await?;
+        let mut states = Vec::new();
+        for (&id, (model, params)) in ids.iter().zip(&cloths) {
+            // The rule from the cloth's start: at rest where it was made.
+            let still = vec![DVec3::ZERO; model.rest_positions.len()];
+            let rule = Divergence::new(model, params, 0.0, &model.rest_positions, &still);
+            let judged = batch.check_divergence_async(id, &rule).await?;
+            let read = batch.read_state_async(id).await?;
+            assert!(
+                bits(&judged.x) == bits(&read.x),
+                "the check judged another state"
+            );
+            states.push(read);
+        }
+        Ok::<_, Error>(states)
+    })
+    .unwrap_or_else(|e| panic!("async batch forms: {e}"));
+
+    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert!(
+            bits(&g.x) == bits(&w.x) && bits(&g.v) == bits(&w.v),
+            "cloth {i}: the async forms' state differs from the blocking forms'"
+        );
+    }
 }

@@ -82,6 +82,26 @@ pub(crate) fn guarded<T>(
     f()
 }
 
+/// In a browser, [`guarded_async`]: the scopes that capture what `f` does,
+/// whose own guards run unscoped there. Natively `f` as it is, its own
+/// guards capturing what it does (as the blocking forms always did).
+pub(crate) async fn guarded_on_web<T>(
+    device: &wgpu::Device,
+    what: &str,
+    needed: Option<u64>,
+    f: impl FnOnce() -> Result<T>,
+) -> Result<T> {
+    #[cfg(target_arch = "wasm32")]
+    {
+        guarded_async(device, what, needed, f).await
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        let _ = (device, what, needed);
+        f()
+    }
+}
+
 /// Waits for `future` in a blocking entry point whose async form is
 /// `async_form` (named in the error). Natively it blocks the thread; in a
 /// browser, whose event loop must not be blocked (a read-back's map
