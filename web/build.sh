@@ -35,8 +35,11 @@ if [ "$have" != "$version" ]; then
     echo "installing wasm-bindgen-cli $version (found: ${have:-none})"
     # --locked takes the CLI's own lock file; if the registry lacks one of
     # its pinned versions, the newest compatible ones are taken instead.
-    cargo install wasm-bindgen-cli --version "$version" --locked ||
-        cargo install wasm-bindgen-cli --version "$version"
+    # No default features: they are the TLS stack (rustls, ring) that only
+    # wasm-bindgen-test-runner uses to download browser drivers, and a
+    # good part of the install's compile time.
+    cargo install wasm-bindgen-cli --version "$version" --locked --no-default-features ||
+        cargo install wasm-bindgen-cli --version "$version" --no-default-features
 fi
 
 cargo build --release --target wasm32-unknown-unknown -p wgcloth-web
