@@ -11,6 +11,7 @@
 //! last (headless under Xvfb, for tests and CI); `--drag X0,Y0:X1,Y1`
 //! pulls the cloth from one pixel to another over the first half of them.
 
+mod handover;
 mod host;
 mod orbit;
 mod pick;

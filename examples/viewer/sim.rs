@@ -9,6 +9,8 @@ use wgcloth::params::Integrator;
 use wgcloth::scene::animation::Animation;
 use wgcloth::{GpuSolver, Model, PinTarget, Scene};
 
+use crate::handover::hand_over;
+
 /// Frames between the viewer's status checks: one small read-back each,
 /// so a blow-up stops the cloth within a fraction of a second.
 const CHECK_EVERY_FRAMES: u64 = 10;
@@ -158,14 +160,7 @@ impl Sim {
         let state = self.solver.read_state().ok();
         let mut solver = self.build(integrator)?;
         if let Some(state) = state {
-            let particles = state.x.into_iter().zip(state.v).zip(&self.model.pinned);
-            for (i, ((x, v), &pinned)) in particles.enumerate() {
-                solver.set_position(i, x)?;
-                // The scene's pins stand still.
-                if !pinned {
-                    solver.set_velocity(i, v)?;
-                }
-            }
+            hand_over(&mut solver, state, &self.model.pinned)?;
         }
         self.solver = solver;
         self.scene.params.integrator = integrator;

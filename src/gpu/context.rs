@@ -1,10 +1,14 @@
 //! Opening a device: a convenience for the CLI, examples and tests. The
 //! solver never calls this; it borrows whatever device its host made.
 
+use std::future::Future;
+use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
+use std::pin::pin;
 use std::sync::{Arc, Mutex, PoisonError};
+use std::task::Poll;
 
-use super::errors::one_line;
+use super::errors::{block_on, one_line};
 use super::kernels::GpuKernels;
 use super::pipeline_cache;
 use crate::error::{Error, Result};
@@ -67,8 +71,8 @@ pub fn backends_from_env() -> Result<Option<wgpu::Backends>> {
 }
 
 /// The first adapter whose name contains `want` (case-insensitive).
-fn find_adapter(instance: &wgpu::Instance, want: &str) -> Result<wgpu::Adapter> {
-    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+async fn find_adapter(instance: &wgpu::Instance, want: &str) -> Result<wgpu::Adapter> {
+    let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
     let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
     let lower = want.to_lowercase();
     adapters
@@ -86,18 +90,34 @@ fn find_adapter(instance: &wgpu::Instance, want: &str) -> Result<wgpu::Adapter> 
         })
 }
 
-/// Runs `call`, turning a panic inside it (wgpu's or the driver's) into
-/// `failed(its message)`. Whatever `call` touched is dropped or not used
-/// again, so a half-done call leaves nothing behind to observe.
-fn unwound<T>(call: impl FnOnce() -> Result<T>, failed: impl FnOnce(String) -> Error) -> Result<T> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(call)).unwrap_or_else(|payload| {
-        let message = payload
-            .downcast_ref::<&str>()
-            .map(|s| (*s).to_string())
-            .or_else(|| payload.downcast_ref::<String>().cloned())
-            .unwrap_or_else(|| "a panic without a message".to_string());
-        Err(failed(one_line_text(&message)))
-    })
+/// Awaits `call`, turning a panic inside it (wgpu's or the driver's, in
+/// any of its polls) into `failed(its message)`. Whatever `call` touched is
+/// dropped or not used again, so a half-done call leaves nothing behind to
+/// observe.
+async fn unwound<T>(
+    call: impl Future<Output = Result<T>>,
+    failed: impl FnOnce(String) -> Error,
+) -> Result<T> {
+    let mut call = pin!(call);
+    let mut failed = Some(failed);
+    std::future::poll_fn(
+        |cx| match catch_unwind(AssertUnwindSafe(|| call.as_mut().poll(cx))) {
+            Ok(poll) => poll,
+            Err(payload) => {
+                let message = payload
+                    .downcast_ref::<&str>()
+                    .map(|s| (*s).to_string())
+                    .or_else(|| payload.downcast_ref::<String>().cloned())
+                    .unwrap_or_else(|| "a panic without a message".to_string());
+                let message = one_line_text(&message);
+                Poll::Ready(Err(match failed.take() {
+                    Some(failed) => failed(message),
+                    None => Error::Gpu(message),
+                }))
+            }
+        },
+    )
+    .await
 }
 
 /// `text` on one line, without the full stop a driver's message may end in
@@ -135,6 +155,9 @@ impl GpuContext {
     /// [`GpuContext::check`] reports them. The device gets the adapter's own limits. The
     /// instance skips wgpu's validation of indirect dispatches (see the
     /// comment inside; a host that embeds the solver may do the same).
+    ///
+    /// Native only: a browser cannot wait for the adapter, so there it is
+    /// an error saying to await [`GpuContext::new_async`].
     pub fn new(name: Option<&str>) -> Result<GpuContext> {
         GpuContext::with_features(name, wgpu::Features::empty())
     }
@@ -143,6 +166,24 @@ impl GpuContext {
     /// has (the profiler's [`Timestamps::FEATURES`](super::Timestamps::FEATURES));
     /// the device's features tell which it got.
     pub fn with_features(name: Option<&str>, features: wgpu::Features) -> Result<GpuContext> {
+        block_on(
+            "GpuContext::with_features_async",
+            GpuContext::with_features_async(name, features),
+        )
+    }
+
+    /// [`GpuContext::new`] as a future, for a browser's event loop (in a
+    /// page, the environment variables are never set: the browser's
+    /// WebGPU adapter is the default).
+    pub async fn new_async(name: Option<&str>) -> Result<GpuContext> {
+        GpuContext::with_features_async(name, wgpu::Features::empty()).await
+    }
+
+    /// [`GpuContext::with_features`] as a future.
+    pub async fn with_features_async(
+        name: Option<&str>,
+        features: wgpu::Features,
+    ) -> Result<GpuContext> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
         desc.backends = backends_from_env()?.unwrap_or(wgpu::Backends::PRIMARY);
         // wgpu validates each indirect dispatch with a compute pass of its
@@ -164,46 +205,52 @@ impl GpuContext {
         // failures (out of memory under `ulimit -v`, among them): each call
         // here is caught, so that no panic reaches the host.
         let adapter = unwound(
-            || match wanted {
-                Some(want) => find_adapter(&instance, &want),
-                None => pollster::block_on(
-                    instance.request_adapter(&wgpu::RequestAdapterOptions {
-                        power_preference: wgpu::PowerPreference::from_env()
-                            .unwrap_or(wgpu::PowerPreference::HighPerformance),
-                        force_fallback_adapter: false,
-                        compatible_surface: None,
-                        apply_limit_buckets: false,
-                    }),
-                )
-                .map_err(|e| Error::NoAdapter {
-                    message: e.to_string(),
-                }),
+            async {
+                match wanted {
+                    Some(want) => find_adapter(&instance, &want).await,
+                    None => instance
+                        .request_adapter(&wgpu::RequestAdapterOptions {
+                            power_preference: wgpu::PowerPreference::from_env()
+                                .unwrap_or(wgpu::PowerPreference::HighPerformance),
+                            force_fallback_adapter: false,
+                            compatible_surface: None,
+                            apply_limit_buckets: false,
+                        })
+                        .await
+                        .map_err(|e| Error::NoAdapter {
+                            message: e.to_string(),
+                        }),
+                }
             },
             |message| Error::NoAdapter {
                 message: format!("the graphics driver failed while looking for one ({message})"),
             },
-        )?;
+        )
+        .await?;
         let adapter_name = adapter.get_info().name;
         let unavailable = |message: String| Error::DeviceUnavailable {
             adapter: adapter_name.clone(),
             message: opening_failure(&message),
         };
         let (device, queue) = unwound(
-            || {
-                pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-                    label: Some("wgcloth.device"),
-                    // Compiled pipelines can then be kept between runs (Vulkan).
-                    required_features: adapter.features()
-                        & (wgpu::Features::PIPELINE_CACHE | features),
-                    required_limits: adapter.limits(),
-                    experimental_features: wgpu::ExperimentalFeatures::disabled(),
-                    memory_hints: wgpu::MemoryHints::Performance,
-                    trace: wgpu::Trace::Off,
-                }))
-                .map_err(|e| unavailable(e.to_string()))
+            async {
+                adapter
+                    .request_device(&wgpu::DeviceDescriptor {
+                        label: Some("wgcloth.device"),
+                        // Compiled pipelines can then be kept between runs (Vulkan).
+                        required_features: adapter.features()
+                            & (wgpu::Features::PIPELINE_CACHE | features),
+                        required_limits: adapter.limits(),
+                        experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                        memory_hints: wgpu::MemoryHints::Performance,
+                        trace: wgpu::Trace::Off,
+                    })
+                    .await
+                    .map_err(|e| unavailable(e.to_string()))
             },
             unavailable,
-        )?;
+        )
+        .await?;
         // wgpu's default handlers panic; this context records the first
         // error instead, for `check` to report.
         let fault = Arc::new(Mutex::new(None));
@@ -220,7 +267,7 @@ impl GpuContext {
                 format!("the GPU device was lost ({reason:?}): {message}"),
             );
         });
-        let kernels = unwound(|| Ok(GpuKernels::new(&device)), unavailable)?;
+        let kernels = unwound(async { Ok(GpuKernels::new(&device)) }, unavailable).await?;
         Ok(GpuContext {
             adapter,
             queue,

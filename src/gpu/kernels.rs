@@ -344,9 +344,9 @@ impl GpuKernels {
             .collect()
     }
 
-    /// Compiles `keys`, spread over the host's cores: wgpu's device is
-    /// shared between threads, and a driver compiles pipelines of one
-    /// device concurrently. Each thread captures its own device errors
+    /// Compiles `keys`, spread over the host's cores (natively): wgpu's
+    /// device is shared between threads, and a driver compiles pipelines of
+    /// one device concurrently. Each thread captures its own device errors
     /// (wgpu's error scopes are per thread).
     fn compile_all(
         &self,
@@ -362,37 +362,42 @@ impl GpuKernels {
             }
         }
         let modules = &built.modules;
-        let threads = std::thread::available_parallelism()
-            .map_or(1, usize::from)
-            .min(keys.len());
         let next = AtomicUsize::new(0);
-        let results: Vec<Result<Vec<(Key, wgpu::ComputePipeline)>>> = std::thread::scope(|scope| {
-            let workers: Vec<_> = (0..threads)
-                .map(|_| {
-                    scope.spawn(|| {
-                        let mut out = Vec::new();
-                        loop {
-                            let k = next.fetch_add(1, Ordering::Relaxed);
-                            let Some(&key) = keys.get(k) else {
-                                return Ok(out);
-                            };
-                            let module = modules.get(&(key.0, key.2.block)).ok_or_else(|| {
-                                Error::Gpu(format!("no shader module for {}", key.0))
-                            })?;
-                            out.push((key, self.compile(module, key)?));
-                        }
+        // One worker: compiles the next key not yet taken, until none is left.
+        let work = || {
+            let mut out = Vec::new();
+            loop {
+                let k = next.fetch_add(1, Ordering::Relaxed);
+                let Some(&key) = keys.get(k) else {
+                    return Ok(out);
+                };
+                let module = modules
+                    .get(&(key.0, key.2.block))
+                    .ok_or_else(|| Error::Gpu(format!("no shader module for {}", key.0)))?;
+                out.push((key, self.compile(module, key)?));
+            }
+        };
+        // A browser's wgpu objects are not `Send` (and the page has one
+        // thread): one worker compiles them all there.
+        #[cfg(target_arch = "wasm32")]
+        let results: Vec<Result<Vec<(Key, wgpu::ComputePipeline)>>> = vec![work()];
+        #[cfg(not(target_arch = "wasm32"))]
+        let results: Vec<Result<Vec<(Key, wgpu::ComputePipeline)>>> = {
+            let threads = std::thread::available_parallelism()
+                .map_or(1, usize::from)
+                .min(keys.len());
+            std::thread::scope(|scope| {
+                let workers: Vec<_> = (0..threads).map(|_| scope.spawn(work)).collect();
+                workers
+                    .into_iter()
+                    .map(|w| {
+                        w.join().unwrap_or_else(|_| {
+                            Err(Error::Gpu("a thread compiling the kernels panicked".into()))
+                        })
                     })
-                })
-                .collect();
-            workers
-                .into_iter()
-                .map(|w| {
-                    w.join().unwrap_or_else(|_| {
-                        Err(Error::Gpu("a thread compiling the kernels panicked".into()))
-                    })
-                })
-                .collect()
-        });
+                    .collect()
+            })
+        };
         let mut out = Vec::with_capacity(keys.len());
         for r in results {
             out.extend(r?);

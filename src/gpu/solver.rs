@@ -2,7 +2,7 @@
 
 use super::buffers::ClothBuffers;
 use super::cg_budget::CgBudget;
-use super::errors::guarded;
+use super::errors::{block_on, guarded, guarded_async};
 use super::grid::{GridBlock, GridLayout};
 use super::kernel::{Dispatch, Kernel, Launch};
 use super::kernels::{Features, GpuKernels};
@@ -360,13 +360,30 @@ impl GpuSolver {
     /// The solver compiles its pipelines into a kernel library of its own;
     /// solvers built with [`GpuSolver::with_kernels`] and one library
     /// compile each kernel variant once between them.
+    ///
+    /// Native only: in a browser, which cannot wait for the device's
+    /// verdict, it is an error saying to await [`GpuSolver::new_async`].
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         model: &Model,
         params: &Params,
     ) -> Result<GpuSolver> {
-        GpuSolver::with_kernels(&GpuKernels::new(device), queue, model, params)
+        block_on(
+            "GpuSolver::new_async",
+            GpuSolver::new_async(device, queue, model, params),
+        )
+    }
+
+    /// [`GpuSolver::new`] as a future, for a browser's event loop (it
+    /// resolves when the device has reported its errors, if any).
+    pub async fn new_async(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        model: &Model,
+        params: &Params,
+    ) -> Result<GpuSolver> {
+        GpuSolver::with_kernels_async(&GpuKernels::new(device), queue, model, params).await
     }
 
     /// [`GpuSolver::new`] on the device of `kernels`, taking its pipelines
@@ -382,7 +399,20 @@ impl GpuSolver {
         model: &Model,
         params: &Params,
     ) -> Result<GpuSolver> {
-        GpuSolver::create(kernels, queue, model, params, None)
+        block_on(
+            "GpuSolver::with_kernels_async",
+            GpuSolver::create(kernels, queue, model, params, None),
+        )
+    }
+
+    /// [`GpuSolver::with_kernels`] as a future.
+    pub async fn with_kernels_async(
+        kernels: &GpuKernels,
+        queue: &wgpu::Queue,
+        model: &Model,
+        params: &Params,
+    ) -> Result<GpuSolver> {
+        GpuSolver::create(kernels, queue, model, params, None).await
     }
 
     /// [`GpuSolver::with_kernels`] on the step path `path` rather than the
@@ -398,10 +428,13 @@ impl GpuSolver {
         params: &Params,
         path: StepPath,
     ) -> Result<GpuSolver> {
-        GpuSolver::create(kernels, queue, model, params, Some(path))
+        block_on(
+            "GpuSolver::with_kernels_async",
+            GpuSolver::create(kernels, queue, model, params, Some(path)),
+        )
     }
 
-    fn create(
+    async fn create(
         kernels: &GpuKernels,
         queue: &wgpu::Queue,
         model: &Model,
@@ -495,9 +528,10 @@ impl GpuSolver {
         } else {
             None
         };
-        guarded(device, &what, Some(need.device), || {
+        guarded_async(device, &what, Some(need.device), || {
             Self::build(queue, model, params, filter, grid, kernels.clone(), path)
         })
+        .await
     }
 
     /// Records `d` with `pipeline` (the CG iterations' scalar kernels:
@@ -608,18 +642,25 @@ impl GpuSolver {
     /// Records and submits `n` steps in one encoder, then checks the
     /// device's status word (one small read-back per call, none per step).
     /// A device error (a lost device, out of memory) is an
-    /// [`Error::Gpu`], never a panic.
+    /// [`Error::Gpu`], never a panic. Native only, as
+    /// [`GpuSolver::check`] is.
     pub fn step(&mut self, n: u32) -> Result<StepStats> {
+        block_on("GpuSolver::step_async", self.step_async(n))
+    }
+
+    /// [`GpuSolver::step`] as a future, for a browser's event loop.
+    pub async fn step_async(&mut self, n: u32) -> Result<StepStats> {
         let device = self.device.clone();
-        guarded(&device, "stepping", None, || {
+        guarded_async(&device, "stepping", None, || {
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("wgcloth.step"),
             });
             self.encode_steps(&mut encoder, n);
             self.queue.submit([encoder.finish()]);
             Ok(())
-        })?;
-        self.check()
+        })
+        .await?;
+        self.check_async().await
     }
 
     /// Reads the status words; an error names the first step whose state
@@ -634,12 +675,22 @@ impl GpuSolver {
     /// above the tolerance). With no check in between, or with
     /// [`GpuTuningMut::set_adaptive_cg_budget`](super::GpuTuningMut::set_adaptive_cg_budget)`(false)`,
     /// the budget never changes and every step may use the full maximum.
+    ///
+    /// Native only: in a browser, which cannot wait for a read-back, it is
+    /// an error saying to await [`GpuSolver::check_async`].
     pub fn check(&mut self) -> Result<StepStats> {
-        let bytes = readback::read_buffers(
+        block_on("GpuSolver::check_async", self.check_async())
+    }
+
+    /// [`GpuSolver::check`] as a future: it resolves when the status words
+    /// are read back (in a browser, when it has mapped them).
+    pub async fn check_async(&mut self) -> Result<StepStats> {
+        let bytes = readback::read_buffers_async(
             &self.device,
             &self.queue,
             &[(&self.buffers.status, 0, (layout::status::COUNT * 4) as u64)],
-        )?;
+        )
+        .await?;
         let mut status = self.decode_status(&bytes[0])?;
         if self.cg.update(status.cg_max_iterations) {
             // Restart the window: the next check sees only new steps.
@@ -672,10 +723,16 @@ impl GpuSolver {
     }
 
     /// Reads positions and velocities back (blocking); fails if the state
-    /// stopped being finite at some step.
+    /// stopped being finite at some step. Native only (see
+    /// [`GpuSolver::read_state_async`]).
     pub fn read_state(&self) -> Result<GpuState> {
+        block_on("GpuSolver::read_state_async", self.read_state_async())
+    }
+
+    /// [`GpuSolver::read_state`] as a future, for a browser's event loop.
+    pub async fn read_state_async(&self) -> Result<GpuState> {
         let bytes = u64::from(self.params.particle_count) * 16;
-        let parts = readback::read_buffers(
+        let parts = readback::read_buffers_async(
             &self.device,
             &self.queue,
             &[
@@ -683,7 +740,8 @@ impl GpuSolver {
                 (&self.buffers.v, 0, bytes),
                 (&self.buffers.status, 0, (layout::status::COUNT * 4) as u64),
             ],
-        )?;
+        )
+        .await?;
         self.decode_status(&parts[2])?;
         Ok(GpuState::from_bytes(&parts[0], &parts[1]))
     }

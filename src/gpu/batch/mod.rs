@@ -16,6 +16,7 @@ mod table_cloth;
 
 use std::ops::Range;
 
+use super::errors::{block_on, guarded_async, guarded_on_web};
 use super::kernels::GpuKernels;
 use super::solver::{GpuSolver, GpuState};
 use crate::diagnostics::{Divergence, Motion};
@@ -134,7 +135,17 @@ impl GpuBatch {
     /// device's `max_compute_workgroups_per_dimension` slots (65 535 on
     /// every WebGPU device): a cloth for a slot beyond is refused, naming
     /// the limit.
+    ///
+    /// Native only: in a browser it is an error saying to await
+    /// [`GpuBatch::add_async`].
     pub fn add(&mut self, model: &Model, params: &Params) -> Result<ClothId> {
+        block_on("GpuBatch::add_async", self.add_async(model, params))
+    }
+
+    /// [`GpuBatch::add`] as a future, for a browser's event loop: the
+    /// device's verdict on the new cloth's buffers and pipelines is
+    /// awaited.
+    pub async fn add_async(&mut self, model: &Model, params: &Params) -> Result<ClothId> {
         let free = self.slots.iter().position(|s| s.member.is_none());
         let slot = free.unwrap_or(self.slots.len());
         let slot32 = u32::try_from(slot).map_err(|_| Error::InvalidParameter {
@@ -153,20 +164,23 @@ impl GpuBatch {
                 u64::from(slot32) + 1,
             )?;
         }
+        let device = self.kernels.device().clone();
         let member = match path {
-            super::StepPath::Workgroup => Member::Table(Box::new(TableCloth::add(
-                &mut self.table,
-                slot32,
-                (self.slots.len().max(slot + 1)) as u64,
-                model,
-                params,
-            )?)),
-            super::StepPath::MultiDispatch => Member::Solo(Box::new(GpuSolver::with_kernels(
-                &self.kernels,
-                &self.queue,
-                model,
-                params,
-            )?)),
+            super::StepPath::Workgroup => Member::Table(Box::new(
+                guarded_on_web(&device, "adding a cloth to the batch", None, || {
+                    TableCloth::add(
+                        &mut self.table,
+                        slot32,
+                        (self.slots.len().max(slot + 1)) as u64,
+                        model,
+                        params,
+                    )
+                })
+                .await?,
+            )),
+            super::StepPath::MultiDispatch => Member::Solo(Box::new(
+                GpuSolver::with_kernels_async(&self.kernels, &self.queue, model, params).await?,
+            )),
         };
         let motion = Motion::new(model, params);
         if slot == self.slots.len() {
@@ -180,7 +194,11 @@ impl GpuBatch {
         s.generation = s.generation.wrapping_add(1);
         s.member = Some(member);
         s.motion = motion;
-        if let Err(e) = self.prepare() {
+        let prepared = guarded_on_web(&device, "compiling the batch's kernels", None, || {
+            self.prepare()
+        })
+        .await;
+        if let Err(e) = prepared {
             // Not added: its pipelines could not be built.
             if let Some(Member::Table(c)) = self.slots[slot].member.take() {
                 c.remove(&mut self.table, slot32);
@@ -283,26 +301,38 @@ impl GpuBatch {
     }
 
     /// Records and submits `n` steps of every cloth in one encoder, then
-    /// [`GpuBatch::check`]s them.
+    /// [`GpuBatch::check`]s them. Native only (see
+    /// [`GpuBatch::step_async`]).
     pub fn step(&mut self, n: u32) -> Result<Vec<(ClothId, StepStats)>> {
+        block_on("GpuBatch::step_async", self.step_async(n))
+    }
+
+    /// [`GpuBatch::step`] as a future, for a browser's event loop.
+    pub async fn step_async(&mut self, n: u32) -> Result<Vec<(ClothId, StepStats)>> {
         let device = self.kernels.device().clone();
-        super::guarded(&device, "stepping the batch", None, || {
+        guarded_async(&device, "stepping the batch", None, || {
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("wgcloth.batch.step"),
             });
             self.encode_steps(&mut encoder, n);
             self.queue.submit([encoder.finish()]);
             Ok(())
-        })?;
-        self.check()
+        })
+        .await?;
+        self.check_async().await
     }
 
     /// Reads every cloth's status (see [`GpuSolver::check`]; one
     /// read-back for all the table cloths): their statistics, in slot
     /// order, or an error naming the first cloth whose state stopped being
-    /// finite, and the step.
+    /// finite, and the step. Native only (see [`GpuBatch::check_async`]).
     pub fn check(&mut self) -> Result<Vec<(ClothId, StepStats)>> {
-        let words = self.table.read_status()?;
+        block_on("GpuBatch::check_async", self.check_async())
+    }
+
+    /// [`GpuBatch::check`] as a future, for a browser's event loop.
+    pub async fn check_async(&mut self) -> Result<Vec<(ClothId, StepStats)>> {
+        let words = self.table.read_status().await?;
         let ids = self.cloths();
         let mut out = Vec::with_capacity(ids.len());
         for id in ids {
@@ -316,7 +346,7 @@ impl GpuBatch {
                     }
                     stats
                 }
-                Some(Member::Solo(solver)) => solver.check(),
+                Some(Member::Solo(solver)) => solver.check_async().await,
             };
             out.push((id, stats.map_err(|e| in_cloth(id, e))?));
         }
@@ -324,11 +354,17 @@ impl GpuBatch {
     }
 
     /// Reads one cloth's positions and velocities back (blocking); fails
-    /// if its state stopped being finite.
+    /// if its state stopped being finite. Native only (see
+    /// [`GpuBatch::read_state_async`]).
     pub fn read_state(&self, id: ClothId) -> Result<GpuState> {
+        block_on("GpuBatch::read_state_async", self.read_state_async(id))
+    }
+
+    /// [`GpuBatch::read_state`] as a future, for a browser's event loop.
+    pub async fn read_state_async(&self, id: ClothId) -> Result<GpuState> {
         match self.member(id)? {
-            Member::Table(c) => c.read_state(&self.table),
-            Member::Solo(solver) => solver.read_state(),
+            Member::Table(c) => c.read_state(&self.table).await,
+            Member::Solo(solver) => solver.read_state_async().await,
         }
         .map_err(|e| in_cloth(id, e))
     }
@@ -457,7 +493,16 @@ impl GpuBatch {
     /// [`Divergence::new`] from its model, its parameters and
     /// [`GpuBatch::read_state`].
     pub fn check_divergence(&self, id: ClothId, rule: &Divergence) -> Result<GpuState> {
-        let state = self.read_state(id)?;
+        block_on(
+            "GpuBatch::check_divergence_async",
+            self.check_divergence_async(id, rule),
+        )
+    }
+
+    /// [`GpuBatch::check_divergence`] as a future, for a browser's event
+    /// loop.
+    pub async fn check_divergence_async(&self, id: ClothId, rule: &Divergence) -> Result<GpuState> {
+        let state = self.read_state_async(id).await?;
         rule.check_with(
             self.steps_recorded(id)?,
             self.time(id)?,

@@ -197,13 +197,13 @@ impl Table {
 
     /// Every status word of the table cloths (one read-back; none when
     /// there is no table cloth).
-    pub(super) fn read_status(&self) -> Result<Vec<u32>> {
+    pub(super) async fn read_status(&self) -> Result<Vec<u32>> {
         let words = self.layout.ends()[Region::Status.index()];
         if words == 0 {
             return Ok(Vec::new());
         }
         let status = self.buffer(Region::Status);
-        let bytes = self.read(&[(status, Region::Status, 0, words)])?;
+        let bytes = self.read(&[(status, Region::Status, 0, words)]).await?;
         Ok(bytemuck::pod_collect_to_vec(&bytes[0]))
     }
 
@@ -488,7 +488,10 @@ impl Table {
 
     /// Reads back `(buffer, region, start, elements)` parts of the shared buffers,
     /// counted in the elements of `region`.
-    pub(super) fn read(&self, parts: &[(&wgpu::Buffer, Region, u64, u64)]) -> Result<Vec<Vec<u8>>> {
+    pub(super) async fn read(
+        &self,
+        parts: &[(&wgpu::Buffer, Region, u64, u64)],
+    ) -> Result<Vec<Vec<u8>>> {
         let parts: Vec<(&wgpu::Buffer, u64, u64)> = parts
             .iter()
             .map(|&(b, r, start, len)| {
@@ -496,7 +499,7 @@ impl Table {
                 (b, start * e, len * e)
             })
             .collect();
-        crate::gpu::readback::read_buffers(self.kernels.device(), &self.queue, &parts)
+        crate::gpu::readback::read_buffers_async(self.kernels.device(), &self.queue, &parts).await
     }
 }
 

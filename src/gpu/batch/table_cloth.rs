@@ -211,20 +211,22 @@ impl TableCloth {
         decode_status(words, self.steps_recorded, self.host_params.dt, Some(0))
     }
 
-    /// Reads its positions and velocities back (blocking).
-    pub(super) fn read_state(&self, table: &Table) -> Result<GpuState> {
+    /// Reads its positions and velocities back.
+    pub(super) async fn read_state(&self, table: &Table) -> Result<GpuState> {
         let (p, n) = (self.base(), self.particles());
         let s = u64::from(self.params.status_base);
-        let parts = table.read(&[
-            (table.buffer(Region::Particles), Region::Particles, p, n),
-            (table.velocities(), Region::Particles, p, n),
-            (
-                table.buffer(Region::Status),
-                Region::Status,
-                s,
-                status::COUNT as u64,
-            ),
-        ])?;
+        let parts = table
+            .read(&[
+                (table.buffer(Region::Particles), Region::Particles, p, n),
+                (table.velocities(), Region::Particles, p, n),
+                (
+                    table.buffer(Region::Status),
+                    Region::Status,
+                    s,
+                    status::COUNT as u64,
+                ),
+            ])
+            .await?;
         // Copied out of the bytes: a read-back need not be aligned for u32.
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&parts[2]);
         self.decode_words(&words)?;
