@@ -3,7 +3,11 @@
 //! the membrane's stiffness is the material's at every resolution and on
 //! an irregular mesh (`docs/materials.md` derives the spring constants).
 
+mod common;
+
 use std::path::{Path, PathBuf};
+
+use common::{differing, noise};
 
 use wgcloth::mesh::{Mesh, MeshCloth};
 use wgcloth::model::Model;
@@ -134,16 +138,6 @@ fn a_grid_particle_weighs_the_density_times_a_third_of_its_triangles_area() {
     }
 }
 
-/// A deterministic number in `[-1, 1)` for `n`: the jitter of the
-/// irregular mesh.
-fn jitter(n: usize) -> f64 {
-    let mut x = (n as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0x5DEE_CE66;
-    x ^= x >> 29;
-    x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    x ^= x >> 32;
-    (x % 2_000_001) as f64 / 1_000_000.0 - 1.0
-}
-
 /// An irregular triangle mesh of the `width × 1` m rectangle hanging in the
 /// xy-plane from `y = 0`: rows of nearly equilateral triangles, every
 /// other row shifted by half a side, inner vertices moved along their row
@@ -151,7 +145,7 @@ fn jitter(n: usize) -> f64 {
 /// its triangles.
 fn irregular_sheet(width: f64, rows: usize) -> (String, Vec<[usize; 3]>) {
     /// How far inner vertices move, as a fraction of the side.
-    const JITTER: f64 = 0.2;
+    const JITTER: f64 = 0.1;
     let dy = 1.0 / (rows - 1) as f64;
     let side = dy * 2.0 / 3f64.sqrt();
     let mut positions: Vec<[f64; 2]> = Vec::new();
@@ -169,7 +163,11 @@ fn irregular_sheet(width: f64, rows: usize) -> (String, Vec<[usize; 3]>) {
         for (c, &x) in xs.iter().enumerate() {
             let n = positions.len();
             let edge = c == 0 || c == xs.len() - 1;
-            let jx = if edge { 0.0 } else { JITTER * side * jitter(n) };
+            let jx = if edge {
+                0.0
+            } else {
+                JITTER * side * noise(n as u64)
+            };
             positions.push([x + jx, -(r as f64) * dy]);
             row.push(n);
         }
@@ -297,9 +295,10 @@ fn strip_stiffness(model: &Model, x: &[[f64; 3]]) -> f64 {
 /// (e^(−2π) ≈ 0.2 % at the middle of a strip four times longer than wide)
 /// and the mass lumped at the rows is exact for the linear tension.
 const GRID_STIFFNESS_TOLERANCE: f64 = 0.01;
-/// The irregular mesh's triangles are only nearly equilateral, for which
-/// alone Van Gelder's springs have the stiffness `stretch` exactly.
-const MESH_STIFFNESS_TOLERANCE: f64 = 0.05;
+/// The irregular mesh's triangles (65 rows) are only nearly equilateral,
+/// for which alone Van Gelder's springs have the stiffness `stretch`
+/// exactly; those along the strip's sides, cut by its edges, least.
+const MESH_STIFFNESS_TOLERANCE: f64 = 0.03;
 
 #[test]
 fn a_strip_pulled_along_its_length_has_the_stretch_stiffness() {
@@ -314,10 +313,20 @@ fn a_strip_pulled_along_its_length_has_the_stretch_stiffness() {
             "shear {shear}: {y}"
         );
     }
-    let (scene, model) = hanging(0.25, [9, 33], Some(33), STRETCH * 3.0 / 8.0);
-    let y = strip_stiffness(&model, &settle(&scene, &model));
-    println!("irregular mesh: {y:.3} N/m");
-    assert!(close(y, STRETCH, MESH_STIFFNESS_TOLERANCE), "{y}");
+    // On the mesh the triangles along the strip's sides are far from
+    // equilateral; their share of the width, and so the deviation, falls
+    // with resolution.
+    let mut previous = f64::INFINITY;
+    for rows in [33, 65] {
+        let grid = [(rows - 1) / 4 + 1, rows];
+        let (scene, model) = hanging(0.25, grid, Some(rows), STRETCH * 3.0 / 8.0);
+        let y = strip_stiffness(&model, &settle(&scene, &model));
+        let d = (y - STRETCH) / STRETCH;
+        println!("irregular mesh, {rows} rows: {y:.3} N/m ({d:+.4})");
+        assert!(d.abs() < previous, "{rows} rows: {d} does not fall");
+        previous = d.abs();
+    }
+    assert!(previous < MESH_STIFFNESS_TOLERANCE, "{previous}");
 }
 
 #[test]
@@ -372,4 +381,76 @@ fn a_hanging_sheet_sags_alike_at_every_resolution_and_on_a_mesh() {
     let d = (sag(33, Some(33)) - fine) / fine;
     println!("irregular mesh, 33 rows: {d:+.4} from 65²");
     assert!(d.abs() < SAG_TOLERANCE, "mesh: {d}");
+}
+
+/// Steps of the GPU comparison: enough for the wind to fold the sheet out
+/// of its plane and the fix-up and CG to act every step.
+const GPU_STEPS: u32 = 60;
+
+/// A sheet of a material, on a grid of oblong cells (so its two stretch
+/// directions differ) and on the irregular mesh, blown out of its plane:
+/// the GPU on both step paths and every integrator gives the `f32`
+/// mirror's positions bit for bit; a grid of a material, whose springs
+/// have constants of their own, runs the general kernels (a per-spring
+/// force pass).
+#[test]
+fn the_gpu_runs_a_material_as_the_f32_mirror_bit_for_bit() {
+    use wgcloth::gpu::{GpuSolver, Kernel, StepPath};
+    use wgcloth::params::{FixupMethod, Integrator, Wind};
+    let ctx = match wgcloth::GpuContext::new(None) {
+        Ok(c) => c,
+        Err(e) => panic!("this test needs an adapter (lavapipe works): {e}"),
+    };
+    for (what, grid, mesh) in [("grid", [13, 9], None), ("mesh", [9, 9], Some(9))] {
+        let (mut scene, model) = hanging(1.0, grid, mesh, STRETCH / 4.0);
+        let params = &mut scene.params;
+        params.fixup.method = FixupMethod::Jacobi;
+        params.implicit.tolerance = 1e-4;
+        params.implicit.max_iterations = 40;
+        params.wind = Some(Wind {
+            velocity: wgcloth::glam::DVec3::new(0.0, 0.0, 4.0),
+            drag: 0.6,
+            lift: 0.1,
+        });
+        for integrator in Integrator::ALL {
+            let params = wgcloth::Params {
+                integrator,
+                dt: if integrator == Integrator::Explicit {
+                    1e-3
+                } else {
+                    1.0 / 120.0
+                },
+                ..scene.params.clone()
+            };
+            let mut cpu = CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
+            cpu.step_n(u64::from(GPU_STEPS)).expect("CPU run");
+            let mirror = cpu.positions();
+            let moved = mirror.iter().map(|x| x.z.abs()).fold(0.0f32, f32::max);
+            assert!(
+                moved > 1e-3,
+                "{what} {integrator}: the wind moved it {moved} m"
+            );
+            for path in [StepPath::MultiDispatch, StepPath::Workgroup] {
+                let mut g =
+                    GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, &model, &params, path)
+                        .unwrap_or_else(|e| panic!("{what} {integrator} on {path}: {e}"));
+                g.tuning_mut().set_adaptive_cg_budget(false);
+                if integrator == Integrator::Explicit && path == StepPath::MultiDispatch {
+                    let plan = g.tuning().step_plan();
+                    assert!(
+                        plan.iter().any(|d| d.kernel == Kernel::SpringForces),
+                        "{what}: {plan:?}"
+                    );
+                }
+                g.step(GPU_STEPS).expect("GPU run");
+                let x = g.read_state().expect("read-back").x;
+                let (n, p) = differing(&x, &mirror);
+                assert_eq!(
+                    n, 0,
+                    "{what} {integrator} on {path}: {n} positions differ from the f32 \
+                     mirror's, the first particle {p:?}"
+                );
+            }
+        }
+    }
 }

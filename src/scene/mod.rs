@@ -219,18 +219,12 @@ impl Scene {
                 material.quad_side(w * w, w * h)?;
                 material.quad_side(h * h, w * h).map(|_| ())
             }
-            Some(mesh) => {
-                let placement = mesh.placement(&self.cloth);
-                let rest: Vec<DVec3> = mesh
-                    .mesh
-                    .positions
-                    .iter()
-                    .map(|&p| placement.apply(p))
-                    .collect();
-                material
-                    .edge_stiffness(&rest, mesh.mesh.faces.iter().map(|f| f.corners()))
-                    .map(|_| ())
-            }
+            Some(mesh) => material
+                .edge_stiffness(
+                    &mesh.rest_positions(&self.cloth),
+                    mesh.mesh.faces.iter().map(|f| f.corners()),
+                )
+                .map(|_| ()),
         }
     }
 
