@@ -512,7 +512,8 @@ pub struct Model {
     pub grid: Option<ClothSpec>,
     /// Rest (and initial) positions \[m\], particle order.
     pub rest_positions: Vec<DVec3>,
-    /// Mass of each particle \[kg\] (equal for all).
+    /// Mass of each particle \[kg\] (equal for all on a grid; by area on a
+    /// mesh and for a material, see [`crate::material`]).
     pub mass: Vec<f64>,
     /// Whether each particle is pinned.
     pub pinned: Vec<bool>,
