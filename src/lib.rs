@@ -43,6 +43,7 @@ pub mod gpu;
 // buffer sections, status words); reached by the twin tests.
 #[doc(hidden)]
 pub mod kernel_config;
+pub mod material;
 pub mod mesh;
 pub mod model;
 pub mod params;

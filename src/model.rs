@@ -21,7 +21,7 @@ use glam::DVec3;
 
 use crate::budget::{self, try_collect, try_vec, try_with_capacity};
 use crate::error::{Error, Result};
-use crate::params::{check, check_finite, format_number, SpringKind, SpringParams};
+use crate::params::{check, check_finite, format_number, Params, SpringKind, SpringParams};
 
 /// What a model's allocations are named in a memory error.
 const MODEL: &str = "the cloth's model";
@@ -443,6 +443,16 @@ impl Spring {
     }
 }
 
+/// A spring's own constants, where its cloth is of a material
+/// ([`crate::material::Material`]) rather than of spring kinds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringConstants {
+    /// Stiffness `k` \[N/m\].
+    pub k: f64,
+    /// Damping `kd` \[N·s/m\] along the spring.
+    pub kd: f64,
+}
+
 /// A compressed per-particle list (CSR): the entries of particle `p` are
 /// `entries[offsets[p]..offsets[p + 1]]`.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -502,7 +512,8 @@ pub struct Model {
     pub grid: Option<ClothSpec>,
     /// Rest (and initial) positions \[m\], particle order.
     pub rest_positions: Vec<DVec3>,
-    /// Mass of each particle \[kg\] (equal for all).
+    /// Mass of each particle \[kg\] (equal for all on a grid; by area on a
+    /// mesh and for a material, see [`crate::material`]).
     pub mass: Vec<f64>,
     /// Whether each particle is pinned.
     pub pinned: Vec<bool>,
@@ -517,6 +528,11 @@ pub struct Model {
     pub particle_springs: Adjacency,
     /// For each particle, the indices of its incident triangles.
     pub particle_triangles: Adjacency,
+    /// Each spring's own constants, in `springs` order, for a cloth of a
+    /// material ([`crate::material::Material::apply`]); empty: every
+    /// spring takes its kind's from the parameters
+    /// ([`Model::spring_constants`]).
+    pub own_constants: Vec<SpringConstants>,
 }
 
 impl Model {
@@ -667,6 +683,7 @@ impl Model {
             triangles,
             particle_springs,
             particle_triangles,
+            own_constants: Vec::new(),
         })
     }
 
@@ -690,6 +707,7 @@ impl Model {
             triangles: try_collect(self.triangles.iter().copied(), MODEL)?,
             particle_springs: adjacency(&self.particle_springs)?,
             particle_triangles: adjacency(&self.particle_triangles)?,
+            own_constants: try_collect(self.own_constants.iter().copied(), MODEL)?,
         })
     }
 
@@ -702,12 +720,48 @@ impl Model {
     pub fn pinned_count(&self) -> usize {
         self.pinned.iter().filter(|&&p| p).count()
     }
+
+    /// The stiffness and damping of spring `s` under `params`: its own
+    /// where the cloth is of a material, else its kind's.
+    pub fn spring_constants(&self, s: usize, params: &Params) -> SpringConstants {
+        match self.own_constants.get(s) {
+            Some(&own) => own,
+            None => {
+                let kind = params.spring(self.springs[s].kind);
+                SpringConstants {
+                    k: kind.stiffness,
+                    kd: kind.damping,
+                }
+            }
+        }
+    }
+
+    /// The quad cells of a grid cloth, corners in cyclic order (none for a
+    /// model that is not a grid).
+    pub fn grid_cells(&self) -> Vec<[u32; 4]> {
+        let Some(spec) = &self.grid else {
+            return Vec::new();
+        };
+        let (nx, ny) = (spec.nx, spec.ny);
+        let idx = |row: usize, col: usize| (row * nx + col) as u32;
+        (0..ny - 1)
+            .flat_map(|row| {
+                (0..nx - 1).map(move |col| {
+                    [
+                        idx(row, col),
+                        idx(row, col + 1),
+                        idx(row + 1, col + 1),
+                        idx(row + 1, col),
+                    ]
+                })
+            })
+            .collect()
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::Params;
 
     fn model(nx: usize, ny: usize) -> Model {
         let spec = ClothSpec {

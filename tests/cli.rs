@@ -703,6 +703,36 @@ fn verbose_shows_the_step_path_and_the_passes() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A grid of a `[material]` runs the general kernels on the GPU (a
+/// per-spring `spring_forces` pass), and `--verbose` says why; the CPU
+/// runs it too.
+#[test]
+fn verbose_says_a_material_grid_takes_the_general_spring_layout() {
+    let dir = TempDir::new("material");
+    let scene = dir.write(
+        "cotton.toml",
+        "[cloth]\nresolution = [9, 9]\n[material]\ndensity = 0.2\nstretch = 100.0\n",
+    );
+    let out = wgcloth(&[
+        "run",
+        path_str(&scene),
+        "--backend",
+        "gpu",
+        "--steps",
+        "3",
+        "--step-path",
+        "multi-dispatch",
+        "--verbose",
+    ]);
+    assert_status(&out, 0);
+    let text = stdout(&out);
+    assert!(text.contains("spring layout: general"), "{text}");
+    assert!(text.contains("spring_forces"), "{text}");
+    let out = wgcloth(&["run", path_str(&scene), "--steps", "3", "--verbose"]);
+    assert_status(&out, 0);
+    assert!(!stdout(&out).contains("spring layout"), "{}", stdout(&out));
+}
+
 #[test]
 fn bench_stability_writes_its_csv_chart_and_table() {
     let dir = TempDir::new("bench-stability");

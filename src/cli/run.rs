@@ -118,6 +118,12 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     if args.verbose {
         if let Some(path) = &summary.outcome.step_path {
             outln!("step path: {path}")?;
+            if model.grid.is_some() && !model.own_constants.is_empty() {
+                outln!(
+                    "spring layout: general (the [material] gives each spring constants of its \
+                     own; the grid kernels read one stiffness per kind)"
+                )?;
+            }
         }
         print_passes(&summary.outcome.passes, summary.outcome.backend)?;
     }

@@ -209,14 +209,15 @@ impl<R: Real> System<R> {
         let springs = model
             .springs
             .iter()
-            .map(|s| {
-                let m = params.spring(s.kind);
+            .enumerate()
+            .map(|(n, s)| {
+                let c = model.spring_constants(n, params);
                 SpringR {
                     i: s.i,
                     j: s.j,
                     rest: R::from_f64(s.rest),
-                    k: R::from_f64(m.stiffness),
-                    kd: R::from_f64(m.damping),
+                    k: R::from_f64(c.k),
+                    kd: R::from_f64(c.kd),
                 }
             })
             .collect();

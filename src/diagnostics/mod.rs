@@ -44,8 +44,8 @@ pub fn energy<V: Vector>(model: &Model, params: &Params, x: &[V], v: &[V]) -> En
             e.kinetic += 0.5 * m * (vx * vx + vy * vy + vz * vz);
         }
     }
-    for s in &model.springs {
-        let k = params.spring(s.kind).stiffness;
+    for (n, s) in model.springs.iter().enumerate() {
+        let k = model.spring_constants(n, params).k;
         let c = length(x, s.i, s.j) - s.rest;
         e.elastic += 0.5 * k * c * c;
     }

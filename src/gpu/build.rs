@@ -90,13 +90,13 @@ fn device_springs(
         UPLOAD,
     )?;
     for (s, sp) in model.springs.iter().enumerate() {
-        let m = params.spring(sp.kind);
+        let c = model.spring_constants(s, params);
         springs[slot_of(s) as usize] = GpuSpring {
             i: sp.i,
             j: sp.j,
             rest: sp.rest as f32,
-            k: m.stiffness as f32,
-            kd: m.damping as f32,
+            k: c.k as f32,
+            kd: c.kd as f32,
             max_len: fixup_limit(sp, params),
             _pad: [0; 2],
         };

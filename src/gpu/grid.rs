@@ -104,9 +104,15 @@ impl GridLayout {
     /// The layout of `model` under `params`, or `None` when it is not a
     /// grid whose springs all follow [`DIRECTIONS`] with one rest length and
     /// one fix-up limit (as the device holds them, in `f32`) per direction
-    /// — then the solver keeps the general adjacency kernels.
+    /// and its kind's stiffness — then the solver keeps the general
+    /// adjacency kernels. A cloth of a material has constants of its own per
+    /// spring (its border springs carry half a cell's width), which the
+    /// grid kernels, reading one stiffness per kind, cannot hold.
     pub fn of(model: &Model, params: &Params) -> Option<GridLayout> {
         let spec = model.grid.as_ref()?;
+        if !model.own_constants.is_empty() {
+            return None;
+        }
         let (nx, ny) = (spec.nx, spec.ny);
         let n = model.particle_count();
         if nx * ny != n || 6 * n > u32::MAX as usize / 2 {

@@ -262,13 +262,7 @@ impl MeshCloth {
         )?;
         check_position("cloth.origin", spec.origin)?;
         check("cloth.mass", spec.mass, spec.mass > 0.0, "> 0 (kg, total)")?;
-        let placement = self.placement(spec);
-        let rest: Vec<DVec3> = self
-            .mesh
-            .positions
-            .iter()
-            .map(|&p| placement.apply(p))
-            .collect();
+        let rest = self.rest_positions(spec);
         self.check_scale(&rest)?;
         pinned(&spec.pins, &rest).map(|_| ())
     }
@@ -325,6 +319,16 @@ impl MeshCloth {
             }
         }
         Ok(())
+    }
+
+    /// The vertices where `spec` and this cloth's `scale` put them \[m\].
+    pub fn rest_positions(&self, spec: &ClothSpec) -> Vec<DVec3> {
+        let placement = self.placement(spec);
+        self.mesh
+            .positions
+            .iter()
+            .map(|&p| placement.apply(p))
+            .collect()
     }
 
     /// Where `spec` (its `origin`) and this cloth's `scale` put the mesh.

@@ -19,6 +19,7 @@ use serde::Deserialize;
 use super::animation::{Character, Key};
 use super::shape::{Exactly, Form, List, Number, Table, Whole};
 use super::CameraSpec;
+use crate::material::Material;
 use crate::model::{ClothSpec, Orientation, Pin, MAX_PARTICLES};
 use crate::params::{
     Capsule, FilterMethod, FixupMethod, Ground, Integrator, Params, SelfCollision, Sphere,
@@ -47,6 +48,7 @@ pub(super) struct SceneFile {
     cloth: Table<ClothTable>,
     #[serde(default)]
     springs: Table<SpringsTable>,
+    material: Option<Table<MaterialTable>>,
     #[serde(default)]
     fixup: Table<FixupTable>,
     #[serde(default)]
@@ -131,6 +133,17 @@ struct SpringTable {
     stiffness: Option<Number>,
     damping: Option<Number>,
     max_stretch: Option<Number>,
+}
+
+/// `[material]`: a cloth in physical units (`crate::material`).
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct MaterialTable {
+    density: Option<Number>,
+    stretch: Option<Number>,
+    shear: Option<Number>,
+    bending: Option<Number>,
+    damping: Option<Number>,
 }
 
 #[derive(Deserialize, Default)]
@@ -250,6 +263,7 @@ table_form!(SimulationTable, "simulation");
 table_form!(ClothTable, "cloth");
 table_form!(SpringTable, "springs.<stretch|shear|bend>");
 table_form!(FixupTable, "fixup");
+table_form!(MaterialTable, "material");
 table_form!(ImplicitTable, "implicit");
 table_form!(SemiImplicitTable, "semi_implicit");
 table_form!(GroundTable, "ground");
@@ -382,6 +396,47 @@ impl SceneFile {
             origin_given: c.origin.is_some(),
             pins_given: c.pins.is_some(),
         }))
+    }
+
+    /// The file's `[material]` (not yet validated), absent keys from
+    /// [`Material::default`]; refuses `cloth.mass` and `[springs.*]`
+    /// tables beside it, which would give the mass or the springs twice.
+    pub(super) fn material(&self) -> Result<Option<Material>, String> {
+        let Some(Table(t)) = &self.material else {
+            return Ok(None);
+        };
+        if self.cloth.0.mass.is_some() {
+            return Err(
+                "`cloth.mass` conflicts with `[material]`: a material cloth's mass is \
+                 `material.density` × its area; remove `cloth.mass`, or `[material]` to give \
+                 the mass and springs by hand"
+                    .to_string(),
+            );
+        }
+        let springs = &self.springs.0;
+        for (kind, given) in [
+            (SpringKind::Stretch, springs.stretch.is_some()),
+            (SpringKind::Shear, springs.shear.is_some()),
+            (SpringKind::Bend, springs.bend.is_some()),
+        ] {
+            if given {
+                return Err(format!(
+                    "`[springs.{}]` conflicts with `[material]`: a material cloth's springs \
+                     follow from `material.stretch`, `shear`, `bending` and `damping` and the \
+                     rest geometry; remove `[springs.{}]`, or `[material]` to give the springs \
+                     by hand",
+                    kind.as_str(),
+                    kind.as_str()
+                ));
+            }
+        }
+        let mut m = Material::default();
+        set(&mut m.density, t.density);
+        set(&mut m.stretch, t.stretch);
+        set(&mut m.shear, t.shear);
+        set(&mut m.bending, t.bending);
+        set(&mut m.damping, t.damping);
+        Ok(Some(m))
     }
 
     /// The cloth, the parameters, the duration \[s\] and the camera this file

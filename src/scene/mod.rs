@@ -23,6 +23,7 @@ use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::material::Material;
 use crate::mesh::{Mesh, MeshCloth};
 use crate::model::{ClothSpec, Model};
 use crate::params::{check, check_finite, Params};
@@ -33,11 +34,17 @@ pub struct Scene {
     /// Display name (the built-in name or the file stem).
     pub name: String,
     /// The cloth's geometry and mass. For a mesh cloth only its `origin`,
-    /// `mass` and `pins` apply.
+    /// `mass` and `pins` apply. For a cloth of a [`Material`] the model's
+    /// masses are the material's (`mass` is then, on a grid, their sum).
     pub cloth: ClothSpec,
     /// The mesh, for a mesh cloth (`[cloth] mesh`); `None` for a grid.
     pub mesh: Option<MeshCloth>,
-    /// Everything else.
+    /// The cloth's material (`[material]`), whose density and
+    /// stiffnesses give the model's masses and spring constants; `None`:
+    /// `cloth.mass` and the `[springs.*]` kinds give them.
+    pub material: Option<Material>,
+    /// Everything else (for a cloth of a material, its spring kinds are
+    /// [`Material::spring_params`]).
     pub params: Params,
     /// How long the scene runs by default \[s\] (`[simulation] duration`).
     pub duration: f64,
@@ -127,8 +134,16 @@ impl Scene {
         let mut parsed: file::SceneFile =
             serde_path_to_error::deserialize(de).map_err(|e| fail(describe(text, &e)))?;
         let mesh_keys = parsed.mesh_keys().map_err(fail)?;
+        let material = parsed.material().map_err(fail)?;
         let character = parsed.take_character();
         let (mut cloth, mut params, duration, camera) = parsed.into_parts();
+        if let Some(m) = &material {
+            m.validate().map_err(|e| fail(e.to_string()))?;
+            params.springs = m.spring_params();
+            // What the model's masses add up to on a grid (a mesh's
+            // follow from its faces' areas).
+            cloth.mass = m.density * cloth.size[0] * cloth.size[1];
+        }
         if let Some(c) = &character {
             c.validate().map_err(|e| fail(e.to_string()))?;
             let start = c.keys.first().map_or(0.0, |k| k.time);
@@ -174,15 +189,43 @@ impl Scene {
         let name = path
             .file_stem()
             .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
-        Ok(Scene {
+        let scene = Scene {
             name,
             cloth,
             mesh,
+            material,
             params,
             duration,
             camera,
             character,
-        })
+        };
+        scene
+            .check_material_geometry()
+            .map_err(|e| fail(e.to_string()))?;
+        Ok(scene)
+    }
+
+    /// Refuses a material whose shear stiffness is too large for the
+    /// cloth's cells (what [`Material::apply`] would refuse), before
+    /// anything is built: a grid's cells are all one rectangle.
+    fn check_material_geometry(&self) -> Result<()> {
+        let Some(material) = &self.material else {
+            return Ok(());
+        };
+        match &self.mesh {
+            None => {
+                let c = &self.cloth;
+                let (w, h) = (c.size[0] / (c.nx - 1) as f64, c.size[1] / (c.ny - 1) as f64);
+                material.quad_side(w * w, w * h)?;
+                material.quad_side(h * h, w * h).map(|_| ())
+            }
+            Some(mesh) => material
+                .edge_stiffness(
+                    &mesh.rest_positions(&self.cloth),
+                    mesh.mesh.faces.iter().map(|f| f.corners()),
+                )
+                .map(|_| ()),
+        }
     }
 
     /// The animation of this scene's `[character]` on `model` (this scene's
@@ -275,10 +318,22 @@ impl Scene {
 
     /// Builds the model this scene describes.
     pub fn model(&self) -> Result<Model> {
-        match &self.mesh {
-            Some(mesh) => mesh.model(&self.cloth, &self.params.springs),
-            None => Model::new(&self.cloth, &self.params.springs),
+        let mut model = match &self.mesh {
+            Some(mesh) => mesh.model(&self.cloth, &self.params.springs)?,
+            None => Model::new(&self.cloth, &self.params.springs)?,
+        };
+        if let Some(material) = &self.material {
+            match &self.mesh {
+                Some(mesh) => {
+                    material.apply(&mut model, mesh.mesh.faces.iter().map(|f| f.corners()))?
+                }
+                None => {
+                    let cells = model.grid_cells();
+                    material.apply(&mut model, cells.iter().map(|c| &c[..]))?
+                }
+            }
         }
+        Ok(model)
     }
 
     /// Number of particles of the cloth.

@@ -128,6 +128,16 @@ pub fn noise(seed: u64) -> f64 {
     (z >> 11) as f64 / (1u64 << 52) as f64 - 1.0
 }
 
+/// How many positions' bits differ between `a` and `b`, and the first
+/// that does.
+pub fn differing(a: &[wgcloth::glam::Vec3], b: &[wgcloth::glam::Vec3]) -> (usize, Option<usize>) {
+    let bits = |v: &wgcloth::glam::Vec3| v.to_array().map(f32::to_bits);
+    let differ: Vec<usize> = (0..a.len())
+        .filter(|&p| bits(&a[p]) != bits(&b[p]))
+        .collect();
+    (differ.len(), differ.first().copied())
+}
+
 /// The model's rest state: rest positions, zero velocities.
 pub fn rest_state(model: &Model) -> State<f64> {
     State {

@@ -1,0 +1,264 @@
+//! A cloth material in physical units (`[material]`): areal density and
+//! membrane stiffnesses per unit width, from which every particle's mass
+//! and every spring's constants follow from the rest geometry, so that the
+//! same material is the same cloth at every resolution.
+//!
+//! `docs/materials.md` derives the constants; in short, with `Y` the
+//! stretch stiffness and `S` the shear stiffness \[N/m\]:
+//!
+//! - mass: `density ×` a third of the rest area of each triangle a
+//!   particle is a corner of;
+//! - a quad cell (a grid cell, a mesh's quad face) of area `A` adds to each
+//!   of its sides, of rest length `L`, `k = (u − S L⁴/A²) · A / (2 L²)` and
+//!   gives each of its two diagonals, of rest length `D`, `k = S D² / (2A)`,
+//!   where `u = (Y + √(Y² + 4S²)) / 2`: on a rectangular cell this makes
+//!   the uniaxial stiffness along either side `Y` and the shear stiffness
+//!   `S` exactly;
+//! - a triangle face adds `k = Y A / L²` to each of its sides (Van Gelder
+//!   1998): an equilateral lattice's uniaxial stiffness is `Y`, its shear
+//!   stiffness `3Y/8` whatever `S` is;
+//! - damping is stiffness-proportional (Rayleigh): `kd = β k`.
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use crate::error::{Error, Result};
+use crate::model::{Model, SpringConstants};
+use crate::params::{check, format_number, Params, SpringKind, SpringParams};
+
+/// A membrane material: what `[material]` gives.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    /// Areal density \[kg/m²\], `> 0`.
+    pub density: f64,
+    /// Stretch stiffness \[N/m\]: force per unit width per unit strain of a
+    /// strip pulled along either cloth axis (free to narrow), `> 0`.
+    pub stretch: f64,
+    /// In-plane shear stiffness \[N/m\]: shear force per unit width per
+    /// radian of shear, `> 0`. A triangle mesh has no shear springs: its
+    /// shear stiffness is its lattice's (see the module docs).
+    pub shear: f64,
+    /// Bending stiffness \[N·m\]: only `0` (no bend springs) for now; the
+    /// linear bending model that gives it meaning is not implemented yet.
+    pub bending: f64,
+    /// Stiffness-proportional damping time constant `β` \[s\]: each spring's
+    /// damping is `kd = β k`, `≥ 0`.
+    pub damping: f64,
+}
+
+/// The largest `stretch` and `shear` \[N/m\]: stiffer than any fabric
+/// (woven cotton is ~1e3–1e5 N/m), and with `damping` ≤ 1 s it keeps the
+/// springs' nominal constants within `[springs.*]`'s ranges.
+pub const MAX_STIFFNESS: f64 = 1e6;
+
+/// The largest `damping` \[s\]: a time constant of a second damps every
+/// motion of a cloth-sized sheet completely.
+pub const MAX_DAMPING: f64 = 1.0;
+
+impl Default for Material {
+    /// The default cloth's material: its 0.3 kg over 1 m², springs near the
+    /// default `[springs.*]` at the default 33² resolution, and the
+    /// default springs' damping ratio `kd / k = 1e-3 s`.
+    fn default() -> Self {
+        Material {
+            density: 0.3,
+            stretch: 50.0,
+            shear: 20.0,
+            bending: 0.0,
+            damping: 1e-3,
+        }
+    }
+}
+
+fn invalid(key: &str, allowed: String, got: impl std::fmt::Display) -> Error {
+    Error::InvalidParameter {
+        key: key.to_string(),
+        allowed,
+        got: got.to_string(),
+    }
+}
+
+impl Material {
+    /// Refuses a non-positive or non-finite density, stretch or shear
+    /// stiffness, a damping outside `0..=1` s, and a non-zero bending
+    /// stiffness (not implemented yet), naming the `material.*` key.
+    pub fn validate(&self) -> Result<()> {
+        check(
+            "material.density",
+            self.density,
+            self.density > 0.0,
+            "> 0 (kg/m²)",
+        )?;
+        for (key, value) in [
+            ("material.stretch", self.stretch),
+            ("material.shear", self.shear),
+        ] {
+            check(
+                key,
+                value,
+                value > 0.0 && value <= MAX_STIFFNESS,
+                "0 < stiffness ≤ 1e6 (N/m, per unit width)",
+            )?;
+        }
+        if self.bending != 0.0 {
+            return Err(invalid(
+                "material.bending",
+                "0 (no bending stiffness): the linear bending model that would give a \
+                 bending stiffness in N·m its meaning is not implemented yet, and chord bend \
+                 springs bend by a cubic law, so none stands in for it"
+                    .to_string(),
+                format_number(self.bending),
+            ));
+        }
+        check(
+            "material.damping",
+            self.damping,
+            (0.0..=MAX_DAMPING).contains(&self.damping),
+            "0 ≤ damping ≤ 1 (s, kd = damping × k per spring)",
+        )
+    }
+
+    /// The spring kinds a cloth of this material has, for
+    /// [`Params::springs`]: stretch and shear springs with the material's
+    /// stiffnesses and damping `β ×` those as their kinds' nominal
+    /// constants (each spring's own follow from the geometry, see
+    /// [`Material::apply`]), the stretch springs' default fix-up limit, no
+    /// bend springs.
+    pub fn spring_params(&self) -> [SpringParams; 3] {
+        let defaults = Params::default().springs;
+        let kind = |stiffness: f64, max_stretch| SpringParams {
+            stiffness,
+            damping: self.damping * stiffness,
+            max_stretch,
+        };
+        [
+            kind(
+                self.stretch,
+                defaults[SpringKind::Stretch.index()].max_stretch,
+            ),
+            kind(self.shear, None),
+            SpringParams::NONE,
+        ]
+    }
+
+    /// `u = (Y + √(Y² + 4S²)) / 2` \[N/m\]: a rectangular cell's `C11` (and
+    /// `C22`) for which the uniaxial stiffness is `Y` with shear springs of
+    /// shear stiffness `S` (`docs/materials.md`).
+    fn axial(&self) -> f64 {
+        let (y, s) = (self.stretch, self.shear);
+        0.5 * (y + (y * y + 4.0 * s * s).sqrt())
+    }
+
+    /// Gives `model` (built with [`Material::spring_params`]) this
+    /// material's masses and per-spring constants. `faces` are its cells as
+    /// cyclic corner lists: quads (a grid's cells, a mesh's quad faces)
+    /// and triangles; the masses come from `model.triangles`. Refuses a
+    /// shear stiffness too large for a cell's aspect ratio (a side would
+    /// get a negative stiffness), naming `material.shear`.
+    pub fn apply<'a>(
+        &self,
+        model: &mut Model,
+        faces: impl Iterator<Item = &'a [u32]>,
+    ) -> Result<()> {
+        let x = &model.rest_positions;
+        let mut mass = vec![0.0; model.particle_count()];
+        for t in &model.triangles {
+            let [a, b, c] = t.map(|p| x[p as usize]);
+            let third = self.density * triangle_area(a, b, c) / 3.0;
+            for &p in t {
+                mass[p as usize] += third;
+            }
+        }
+        let k = self.edge_stiffness(x, faces)?;
+        let constants = model
+            .springs
+            .iter()
+            .map(|sp| {
+                let k = k
+                    .get(&(sp.i.min(sp.j), sp.i.max(sp.j)))
+                    .copied()
+                    .unwrap_or(0.0);
+                SpringConstants {
+                    k,
+                    kd: self.damping * k,
+                }
+            })
+            .collect();
+        model.mass = mass;
+        model.own_constants = constants;
+        Ok(())
+    }
+
+    /// The stiffness \[N/m\] each face gives its sides and diagonals
+    /// (module docs), summed per edge (ends in ascending order), for the
+    /// rest positions `x`; refuses a shear stiffness too large for a quad.
+    pub fn edge_stiffness<'a>(
+        &self,
+        x: &[DVec3],
+        faces: impl Iterator<Item = &'a [u32]>,
+    ) -> Result<HashMap<(u32, u32), f64>> {
+        let mut k: HashMap<(u32, u32), f64> = HashMap::new();
+        let mut add = |i: u32, j: u32, value: f64| {
+            *k.entry((i.min(j), i.max(j))).or_insert(0.0) += value;
+        };
+        let l2 = |i: u32, j: u32| x[i as usize].distance_squared(x[j as usize]);
+        for face in faces {
+            match *face {
+                [a, b, c] => {
+                    let area = triangle_area(x[a as usize], x[b as usize], x[c as usize]);
+                    for (i, j) in [(a, b), (b, c), (c, a)] {
+                        add(i, j, self.stretch * area / l2(i, j));
+                    }
+                }
+                [a, b, c, d] => {
+                    let [pa, pb, pc, pd] = [a, b, c, d].map(|p| x[p as usize]);
+                    let area = triangle_area(pa, pb, pc) + triangle_area(pa, pc, pd);
+                    for (i, j) in [(a, b), (b, c), (c, d), (d, a)] {
+                        add(i, j, self.quad_side(l2(i, j), area)?);
+                    }
+                    for (i, j) in [(a, c), (b, d)] {
+                        add(i, j, self.shear * l2(i, j) / (2.0 * area));
+                    }
+                }
+                _ => {}
+            }
+        }
+        Ok(k)
+    }
+
+    /// The stiffness \[N/m\] a quad cell of area `area` \[m²\] gives a
+    /// side of rest length `√l2` \[m\]: `(u − S L⁴/A²) · A / (2 L²)`,
+    /// refused where it is not positive.
+    pub fn quad_side(&self, l2: f64, area: f64) -> Result<f64> {
+        let share = self.axial() - self.shear * l2 * l2 / (area * area);
+        if share > 0.0 {
+            Ok(share * area / (2.0 * l2))
+        } else {
+            Err(self.too_much_shear(l2.sqrt(), area / l2.sqrt()))
+        }
+    }
+
+    /// The refusal of a shear stiffness that would give a cell's side of
+    /// rest length `side` \[m\] (the cell `height` \[m\] across it) a
+    /// negative stiffness.
+    fn too_much_shear(&self, side: f64, height: f64) -> Error {
+        let ratio = side / height;
+        invalid(
+            "material.shear",
+            format!(
+                "a shear stiffness S with S × r² < (stretch + √(stretch² + 4 S²)) / 2 for the \
+                 cloth's most elongated cell, whose side / height ratio is r = {} (else that \
+                 side's spring would get a negative stiffness); give a smaller shear or cells \
+                 closer to square",
+                format_number(ratio)
+            ),
+            format_number(self.shear),
+        )
+    }
+}
+
+/// Area of the triangle `a b c` \[m²\].
+fn triangle_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    0.5 * (b - a).cross(c - a).length()
+}
