@@ -524,3 +524,35 @@ fn a_batch_drops_it_as_lone_solvers_do() {
         );
     }
 }
+
+/// Steps of the tablecloth mesh with self-collision: it falls onto its
+/// ball and starts to drape (its folds near), colliders and all.
+const MESH_STEPS: u32 = 60;
+
+/// The `tablecloth` scene (an irregular triangle mesh falling onto a ball
+/// on the ground) with self-collision, on the GPU on both step paths: the
+/// `f32` mirror's positions bit for bit.
+#[test]
+fn a_mesh_with_colliders_is_the_f32_mirrors_bit_for_bit() {
+    use wgcloth::gpu::{GpuSolver, StepPath};
+    let ctx = gpu_common::gpu();
+    let mut scene = Scene::builtin("tablecloth").expect("built in");
+    scene.params.self_collision = Some(SelfCollision::default());
+    scene.params.implicit.max_iterations = GPU_CG_MAX_ITERATIONS;
+    let model = scene.model().expect("mesh model");
+    let mut cpu = CpuSolver::<f32>::new(&model, &scene.params).expect("CPU solver");
+    cpu.step_n(u64::from(MESH_STEPS)).expect("CPU run");
+    let mirror = cpu.positions();
+    for path in [StepPath::MultiDispatch, StepPath::Workgroup] {
+        let mut g =
+            GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, &model, &scene.params, path)
+                .unwrap_or_else(|e| panic!("{path}: {e}"));
+        g.tuning_mut().set_adaptive_cg_budget(false);
+        g.step(MESH_STEPS).expect("GPU run");
+        let (n, p) = differing(&g.read_state().expect("read-back").x, &mirror);
+        assert_eq!(
+            n, 0,
+            "tablecloth on {path}: {n} positions differ, the first {p:?}"
+        );
+    }
+}
