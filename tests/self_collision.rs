@@ -5,8 +5,10 @@
 //! bit for bit as without it; bad values are refused naming the key; the
 //! GPU solvers refuse it rather than leave it out.
 
+mod common;
 mod gpu_common;
 
+use common::differing;
 use gpu_common::{folded_model, folded_positions, FOLD_SPACING as SPACING};
 use wgcloth::cpu::self_collision::{self, EXCLUDE_REST, STEP_CAP};
 use wgcloth::cpu::{CpuSolver, State};
@@ -419,15 +421,6 @@ fn gpu_drop_params(integrator: Integrator) -> Params {
     p.implicit.max_iterations = GPU_CG_MAX_ITERATIONS;
     p.fixup.method = wgcloth::params::FixupMethod::Jacobi;
     p
-}
-
-/// Positions whose bits differ between `a` and `b`, and the first.
-fn differing(a: &[wgcloth::glam::Vec3], b: &[wgcloth::glam::Vec3]) -> (usize, Option<usize>) {
-    let bits = |v: &wgcloth::glam::Vec3| v.to_array().map(f32::to_bits);
-    let differ: Vec<usize> = (0..a.len())
-        .filter(|&p| bits(&a[p]) != bits(&b[p]))
-        .collect();
-    (differ.len(), differ.first().copied())
 }
 
 /// The folded drop on the GPU, on both step paths and every integrator:

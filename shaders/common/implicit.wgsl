@@ -234,7 +234,7 @@ fn implicit_store_prediction(p: u32) {
 // cpu::self_collision::project's v += Δx / dt, where it moved anything,
 // then the end of cpu::implicit::finish).
 fn implicit_project_item(p: u32) {
-    var xp = work[wi(W_X_ALT, p)].xyz;
+    let xp = work[wi(W_X_ALT, p)].xyz;
     var vp = work[wi(W_V_NEW, p)].xyz;
     if (x[p].w > 0.0 && atomicLoad(&status[sw(STATUS_FIXUP_MOVED)]) != 0u) {
         vp += unseen3((xp - work[wi(W_SC_A, p)].xyz) * (1.0 / params.dt));

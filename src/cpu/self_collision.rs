@@ -353,9 +353,9 @@ const NEIGHBOUR_CELLS: [[i32; 3]; 8] = {
     cells
 };
 
-/// Twin of `self_collision_respond` for particle `p`: its new position
-/// from the snapshot `g.snapshot`, the step's start `x_old` and the grid.
-/// `None` when it has no contact.
+/// The contacts of particle `p` in a pass ([`pass`] without the cap): its
+/// new position from the snapshot `g.snapshot`, the step's start `x_old`
+/// and the grid. `None` when it has no contact.
 pub fn respond<R: Real>(
     sys: &System<R>,
     c: &SelfCollisionR<R>,
