@@ -39,7 +39,12 @@ impl Aggregation {
     /// The aggregation both backends use for `model` under `params`: an
     /// implicit grid cloth with [`crate::params::ImplicitParams::coarse_levels`].
     pub fn for_scene(model: &Model, params: &Params) -> Option<Self> {
-        if params.integrator != Integrator::Implicit || !params.implicit.coarse_levels {
+        // The coarse levels aggregate the springs' blocks; a cloth of the
+        // linear bending model has a wider operator they do not carry.
+        if params.integrator != Integrator::Implicit
+            || !params.implicit.coarse_levels
+            || model.bending.is_some()
+        {
             return None;
         }
         Self::for_grid(model.grid.as_ref().map(|g| (g.nx, g.ny)))

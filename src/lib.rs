@@ -29,6 +29,7 @@
 // The coarse levels' aggregates, shared by the CPU and GPU solvers.
 pub(crate) mod aggregation;
 pub mod atomic_file;
+pub mod bending;
 pub mod budget;
 pub mod cpu;
 pub mod diagnostics;

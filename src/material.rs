@@ -23,9 +23,10 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
+use crate::bending::Bending;
 use crate::error::{Error, Result};
 use crate::model::{Model, SpringConstants};
-use crate::params::{check, format_number, Params, SpringKind, SpringParams};
+use crate::params::{check, format_number, Integrator, Params, SpringKind, SpringParams};
 
 /// A membrane material: what `[material]` gives.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,8 +40,9 @@ pub struct Material {
     /// radian of shear, `> 0`. A triangle mesh has no shear springs: its
     /// shear stiffness is its lattice's (see the module docs).
     pub shear: f64,
-    /// Bending stiffness \[N·m\]: only `0` (no bend springs) for now; the
-    /// linear bending model that gives it meaning is not implemented yet.
+    /// Bending stiffness per unit width \[N·m\] (moment per unit width per
+    /// unit curvature), `≥ 0`, acted on by the linear bending model of
+    /// [`crate::bending`]; `0`: the cloth does not resist bending.
     pub bending: f64,
     /// Stiffness-proportional damping time constant `β` \[s\]: each spring's
     /// damping is `kd = β k`, `≥ 0`.
@@ -51,6 +53,10 @@ pub struct Material {
 /// (woven cotton is ~1e3–1e5 N/m), and with `damping` ≤ 1 s it keeps the
 /// springs' nominal constants within `[springs.*]`'s ranges.
 pub const MAX_STIFFNESS: f64 = 1e6;
+
+/// The largest `bending` \[N·m\]: a thousand times the stiffest
+/// fabrics' (heavy canvas is ~1e-3 N·m); beyond it a sheet is a plate.
+pub const MAX_BENDING: f64 = 1.0;
 
 /// The largest `damping` \[s\]: a time constant of a second damps every
 /// motion of a cloth-sized sheet completely.
@@ -101,16 +107,12 @@ impl Material {
                 "0 < stiffness ≤ 1e6 (N/m, per unit width)",
             )?;
         }
-        if self.bending != 0.0 {
-            return Err(invalid(
-                "material.bending",
-                "0 (no bending stiffness): the linear bending model that would give a \
-                 bending stiffness in N·m its meaning is not implemented yet, and chord bend \
-                 springs bend by a cubic law, so none stands in for it"
-                    .to_string(),
-                format_number(self.bending),
-            ));
-        }
+        check(
+            "material.bending",
+            self.bending,
+            (0.0..=MAX_BENDING).contains(&self.bending),
+            "0 ≤ bending ≤ 1 (N·m, per unit width)",
+        )?;
         check(
             "material.damping",
             self.damping,
@@ -142,6 +144,36 @@ impl Material {
         ]
     }
 
+    /// Refuses a bending stiffness that the explicit integrator cannot
+    /// step stably at the scene's `dt` (`dt ω ≥ 2` for the stiffest bending
+    /// vibration of `model`, bounded from above by
+    /// [`Bending::omega_squared_bound`]), naming the largest that it can.
+    pub fn check_explicit(&self, model: &Model, params: &Params) -> Result<()> {
+        let Some(bending) = &model.bending else {
+            return Ok(());
+        };
+        if params.integrator != Integrator::Explicit {
+            return Ok(());
+        }
+        let omega2 = bending.omega_squared_bound(&model.mass, &model.pinned);
+        let limit = 4.0 / (params.dt * params.dt);
+        if omega2 < limit {
+            return Ok(());
+        }
+        Err(invalid(
+            "material.bending",
+            format!(
+                "at most {} N·m for the explicit integrator at dt = {} s on this cloth (its \
+                 stiffest bending vibration must satisfy dt ω < 2); give a smaller bending, a \
+                 smaller dt, or the implicit or semi-implicit integrator, which are stable at \
+                 any bending",
+                format_number(self.bending * limit / omega2),
+                format_number(params.dt)
+            ),
+            format_number(self.bending),
+        ))
+    }
+
     /// `u = (Y + √(Y² + 4S²)) / 2` \[N/m\]: a rectangular cell's `C11` (and
     /// `C22`) for which the uniaxial stiffness is `Y` with shear springs of
     /// shear stiffness `S` (`docs/materials.md`).
@@ -151,7 +183,9 @@ impl Material {
     }
 
     /// Gives `model` (built with [`Material::spring_params`]) this
-    /// material's masses and per-spring constants. `faces` are its cells as
+    /// material's masses, per-spring constants and, with a bending
+    /// stiffness, its bending operator ([`Bending::grid`] on a grid,
+    /// [`Bending::new`] on a mesh's triangles). `faces` are its cells as
     /// cyclic corner lists: quads (a grid's cells, a mesh's quad faces)
     /// and triangles; the masses come from `model.triangles`. Refuses a
     /// shear stiffness too large for a cell's aspect ratio (a side would
@@ -187,6 +221,27 @@ impl Material {
             .collect();
         model.mass = mass;
         model.own_constants = constants;
+        model.bending = match (&model.grid, self.bending > 0.0) {
+            (_, false) => None,
+            (Some(spec), true) => {
+                let hx = spec.size[0] / (spec.nx - 1) as f64;
+                let hy = spec.size[1] / (spec.ny - 1) as f64;
+                Some(Bending::grid(
+                    spec.nx,
+                    spec.ny,
+                    hx,
+                    hy,
+                    self.bending,
+                    self.damping,
+                )?)
+            }
+            (None, true) => Some(Bending::new(
+                &model.rest_positions,
+                &model.triangles,
+                self.bending,
+                self.damping,
+            )?),
+        };
         Ok(())
     }
 

@@ -19,6 +19,7 @@ use std::ops::Range;
 
 use glam::DVec3;
 
+use crate::bending::Bending;
 use crate::budget::{self, try_collect, try_vec, try_with_capacity};
 use crate::error::{Error, Result};
 use crate::params::{check, check_finite, format_number, Params, SpringKind, SpringParams};
@@ -533,6 +534,9 @@ pub struct Model {
     /// spring takes its kind's from the parameters
     /// ([`Model::spring_constants`]).
     pub own_constants: Vec<SpringConstants>,
+    /// The linear bending operator of a cloth of a material with a bending
+    /// stiffness ([`crate::bending`]); `None`: bending is the bend springs'.
+    pub bending: Option<Bending>,
 }
 
 impl Model {
@@ -684,6 +688,7 @@ impl Model {
             particle_springs,
             particle_triangles,
             own_constants: Vec::new(),
+            bending: None,
         })
     }
 
@@ -708,6 +713,7 @@ impl Model {
             particle_springs: adjacency(&self.particle_springs)?,
             particle_triangles: adjacency(&self.particle_triangles)?,
             own_constants: try_collect(self.own_constants.iter().copied(), MODEL)?,
+            bending: self.bending.clone(),
         })
     }
 

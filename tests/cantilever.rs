@@ -131,24 +131,36 @@ fn cli_writes_the_csv_and_chart_it_describes() -> anyhow::Result<()> {
     assert_eq!(
         lines.next(),
         Some(
-            "segments,integrator,gamma,bend_stiffness,reference,simulated,deviation,steps,settled"
+            "segments,integrator,gamma,bend_stiffness,reference,simulated,deviation,steps,settled,model,h_over_w,reference_h_over_w"
         )
     );
-    // One row per Γ of the quick sweep, each with a finite drop.
+    // One row per Γ of the quick sweep and bending model, each with a
+    // finite drop.
     let rows: Vec<&str> = lines.collect();
+    let quick = CantileverOptions::quick();
     assert_eq!(
         rows.len(),
-        CantileverOptions::quick().gammas.len(),
+        quick.gammas.len() * (quick.segments.len() + quick.material_segments.len()),
         "{text}"
+    );
+    assert_eq!(
+        rows.iter().filter(|r| r.contains(",material,")).count(),
+        quick.gammas.len() * quick.material_segments.len()
     );
     for row in &rows {
         let simulated: f64 = row.split(',').nth(5).unwrap_or("").parse()?;
         assert!(simulated.is_finite() && simulated > 0.0, "{row}");
     }
     let chart = std::fs::read_to_string(&svg)?;
-    // The elastica's line and one dot per strip.
+    // The elastica's line, a dot per chord strip and a square per
+    // material strip.
     assert!(chart.contains("<polyline") && chart.ends_with("</svg>\n"));
-    assert_eq!(chart.matches("<circle").count(), rows.len());
+    let materials = rows.iter().filter(|r| r.contains(",material,")).count();
+    assert_eq!(chart.matches("<circle").count(), rows.len() - materials);
+    assert_eq!(
+        chart.matches(r#"height="8" fill="none""#).count(),
+        materials
+    );
     std::fs::remove_dir_all(&dir)?;
     Ok(())
 }

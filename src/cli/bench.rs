@@ -10,13 +10,16 @@ use std::path::Path;
 use anyhow::Context as _;
 use wgcloth::atomic_file::{commit_all, AtomicFile};
 use wgcloth::evidence::{
-    self, AccuracyOptions, AccuracyReport, CantileverOptions, CantileverReport, GpuGrouping,
-    GpuHandles, StabilityOptions, StabilityReport,
+    self, cantilever::BendingModel, AccuracyOptions, AccuracyReport, CantileverOptions,
+    CantileverReport, GpuGrouping, GpuHandles, StabilityOptions, StabilityReport,
 };
 use wgcloth::gpu::GpuContext;
 use wgcloth::Scene;
 
-use super::{chart, BenchAccuracyArgs, BenchCantileverArgs, BenchStabilityArgs, UsageError};
+use super::{
+    chart, BenchAccuracyArgs, BenchCantileverArgs, BenchOverhangArgs, BenchStabilityArgs,
+    UsageError,
+};
 
 /// Stiffness range [N/m] the article reached with its semi-implicit
 /// integrator (see `docs/integrators.md`): 10⁵.
@@ -340,15 +343,47 @@ pub fn cantilever(args: &BenchCantileverArgs) -> anyhow::Result<()> {
     out!("{}", cantilever_table(&report))
 }
 
+/// `wgcloth bench overhang`.
+pub fn overhang(args: &BenchOverhangArgs) -> anyhow::Result<()> {
+    let o = evidence::cantilever::overhang(args.density, args.bending, args.segments)?;
+    out!(
+        "material: density {} kg/m², bending {:e} N·m; strip of {} segments, {} settled strips\n\
+         overhang at 41.5°: O = {:.5} m, bending length c = O/2 = {:.5} m (elastica Γ there {:.4}; 8.00 exactly)\n\
+         implied rigidity ρ g c³ = {:.6e} N·m, {:+.3} % from the input\n",
+        o.density,
+        o.bending,
+        o.segments,
+        o.runs,
+        o.length,
+        o.bending_length,
+        o.gamma,
+        o.implied,
+        100.0 * o.deviation
+    )
+}
+
 /// The cantilever CSV: `#` comment lines, then
-/// `segments,integrator,gamma,bend_stiffness,reference,simulated,deviation,steps,settled`.
+/// `segments,integrator,gamma,bend_stiffness,reference,simulated,deviation,steps,settled,model,h_over_w,reference_h_over_w`.
 pub fn cantilever_csv(r: &CantileverReport) -> String {
-    use evidence::cantilever::{CALIBRATION_GAMMA, LENGTH, LINE_MASS, ROWS};
+    use evidence::cantilever::{
+        CALIBRATION_GAMMA, LENGTH, LINE_MASS, MATERIAL_DENSITY, MATERIAL_ROWS, ROWS,
+    };
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "# strips of {ROWS} rows, {LENGTH} m free length, {LINE_MASS} kg/m per row, implicit settling; tip drop over length"
+        "# chord: strips of {ROWS} rows, {LENGTH} m free length, {LINE_MASS} kg/m per row, implicit settling; tip drop over length; bend_stiffness in N/m"
     );
+    let _ = writeln!(
+        s,
+        "# material: strips of {MATERIAL_ROWS} rows of square cells, {MATERIAL_DENSITY} kg/m², linear bending B = rho g L^3 / Gamma (bend_stiffness, N m); h_over_w = tip drop / tip reach"
+    );
+    for segments in material_resolutions(r) {
+        let _ = writeln!(
+            s,
+            "# material, {segments} segments: largest |H/W deviation| {:.5}",
+            r.worst_material_deviation(segments)
+        );
+    }
     for (segments, k) in &r.calibrations {
         let _ = writeln!(
             s,
@@ -358,12 +393,12 @@ pub fn cantilever_csv(r: &CantileverReport) -> String {
     }
     let _ = writeln!(
         s,
-        "segments,integrator,gamma,bend_stiffness,reference,simulated,deviation,steps,settled"
+        "segments,integrator,gamma,bend_stiffness,reference,simulated,deviation,steps,settled,model,h_over_w,reference_h_over_w"
     );
     for row in &r.rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
             row.segments,
             row.integrator,
             row.gamma,
@@ -372,37 +407,71 @@ pub fn cantilever_csv(r: &CantileverReport) -> String {
             row.simulated,
             row.deviation,
             row.steps,
-            row.settled
+            row.settled,
+            row.model.as_str(),
+            row.h_over_w(),
+            row.reference_h_over_w()
         );
     }
     s
+}
+
+/// The material strips' resolutions in the report, in order.
+fn material_resolutions(r: &CantileverReport) -> Vec<usize> {
+    let mut out: Vec<usize> = Vec::new();
+    for row in r.rows.iter().filter(|r| r.model == BendingModel::Material) {
+        if !out.contains(&row.segments) {
+            out.push(row.segments);
+        }
+    }
+    out
 }
 
 fn cantilever_table(r: &CantileverReport) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "{:>8} {:<14} {:>9} {:>11} {:>11} {:>10}",
-        "segments", "integrator", "Γ", "elastica", "simulated", "deviation"
+        "{:<9} {:>8} {:<14} {:>9} {:>11} {:>11} {:>10} {:>10} {:>10} {:>10}",
+        "model",
+        "segments",
+        "integrator",
+        "Γ",
+        "elastica",
+        "simulated",
+        "deviation",
+        "H/W ref",
+        "H/W",
+        "deviation"
     );
     for row in &r.rows {
         let _ = writeln!(
             s,
-            "{:>8} {:<14} {:>9.3e} {:>11.4e} {:>11.4e} {:>+9.1}%{}",
+            "{:<9} {:>8} {:<14} {:>9.3e} {:>11.4e} {:>11.4e} {:>+9.2}% {:>10.4} {:>10.4} {:>+9.2}%{}",
+            row.model.as_str(),
             row.segments,
             row.integrator.as_str(),
             row.gamma,
             row.reference,
             row.simulated,
             100.0 * row.deviation,
+            row.reference_h_over_w(),
+            row.h_over_w(),
+            100.0 * row.h_over_w_deviation(),
             if row.settled { "" } else { "  not settled" }
         );
     }
     for (segments, _) in &r.calibrations {
         let _ = writeln!(
             s,
-            "{segments} segments: largest relative deviation {:.1} %",
+            "chord, {segments} segments: largest relative deviation {:.1} %",
             100.0 * r.worst_deviation(*segments)
+        );
+    }
+    for segments in material_resolutions(r) {
+        let _ = writeln!(
+            s,
+            "material, {segments} segments: largest relative deviation of H/W {:.2} %",
+            100.0 * r.worst_material_deviation(segments)
         );
     }
     s

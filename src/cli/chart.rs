@@ -8,6 +8,7 @@
 
 use std::fmt::Write as _;
 
+use wgcloth::evidence::cantilever::BendingModel;
 use wgcloth::evidence::{elastica, AccuracyReport, Backend, CantileverReport, StabilityReport};
 use wgcloth::Integrator;
 
@@ -216,7 +217,9 @@ pub fn stability_svg(report: &StabilityReport) -> String {
 const CURVE_POINTS_PER_DECADE: i32 = 20;
 
 /// Colours of the strips' resolutions, in report order.
-const RESOLUTION_COLOURS: [&str; 4] = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd"];
+const RESOLUTION_COLOURS: [&str; 6] = [
+    "#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b",
+];
 
 /// Tip drop over length (log) against Γ (log): the elastica as a black
 /// line, each resolution's strips as dots joined by a line of its colour.
@@ -251,12 +254,18 @@ pub fn cantilever_svg(report: &CantileverReport) -> String {
         r#"<text x="{:.0}" y="{y:.0}">— heavy elastica</text>"#,
         MARGIN + 10.0
     );
-    for (k, (segments, _)) in report.calibrations.iter().enumerate() {
+    let mut series: Vec<(BendingModel, usize)> = Vec::new();
+    for r in &report.rows {
+        if !series.contains(&(r.model, r.segments)) {
+            series.push((r.model, r.segments));
+        }
+    }
+    for (k, &(model, segments)) in series.iter().enumerate() {
         let fill = RESOLUTION_COLOURS[k % RESOLUTION_COLOURS.len()];
         let mut rows: Vec<_> = report
             .rows
             .iter()
-            .filter(|r| r.segments == *segments)
+            .filter(|r| r.segments == segments && r.model == model)
             .collect();
         rows.sort_by(|a, b| a.gamma.total_cmp(&b.gamma));
         let pts: Vec<String> = rows
@@ -269,19 +278,34 @@ pub fn cantilever_svg(report: &CantileverReport) -> String {
             pts.join(" ")
         );
         for r in &rows {
-            let _ = writeln!(
-                s,
-                r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{fill}"/>"#,
-                px(r.gamma),
-                py(r.simulated)
-            );
+            let (x, y) = (px(r.gamma), py(r.simulated));
+            let _ = match model {
+                BendingModel::Chord => writeln!(
+                    s,
+                    r#"<circle cx="{x:.1}" cy="{y:.1}" r="4" fill="{fill}"/>"#
+                ),
+                BendingModel::Material => writeln!(
+                    s,
+                    r#"<rect x="{:.1}" y="{:.1}" width="8" height="8" fill="none" stroke="{fill}" stroke-width="2"/>"#,
+                    x - 4.0,
+                    y - 4.0
+                ),
+            };
         }
         y += 16.0;
+        let label = match model {
+            BendingModel::Chord => format!(
+                "● chord bend springs, {segments} segments (B calibrated at Γ = {})",
+                wgcloth::evidence::cantilever::CALIBRATION_GAMMA
+            ),
+            BendingModel::Material => {
+                format!("□ [material] linear bending, {segments} segments (B as given)")
+            }
+        };
         let _ = writeln!(
             s,
-            r#"<text x="{:.0}" y="{y:.0}" fill="{fill}">● cloth, {segments} segments (B calibrated at Γ = {})</text>"#,
-            MARGIN + 10.0,
-            wgcloth::evidence::cantilever::CALIBRATION_GAMMA
+            r#"<text x="{:.0}" y="{y:.0}" fill="{fill}">{label}</text>"#,
+            MARGIN + 10.0
         );
     }
     s.push_str("</svg>\n");

@@ -131,6 +131,27 @@ enum BenchCommand {
     /// Tip drop of clamped strips settled under their own weight against
     /// the heavy elastica, over Γ = ρ g L³ / B from 10⁻² to 10².
     Cantilever(BenchCantileverArgs),
+    /// ASTM D1388's cantilever test on a simulated strip of a material:
+    /// the overhang at which its tip meets the 41.5° line, the bending
+    /// length and the rigidity it implies against the material's.
+    Overhang(BenchOverhangArgs),
+}
+
+/// The options of `wgcloth bench overhang`.
+#[derive(Args, Debug)]
+struct BenchOverhangArgs {
+    /// The material's areal density [kg/m²] (the default: a cotton
+    /// shirting's ~0.12 kg/m²).
+    #[arg(long, value_name = "KG_PER_M2", default_value_t = 0.12)]
+    density: f64,
+
+    /// The material's bending stiffness per unit width [N·m].
+    #[arg(long, value_name = "N_M", default_value_t = 5e-6)]
+    bending: f64,
+
+    /// Cells along the strip's overhang.
+    #[arg(long, value_name = "N", default_value_t = 16)]
+    segments: usize,
 }
 
 /// The options of `wgcloth bench accuracy`.
@@ -624,6 +645,7 @@ pub fn main() -> ExitCode {
         Some(Command::Bench(BenchCommand::Accuracy(args))) => bench::accuracy(&args),
         Some(Command::Bench(BenchCommand::Stability(args))) => bench::stability(&args),
         Some(Command::Bench(BenchCommand::Cantilever(args))) => bench::cantilever(&args),
+        Some(Command::Bench(BenchCommand::Overhang(args))) => bench::overhang(&args),
         None => render::render(&RenderArgs::default_job()),
     };
     match outcome {

@@ -10,6 +10,7 @@
 //! them with [`block_sum`], the GPU's order. The scalars the GPU keeps in
 //! `partials` and its status words are [`Scalars`].
 
+use super::forces::bending_product;
 use super::implicit::{Filter, SpringBlock};
 use super::{System, Workspace, REDUCTION_BLOCK};
 use crate::real::{Real, Vec3};
@@ -103,6 +104,13 @@ pub fn apply_a_unfiltered<R: Real>(
         let y = blk.apply(p[i] - p[j]);
         out[i] += y;
         out[j] -= y;
+    }
+    // The linear bending operator's part, (dt² + dt β) Q p, after each
+    // particle's springs.
+    if let Some(b) = &sys.bending {
+        for (k, o) in out.iter_mut().enumerate() {
+            *o += bending_product(sys, p, k) * b.scale;
+        }
     }
 }
 

@@ -26,8 +26,12 @@ use crate::real::Real;
 /// `x`), and `x*`, `v*` into `st` (the GPU's `W_X_PRED`, `W_V_NEW`).
 pub fn integrate<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) {
     wind_forces(sys, &st.x, &st.v, &mut w.per_triangle);
+    // Every force from the step's start before any velocity changes: the
+    // bending force reads the neighbours' velocities.
     for p in 0..st.x.len() {
-        w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, p);
+        w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, &st.x, &st.v, p);
+    }
+    for p in 0..st.x.len() {
         st.v[p] += w.force[p] * (sys.dt * sys.inv_mass[p]);
     }
     predict(sys, st, w);

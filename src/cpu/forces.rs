@@ -134,18 +134,68 @@ fn add_wind<R: Real>(sys: &System<R>, per_triangle: &[Vec3<R>], p: usize, f: Vec
     acc
 }
 
+/// `(Q y)_p = Σ_j Q_pj (y_j − y_p)` over particle `p`'s bending row in
+/// ascending column order (`Q` the linear bending operator,
+/// [`crate::bending`]; zero without one). Twin: `bending_product` in
+/// `shaders/common/bending.wgsl`.
+#[inline]
+pub fn bending_product<R: Real>(sys: &System<R>, y: &[Vec3<R>], p: usize) -> Vec3<R> {
+    let mut acc = Vec3::ZERO;
+    if let Some(b) = &sys.bending {
+        let (cols, q) = b.row(p);
+        for (&j, &q) in cols.iter().zip(q) {
+            acc += (y[j as usize] - y[p]) * q;
+        }
+    }
+    acc
+}
+
+/// `Q_pp = −Σ_j Q_pj` of particle `p`'s bending row, summed in column
+/// order (twin: `bending_diagonal` in `shaders/common/bending.wgsl`).
+#[inline]
+pub fn bending_diagonal<R: Real>(b: &super::BendingR<R>, p: usize) -> R {
+    let mut acc = R::ZERO;
+    for &q in b.row(p).1 {
+        acc -= q;
+    }
+    acc
+}
+
+/// The linear bending force on particle `p` \[N\], `−(Q (x + β v))_p`
+/// summed per entry as `Q_pj ((x_j − x_p) + β (v_j − v_p))` (zero without
+/// a bending operator). Twin: `bending_force` in
+/// `shaders/common/bending.wgsl`.
+#[inline]
+pub fn bending_force<R: Real>(sys: &System<R>, x: &[Vec3<R>], v: &[Vec3<R>], p: usize) -> Vec3<R> {
+    let mut acc = Vec3::ZERO;
+    if let Some(b) = &sys.bending {
+        let (cols, q) = b.row(p);
+        for (&j, &q) in cols.iter().zip(q) {
+            let (j, beta) = (j as usize, b.damping);
+            acc -= ((x[j] - x[p]) + (v[j] - v[p]) * beta) * q;
+        }
+    }
+    acc
+}
+
 /// Particle `p`'s total force \[N\] from the spring and triangle passes:
-/// `m g`, then its springs, then its triangles' wind (twin: `total_force`
-/// in `shaders/common/physics.wgsl`).
+/// `m g`, then its springs, then the linear bending force, then its
+/// triangles' wind (twin: `total_force` in
+/// `shaders/common/physics.wgsl`).
 #[inline]
 pub fn total_force<R: Real>(
     sys: &System<R>,
     per_spring: &[Vec3<R>],
     per_triangle: &[Vec3<R>],
+    x: &[Vec3<R>],
+    v: &[Vec3<R>],
     p: usize,
 ) -> Vec3<R> {
     let mut acc = sys.gravity * sys.mass[p];
     acc += gather_signed(&sys.spring_adj, per_spring, p);
+    if sys.bending.is_some() {
+        acc += bending_force(sys, x, v, p);
+    }
     add_wind(sys, per_triangle, p, acc)
 }
 

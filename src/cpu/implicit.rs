@@ -36,7 +36,10 @@
 
 use super::cg::{self, apply_a_unfiltered};
 use super::collide::{collide, contact, CONTACT_SLOP};
-use super::forces::{gather_signed, spring_force, spring_frame, total_force, wind_forces};
+use super::forces::{
+    bending_diagonal, bending_product, gather_signed, spring_force, spring_frame, total_force,
+    wind_forces,
+};
 use super::mat3::Sym3;
 use super::motion::{self, pin_velocity};
 use super::self_collision;
@@ -190,7 +193,7 @@ pub fn prepare<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
     w.cg.iterations = 0;
     w.cg.stopped = false;
     for p in 0..st.x.len() {
-        w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, p);
+        w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, &st.x, &st.v, p);
         w.filter[p] = if sys.inv_mass[p] <= R::ZERO {
             Filter::Fixed
         } else {
@@ -217,9 +220,12 @@ pub fn prepare<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
             Filter::Fixed => pin_velocity(sys, &w.pin_goal[p], w.clock, st.x[p]) - st.v[p],
             Filter::Free => Vec3::ZERO,
         };
-        let kv = gather_signed(&sys.spring_adj, &w.kv, p);
+        let kv = gather_signed(&sys.spring_adj, &w.kv, p) - bending_product(sys, &st.v, p);
         w.rhs[p] = (w.force[p] + kv * dt) * dt;
         let mut diag = Sym3::scaled_identity(sys.mass[p]);
+        if let Some(b) = &sys.bending {
+            diag.add_iso_aniso(bending_diagonal(b, p) * b.scale, R::ZERO, Vec3::ZERO);
+        }
         let mut levels = [diag; 2];
         for &e in sys.spring_adj.of(p) {
             let blk = &w.blocks[(e >> 1) as usize];

@@ -131,6 +131,43 @@ pub struct CapsuleR<R> {
     pub velocity: Vec3<R>,
 }
 
+/// The linear bending operator ([`crate::bending`]) in the solver's
+/// precision.
+#[derive(Clone, Debug)]
+#[doc(hidden)]
+pub struct BendingR<R> {
+    /// Row offsets, `particle_count + 1`.
+    pub offsets: Vec<u32>,
+    /// The other particle of each entry.
+    pub columns: Vec<u32>,
+    /// `Q_pj` [N/m] per entry.
+    pub coefficients: Vec<R>,
+    /// Rayleigh damping `β` \[s\].
+    pub damping: R,
+    /// `dt² + dt β` [s²]: the scale of `Q` in the implicit and
+    /// semi-implicit system matrices.
+    pub scale: R,
+}
+
+impl<R: Real> BendingR<R> {
+    fn new(b: &crate::bending::Bending, dt: f64) -> Self {
+        BendingR {
+            offsets: b.offsets.clone(),
+            columns: b.columns.clone(),
+            coefficients: b.coefficients.iter().map(|&q| R::from_f64(q)).collect(),
+            damping: R::from_f64(b.damping),
+            scale: R::from_f64(dt * dt + dt * b.damping),
+        }
+    }
+
+    /// Particle `p`'s entries: the other particles and `Q_pj`.
+    #[inline]
+    pub fn row(&self, p: usize) -> (&[u32], &[R]) {
+        let r = self.offsets[p] as usize..self.offsets[p + 1] as usize;
+        (&self.columns[r.clone()], &self.coefficients[r])
+    }
+}
+
 /// Wind in the solver's precision.
 #[derive(Clone, Copy, Debug)]
 #[doc(hidden)]
@@ -199,6 +236,8 @@ pub struct System<R> {
     pub torque_compensation: bool,
     /// Self-collision, `None` when off.
     pub self_collision: Option<self_collision::SelfCollisionR<R>>,
+    /// The linear bending operator, `None` without one.
+    pub bending: Option<BendingR<R>>,
 }
 
 impl<R: Real> System<R> {
@@ -286,6 +325,7 @@ impl<R: Real> System<R> {
             cg_max_iterations: params.implicit.max_iterations,
             torque_compensation: params.semi_implicit.torque_compensation,
             self_collision: self_collision::SelfCollisionR::of(model, params),
+            bending: model.bending.as_ref().map(|b| BendingR::new(b, params.dt)),
         }
     }
 

@@ -44,7 +44,10 @@
 //! the CG kernels) while the CPU applies the exact banded factor.
 
 use super::collide::{contact, CONTACT_SLOP};
-use super::forces::{self, external_forces, spring_frame, total_force, wind_forces};
+use super::forces::{
+    self, bending_diagonal, bending_product, external_forces, spring_frame, total_force,
+    wind_forces,
+};
 use super::implicit::{spring_kv, transverse, warm_start, Filter};
 use super::mat3::Sym3;
 use super::{fixup_and_finish, predict, torque, State, StepStats, System, Workspace};
@@ -115,8 +118,9 @@ pub fn rhs<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>, zero_d
         }
     }
     for p in 0..st.x.len() {
-        w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, p);
-        let kv = jacobian_v(sys, &st.x, &st.v, p, sys.torque_compensation, &w.touching);
+        w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, &st.x, &st.v, p);
+        let kv = jacobian_v(sys, &st.x, &st.v, p, sys.torque_compensation, &w.touching)
+            - bending_product(sys, &st.v, p);
         w.rhs[p] = (w.force[p] + kv * dt) * dt;
         if zero_dv {
             w.dv[p] = Vec3::ZERO;
@@ -158,6 +162,9 @@ pub fn cg_prepare<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
         let mut diag = sys.mass[p];
         for &e in sys.spring_adj.of(p) {
             diag += w.blocks[(e >> 1) as usize].a;
+        }
+        if let Some(b) = &sys.bending {
+            diag += bending_diagonal(b, p) * b.scale;
         }
         w.z[p] = Vec3::ZERO;
         w.precond[p] = Sym3::scaled_identity(R::ONE / diag);

@@ -45,6 +45,7 @@
 use super::{elastica, Runner};
 use crate::error::{Error, Result};
 use crate::evidence::Backend;
+use crate::material::Material;
 use crate::model::{ClothSpec, Model, Orientation, Pin};
 use crate::params::{Integrator, Params, SpringKind};
 use glam::DVec3;
@@ -118,6 +119,10 @@ pub struct CantileverOptions {
     pub gammas: Vec<f64>,
     /// Integrators run at each point (calibration uses the first).
     pub integrators: Vec<Integrator>,
+    /// Resolutions of the material strips (`[material]` with the linear
+    /// bending model): segments along the free length, each ≥ 2; none:
+    /// only the chord springs are measured.
+    pub material_segments: Vec<usize>,
 }
 
 impl Default for CantileverOptions {
@@ -128,6 +133,7 @@ impl Default for CantileverOptions {
             segments: vec![4, 8, 16],
             gammas: (-10..=10).map(|e| 10f64.powf(f64::from(e) / 5.0)).collect(),
             integrators: vec![Integrator::Implicit],
+            material_segments: vec![8, 16, 32],
         }
     }
 }
@@ -138,7 +144,29 @@ impl CantileverOptions {
         CantileverOptions {
             segments: vec![8],
             gammas: (-2..=2).map(|e| 10f64.powi(e)).collect(),
+            material_segments: vec![8],
             ..CantileverOptions::default()
+        }
+    }
+}
+
+/// What resists bending in a strip.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BendingModel {
+    /// The article's chord bend springs, `B` calibrated once per
+    /// resolution (module docs).
+    Chord,
+    /// `[material]` with the linear bending model ([`crate::bending`]): `B`
+    /// is the input, nothing calibrated.
+    Material,
+}
+
+impl BendingModel {
+    /// Its name in the bench's output.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            BendingModel::Chord => "chord",
+            BendingModel::Material => "material",
         }
     }
 }
@@ -146,18 +174,25 @@ impl CantileverOptions {
 /// One settled strip.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CantileverRow {
+    /// What resists bending.
+    pub model: BendingModel,
     /// Segments along the free length.
     pub segments: usize,
     /// The integrator.
     pub integrator: Integrator,
     /// `Γ` (dimensionless).
     pub gamma: f64,
-    /// Bend stiffness of the run [N/m].
+    /// Bend springs' stiffness of the run [N/m] (chord), or the material's
+    /// bending stiffness `B` \[N·m\] (material).
     pub bend_stiffness: f64,
     /// The elastica's tip drop over length.
     pub reference: f64,
     /// The strip's tip drop over length (mean over its rows).
     pub simulated: f64,
+    /// The elastica's tip reach over length (`x` of the tip).
+    pub reference_reach: f64,
+    /// The strip's tip reach over length (mean over its rows).
+    pub reach: f64,
     /// `(simulated − reference) / reference`.
     pub deviation: f64,
     /// Steps the run took.
@@ -175,13 +210,51 @@ pub struct CantileverReport {
     pub rows: Vec<CantileverRow>,
 }
 
+impl CantileverRow {
+    /// The strip's tip drop over its reach, `H / W` (the master curve's
+    /// ordinate).
+    pub fn h_over_w(&self) -> f64 {
+        self.simulated / self.reach
+    }
+
+    /// The elastica's `H / W`.
+    pub fn reference_h_over_w(&self) -> f64 {
+        self.reference / self.reference_reach
+    }
+
+    /// `H / W`'s relative deviation from the elastica's.
+    pub fn h_over_w_deviation(&self) -> f64 {
+        self.h_over_w() / self.reference_h_over_w() - 1.0
+    }
+}
+
 impl CantileverReport {
-    /// The largest `|deviation|` over the rows of `segments` (NaN when none).
+    /// The largest `|deviation|` of the tip drop over the chord strips of
+    /// `segments` (NaN when none).
     pub fn worst_deviation(&self, segments: usize) -> f64 {
+        self.worst(BendingModel::Chord, segments, |r| r.deviation)
+    }
+
+    /// The largest `|deviation|` of `H / W` over the material strips of
+    /// `segments` (NaN when none).
+    pub fn worst_material_deviation(&self, segments: usize) -> f64 {
+        self.worst(
+            BendingModel::Material,
+            segments,
+            CantileverRow::h_over_w_deviation,
+        )
+    }
+
+    fn worst(
+        &self,
+        model: BendingModel,
+        segments: usize,
+        f: impl Fn(&CantileverRow) -> f64,
+    ) -> f64 {
         self.rows
             .iter()
-            .filter(|r| r.segments == segments)
-            .map(|r| r.deviation.abs())
+            .filter(|r| r.segments == segments && r.model == model)
+            .map(|r| f(r).abs())
             .fold(f64::NAN, f64::max)
     }
 }
@@ -254,12 +327,117 @@ fn strip(segments: usize, k: f64, integrator: Integrator) -> Result<(Model, Para
     Ok((Model::new(&spec, &params.springs)?, params))
 }
 
-/// A settled strip: tip drop over length, steps, at rest.
-fn settle(segments: usize, k: f64, integrator: Integrator) -> Result<(f64, u64, bool)> {
-    let (model, params) = strip(segments, k, integrator)?;
-    let mut runner = Runner::new(Backend::CpuF64, &model, &params)?;
+/// Areal density of the material strips \[kg/m²\]: light, so that every
+/// `B = ρ g L³ / Γ` of the sweep stays within `[material] bending`'s range.
+pub const MATERIAL_DENSITY: f64 = 1e-3;
+
+/// Stretch stiffness of the material strips over their greatest tension
+/// per unit width (`ρ g L` at the clamp): the strip stretches by at most
+/// `1/`this, far below what the bench resolves.
+pub const MATERIAL_STRETCH_OVER_TENSION: f64 = 1e5;
+
+/// The material strip of free length `length` \[m\]: a [`Material`] of
+/// `density` \[kg/m²\] and `bending` \[N·m\], stretch stiff enough to be
+/// inextensible, shear a tenth of that and no damping, on a grid of
+/// `segments` square cells along the free length and `rows` particles
+/// across, clamped as the chord strips are.
+fn material_strip(
+    segments: usize,
+    rows: usize,
+    length: f64,
+    (density, bending): (f64, f64),
+    integrator: Integrator,
+) -> Result<(Model, Params)> {
+    let gravity = -Params::default().gravity.y;
+    // The clamp is midway between the two pinned columns (the first
+    // second difference, at the second column, is the clamp's joint): the
+    // columns sit at (c − 1/2) h, the clamp at 0 and the tip at L.
+    let h = length / (segments as f64 + 0.5);
     let nx = segments + 2;
-    let tips: Vec<usize> = (0..ROWS).map(|r| r * nx + nx - 1).collect();
+    let spec = ClothSpec {
+        nx,
+        ny: rows,
+        size: [(nx - 1) as f64 * h, (rows - 1) as f64 * h],
+        origin: DVec3::new(-0.5 * h, 0.0, 0.0),
+        orientation: Orientation::Horizontal,
+        mass: 1.0,
+        pins: (0..rows)
+            .flat_map(|r| [Pin::Index(r * nx), Pin::Index(r * nx + 1)])
+            .collect(),
+    };
+    let stretch = MATERIAL_STRETCH_OVER_TENSION * density * gravity * length;
+    let material = Material {
+        density,
+        stretch,
+        shear: 0.1 * stretch,
+        bending,
+        damping: 0.0,
+    };
+    material.validate()?;
+    let mut params = Params {
+        integrator,
+        dt: SETTLE_DT,
+        springs: material.spring_params(),
+        ..Params::default()
+    };
+    params.fixup.iterations = 0;
+    params.implicit.tolerance = CG_TOLERANCE;
+    params.implicit.max_iterations = CG_MAX_ITERATIONS;
+    let mut model = Model::new(&spec, &params.springs)?;
+    let cells = model.grid_cells();
+    material.apply(&mut model, cells.iter().map(|c| &c[..]))?;
+    Ok((model, params))
+}
+
+/// A settled strip: tip drop and reach over length, steps, at rest.
+fn settle(segments: usize, k: f64, integrator: Integrator) -> Result<Settled> {
+    let (model, params) = strip(segments, k, integrator)?;
+    settle_model(segments, ROWS, LENGTH, &model, &params)
+}
+
+/// A settled material strip of `rows` rows at `Γ` ([`LENGTH`] long, of
+/// [`MATERIAL_DENSITY`]).
+pub fn settle_material(
+    segments: usize,
+    rows: usize,
+    gamma: f64,
+    integrator: Integrator,
+) -> Result<Settled> {
+    let gravity = -Params::default().gravity.y;
+    let bending = MATERIAL_DENSITY * gravity * LENGTH.powi(3) / gamma;
+    let material = (MATERIAL_DENSITY, bending);
+    let (model, params) = material_strip(segments, rows, LENGTH, material, integrator)?;
+    settle_model(segments, rows, LENGTH, &model, &params)
+}
+
+/// Rows of the material strips: three, so that the middle row's
+/// particles are inside the cloth.
+pub const MATERIAL_ROWS: usize = 3;
+
+/// A strip at rest (or after [`MAX_STEPS`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settled {
+    /// Tip drop below the clamp over length (mean over the rows).
+    pub drop: f64,
+    /// Tip reach beyond the clamp over length (mean over the rows).
+    pub reach: f64,
+    /// Steps taken.
+    pub steps: u64,
+    /// `false`: not at rest after [`MAX_STEPS`].
+    pub settled: bool,
+}
+
+/// Steps `model` until it is at rest.
+fn settle_model(
+    segments: usize,
+    rows: usize,
+    length: f64,
+    model: &Model,
+    params: &Params,
+) -> Result<Settled> {
+    let mut runner = Runner::new(Backend::CpuF64, model, params)?;
+    let nx = segments + 2;
+    let tips: Vec<usize> = (0..rows).map(|r| r * nx + nx - 1).collect();
     let mut steps = 0;
     loop {
         runner.advance(CHECK_EVERY)?;
@@ -267,15 +445,27 @@ fn settle(segments: usize, k: f64, integrator: Integrator) -> Result<(f64, u64, 
         let (x, v) = runner.state()?;
         let at_rest = v.iter().all(|v| v.length() < REST_SPEED);
         if at_rest || steps >= MAX_STEPS {
-            let drop = tips.iter().map(|&t| -x[t].y).sum::<f64>() / (ROWS as f64 * LENGTH);
-            return Ok((drop, steps, at_rest));
+            let mean = |f: &dyn Fn(usize) -> f64| {
+                tips.iter().map(|&t| f(t)).sum::<f64>() / (rows as f64 * length)
+            };
+            return Ok(Settled {
+                drop: mean(&|t| -x[t].y),
+                reach: mean(&|t| x[t].x),
+                steps,
+                settled: at_rest,
+            });
         }
     }
 }
 
 /// Measures the strips of `options` against the elastica (module docs).
 pub fn cantilever(options: &CantileverOptions) -> Result<CantileverReport> {
-    if let Some(s) = options.segments.iter().find(|&&s| s < 2) {
+    if let Some(s) = options
+        .segments
+        .iter()
+        .chain(&options.material_segments)
+        .find(|&&s| s < 2)
+    {
         return Err(invalid("bench.cantilever.segments", "≥ 2", s));
     }
     if let Some(g) = options
@@ -306,34 +496,162 @@ pub fn cantilever(options: &CantileverOptions) -> Result<CantileverReport> {
         // The chord law's own prediction as the first guess.
         let mut k = k_for_drop(segments, target, gravity);
         for _ in 0..CALIBRATION_ROUNDS {
-            let (drop, _, _) = settle(segments, k, first)?;
-            k *= (drop / target).powi(3);
+            k *= (settle(segments, k, first)?.drop / target).powi(3);
         }
         report.calibrations.push((segments, k));
         for &integrator in &options.integrators {
             for &gamma in &options.gammas {
                 let bend = k * CALIBRATION_GAMMA / gamma;
-                let (simulated, steps, settled) = settle(segments, bend, integrator)?;
-                let reference = elastica::tip(gamma)?.drop;
-                report.rows.push(CantileverRow {
+                let run = settle(segments, bend, integrator)?;
+                report.rows.push(row(
+                    BendingModel::Chord,
                     segments,
                     integrator,
                     gamma,
-                    bend_stiffness: bend,
-                    reference,
-                    simulated,
-                    deviation: (simulated - reference) / reference,
-                    steps,
-                    settled,
-                });
+                    bend,
+                    run,
+                )?);
+            }
+        }
+    }
+    let gravity_density = MATERIAL_DENSITY * gravity * LENGTH.powi(3);
+    for &segments in &options.material_segments {
+        for &integrator in &options.integrators {
+            for &gamma in &options.gammas {
+                let run = settle_material(segments, MATERIAL_ROWS, gamma, integrator)?;
+                let bending = gravity_density / gamma;
+                report.rows.push(row(
+                    BendingModel::Material,
+                    segments,
+                    integrator,
+                    gamma,
+                    bending,
+                    run,
+                )?);
             }
         }
     }
     Ok(report)
 }
 
+/// A row of the report from a settled run.
+fn row(
+    model: BendingModel,
+    segments: usize,
+    integrator: Integrator,
+    gamma: f64,
+    bend_stiffness: f64,
+    run: Settled,
+) -> Result<CantileverRow> {
+    let tip = elastica::tip(gamma)?;
+    Ok(CantileverRow {
+        model,
+        segments,
+        integrator,
+        gamma,
+        bend_stiffness,
+        reference: tip.drop,
+        simulated: run.drop,
+        reference_reach: tip.reach,
+        reach: run.reach,
+        deviation: (run.drop - tip.drop) / tip.drop,
+        steps: run.steps,
+        settled: run.settled,
+    })
+}
+
 /// The bend stiffness [N/m] at which [`chord_law_drop`] is `drop`.
 fn k_for_drop(segments: usize, drop: f64, gravity: f64) -> f64 {
     // δ ∝ k^(-1/3): scale from the drop at 1 N/m.
     (chord_law_drop(segments, 1.0, gravity) / drop).powi(3)
+}
+
+/// ASTM D1388's angle \[degrees\]: a strip slid over a table edge until
+/// its tip meets the line this far below the horizontal overhangs by
+/// twice its bending length.
+pub const OVERHANG_ANGLE_DEGREES: f64 = 41.5;
+
+/// Halvings of the overhang's bisection (on `ln Γ` over `[ln 1, ln 100]`):
+/// 24 leave the overhang within `1e-7` (relative) of the crossing, far
+/// below the resolution's error.
+pub const OVERHANG_BISECTIONS: u32 = 24;
+
+/// What [`overhang`] measured.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Overhang {
+    /// Segments of the strip.
+    pub segments: usize,
+    /// The material's areal density \[kg/m²\].
+    pub density: f64,
+    /// The material's bending stiffness, the input \[N·m\].
+    pub bending: f64,
+    /// The overhang `O` at which the tip meets the 41.5° line \[m\].
+    pub length: f64,
+    /// The bending length `c = O / 2` \[m\].
+    pub bending_length: f64,
+    /// The rigidity the test implies, `ρ g c³` \[N·m\].
+    pub implied: f64,
+    /// `implied / bending − 1`.
+    pub deviation: f64,
+    /// The heavy elastica's `Γ` at the crossing (exactly `8.00` for a
+    /// perfect strip).
+    pub gamma: f64,
+    /// Strips settled.
+    pub runs: u32,
+}
+
+/// ASTM D1388's cantilever test, done on a simulated strip of `segments`
+/// cells of the material (`density` \[kg/m²\], `bending` \[N·m\]): the
+/// overhang `O` at which the settled tip's chord makes
+/// [`OVERHANG_ANGLE_DEGREES`] with the horizontal (bisected), the bending
+/// length `c = O/2` and the rigidity `B = ρ g c³` it implies. Exact for the
+/// elastica: its tip–chord angle reaches 41.5° at `Γ = ρ g O³ / B = 8.00`.
+pub fn overhang(density: f64, bending: f64, segments: usize) -> Result<Overhang> {
+    if segments < 2 {
+        return Err(invalid("bench.overhang.segments", "≥ 2", segments));
+    }
+    Material {
+        bending,
+        density,
+        ..Material::default()
+    }
+    .validate()?;
+    let gravity = -Params::default().gravity.y;
+    let target = OVERHANG_ANGLE_DEGREES.to_radians().tan();
+    let length_at = |ln_gamma: f64| (ln_gamma.exp() * bending / (density * gravity)).cbrt();
+    let tan_at = |length: f64| -> Result<f64> {
+        let (model, params) = material_strip(
+            segments,
+            MATERIAL_ROWS,
+            length,
+            (density, bending),
+            Integrator::Implicit,
+        )?;
+        let run = settle_model(segments, MATERIAL_ROWS, length, &model, &params)?;
+        Ok(run.drop / run.reach)
+    };
+    let (mut lo, mut hi) = (0.0f64, 100f64.ln());
+    for _ in 0..OVERHANG_BISECTIONS {
+        let mid = 0.5 * (lo + hi);
+        if tan_at(length_at(mid))? < target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let ln_gamma = 0.5 * (lo + hi);
+    let length = length_at(ln_gamma);
+    let bending_length = length / 2.0;
+    let implied = density * gravity * bending_length.powi(3);
+    Ok(Overhang {
+        segments,
+        density,
+        bending,
+        length,
+        bending_length,
+        implied,
+        deviation: implied / bending - 1.0,
+        gamma: ln_gamma.exp(),
+        runs: OVERHANG_BISECTIONS,
+    })
 }

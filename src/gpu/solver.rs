@@ -443,6 +443,7 @@ impl GpuSolver {
     ) -> Result<GpuSolver> {
         let device = kernels.device();
         params.validate()?;
+        super::refuse_linear_bending(model)?;
         crate::cpu::self_collision::thickness(model, params)?;
         let counts = Counts::of_model(model);
         let limits = device.limits();

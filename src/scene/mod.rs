@@ -332,6 +332,7 @@ impl Scene {
                     material.apply(&mut model, cells.iter().map(|c| &c[..]))?
                 }
             }
+            material.check_explicit(&model, &self.params)?;
         }
         Ok(model)
     }

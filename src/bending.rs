@@ -1,0 +1,395 @@
+//! Linear bending: Bergou, Wardetzky, Harmon, Zorin and Grinspun's
+//! quadratic bending energy ("A quadratic bending model for inextensible
+//! surfaces", SGP 2006), the bending of a cloth of a material with
+//! `[material] bending` \[N·m\].
+//!
+//! Each interior edge `e = (x₀, x₁)` with opposite vertices `x₂` (in the
+//! triangle `x₀ x₁ x₂`) and `x₃` (in `x₀ x₁ x₃`) has the discrete mean
+//! curvature vector `K = Σ wᵢ xᵢ` with the rest state's cotangent weights
+//!
+//! `w = (cot a₁ + cot b₁, cot a₀ + cot b₀, −(cot a₀ + cot a₁), −(cot b₀ + cot b₁))`
+//!
+//! (`aᵢ`, `bᵢ` the angles at `xᵢ` of the two triangles), and the energy
+//! `E = B / (2 (A₀ + A₁)) |K|²` (`A₀`, `A₁` the triangles' rest areas).
+//! On a flat rest shape `K = 0`; a fold by `θ` about the edge gives
+//! `|K| = 2 |e| sin(θ/2)`, so small folds store the dihedral energy
+//! `B |e| θ² / (h₀ + h₁)` (`h` the triangles' heights over `e`): a hinge of
+//! width `(h₀ + h₁)/2` bent to curvature `θ` over it, `½ B κ²` per area.
+//! `docs/integrators.md` derives it and says what it assumes.
+//!
+//! The energy is quadratic in the positions, `E = ½ xᵀ (Q ⊗ I₃) x` with the
+//! constant symmetric positive semi-definite `Q = Σₑ B/(A₀+A₁) w wᵀ`, so the
+//! force `−Q x` is linear and its Jacobian `−Q` constant: it enters the
+//! implicit integrator's product and Desbrun's constant filter exactly.
+//! Each row of `Q` sums to zero (a translation stores nothing), so a row is
+//! kept as its off-diagonal entries alone and applied to differences,
+//! `(Q y)_p = Σ_{j≠p} Q_pj (y_j − y_p)`: no cancellation between large
+//! absolute positions, and the same arithmetic on the GPU.
+//!
+//! Damping is the material's stiffness-proportional (Rayleigh) form: the
+//! force is `−Q (x + β v)`.
+
+use glam::DVec3;
+
+use crate::budget::try_vec;
+use crate::error::{Error, Result};
+use crate::params::format_number;
+
+/// The largest fold \[rad\] of the rest shape about any interior edge that
+/// still counts as flat: the quadratic model's energy is measured from a
+/// flat rest state, and a rest fold of `θ` would store `B|e|θ²/(h₀+h₁)` at
+/// rest. 1e-6 rad leaves only rounding of the rest positions.
+pub const FLAT_REST_ANGLE: f64 = 1e-6;
+
+/// The bending operator of a cloth: `Q`'s off-diagonal entries by row.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bending {
+    /// `particle_count + 1` offsets into `columns` and `coefficients`.
+    pub offsets: Vec<u32>,
+    /// The other particle of each entry, ascending within a row.
+    pub columns: Vec<u32>,
+    /// `Q_pj` \[N/m\] for each entry (off-diagonal only: `Q_pp = −Σ_j Q_pj`).
+    pub coefficients: Vec<f64>,
+    /// The Rayleigh damping time constant `β` \[s\]: the force is
+    /// `−Q (x + β v)`.
+    pub damping: f64,
+}
+
+const WHAT: &str = "the bending operator";
+
+/// Cotangent of the angle at `a` in the triangle `a b c`.
+fn cot(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    let (u, v) = (b - a, c - a);
+    u.dot(v) / u.cross(v).length()
+}
+
+/// Twice the area of the triangle `a b c` \[m²\].
+fn twice_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
+    (b - a).cross(c - a).length()
+}
+
+/// One interior edge's stencil: its four particles and their weights.
+struct Stencil {
+    particles: [u32; 4],
+    weights: [f64; 4],
+    /// `B / (A₀ + A₁)` \[N/m³\].
+    scale: f64,
+}
+
+impl Bending {
+    /// Bergou et al.'s operator (module docs) of bending stiffness
+    /// `stiffness` \[N·m\] and damping `damping` \[s\] for the rest
+    /// positions `rest` and the triangles `triangles` (whose interior edges
+    /// carry it; an edge shared by more than two triangles is left out, as
+    /// a boundary edge is). Refuses a rest shape that is not flat
+    /// (`material.bending`, naming the edge).
+    pub fn new(
+        rest: &[DVec3],
+        triangles: &[[u32; 3]],
+        stiffness: f64,
+        damping: f64,
+    ) -> Result<Bending> {
+        let terms = stencils(rest, triangles, stiffness)?.into_iter().map(|s| {
+            let entries = std::array::from_fn::<_, 4, _>(|k| (s.particles[k], s.weights[k]));
+            (entries.to_vec(), s.scale)
+        });
+        Bending::assemble(rest.len(), terms, damping)
+    }
+
+    /// The Hessian operator of a grid of `nx × ny` particles (row-major,
+    /// spacing `hx` along a row and `hy` across rows \[m\]): the energy
+    /// `½ B ∫ |∇²x|²` (`∇²x` the second derivatives of the positions over
+    /// the rest plane) by finite differences — `∂²/∂u²` at every particle
+    /// not at the end of its row, `∂²/∂v²` at every particle not at the end
+    /// of its column, each weighted by its share of the area (half at the
+    /// cloth's edge), and `∂²/∂u∂v` at every cell's centre, counted twice.
+    /// For an isometric deformation `|∇²x|² = κ₁² + κ₂²`: the plate energy
+    /// with no Poisson coupling, isotropic for every quadratic shape, and
+    /// its free edges are a free plate's (`docs/integrators.md`).
+    pub fn grid(
+        nx: usize,
+        ny: usize,
+        hx: f64,
+        hy: f64,
+        stiffness: f64,
+        damping: f64,
+    ) -> Result<Bending> {
+        let idx = |r: usize, c: usize| (r * nx + c) as u32;
+        let share = |k: usize, n: usize, h: f64| if k == 0 || k + 1 == n { h / 2.0 } else { h };
+        let mut terms: Vec<(Vec<(u32, f64)>, f64)> = Vec::new();
+        let second = |a: u32, b: u32, c: u32, h: f64| {
+            let k = 1.0 / (h * h);
+            vec![(a, k), (b, -2.0 * k), (c, k)]
+        };
+        for r in 0..ny {
+            for c in 1..nx.saturating_sub(1) {
+                let w = hx * share(r, ny, hy);
+                terms.push((
+                    second(idx(r, c - 1), idx(r, c), idx(r, c + 1), hx),
+                    stiffness * w,
+                ));
+            }
+        }
+        for c in 0..nx {
+            for r in 1..ny.saturating_sub(1) {
+                let w = hy * share(c, nx, hx);
+                terms.push((
+                    second(idx(r - 1, c), idx(r, c), idx(r + 1, c), hy),
+                    stiffness * w,
+                ));
+            }
+        }
+        let k = 1.0 / (hx * hy);
+        for r in 0..ny.saturating_sub(1) {
+            for c in 0..nx.saturating_sub(1) {
+                let entries = vec![
+                    (idx(r, c), k),
+                    (idx(r, c + 1), -k),
+                    (idx(r + 1, c), -k),
+                    (idx(r + 1, c + 1), k),
+                ];
+                terms.push((entries, stiffness * 2.0 * hx * hy));
+            }
+        }
+        Bending::assemble(nx * ny, terms.into_iter(), damping)
+    }
+
+    /// `Q = Σ scale · a aᵀ` over `terms` (each the sparse vector `a` as
+    /// `(particle, coefficient)` pairs and its `scale`), kept by rows of
+    /// off-diagonal entries.
+    fn assemble(
+        n: usize,
+        terms: impl Iterator<Item = (Vec<(u32, f64)>, f64)>,
+        damping: f64,
+    ) -> Result<Bending> {
+        let mut rows: Vec<Vec<(u32, f64)>> = try_vec(n, Vec::new(), WHAT)?;
+        for (entries, scale) in terms {
+            for &(i, a) in &entries {
+                for &(j, b) in &entries {
+                    if i != j {
+                        rows[i as usize].push((j, scale * a * b));
+                    }
+                }
+            }
+        }
+        let mut offsets = try_vec(n + 1, 0u32, WHAT)?;
+        let mut columns = Vec::new();
+        let mut coefficients = Vec::new();
+        for (p, row) in rows.iter_mut().enumerate() {
+            row.sort_by_key(|&(j, _)| j);
+            let mut k = 0;
+            while k < row.len() {
+                let j = row[k].0;
+                let mut sum = 0.0;
+                while k < row.len() && row[k].0 == j {
+                    sum += row[k].1;
+                    k += 1;
+                }
+                columns.push(j);
+                coefficients.push(sum);
+            }
+            offsets[p + 1] = columns.len() as u32;
+        }
+        Ok(Bending {
+            offsets,
+            columns,
+            coefficients,
+            damping,
+        })
+    }
+
+    /// The entries of particle `p`'s row: the other particles and `Q_pj`.
+    pub fn row(&self, p: usize) -> (&[u32], &[f64]) {
+        let r = self.offsets[p] as usize..self.offsets[p + 1] as usize;
+        (&self.columns[r.clone()], &self.coefficients[r])
+    }
+
+    /// `Q_pp = −Σ_{j≠p} Q_pj` \[N/m\].
+    pub fn diagonal(&self, p: usize) -> f64 {
+        -self.row(p).1.iter().sum::<f64>()
+    }
+
+    /// Number of particles.
+    pub fn particle_count(&self) -> usize {
+        self.offsets.len().saturating_sub(1)
+    }
+
+    /// `(Q y)_p = Σ_j Q_pj (y_j − y_p)`.
+    pub fn apply_row(&self, y: &[DVec3], p: usize) -> DVec3 {
+        let (cols, q) = self.row(p);
+        cols.iter().zip(q).fold(DVec3::ZERO, |acc, (&j, &q)| {
+            acc + (y[j as usize] - y[p]) * q
+        })
+    }
+
+    /// The bending energy `½ xᵀ Q x` \[J\] of the positions `x`.
+    pub fn energy(&self, x: &[DVec3]) -> f64 {
+        // ½ Σ_p x_p · (Q x)_p, with (Q x)_p from differences; the sum over
+        // p of (Q x)_p is zero, so each x_p may be taken about any origin:
+        // the first particle's, which keeps the products small.
+        let origin = x.first().copied().unwrap_or(DVec3::ZERO);
+        0.5 * (0..self.particle_count())
+            .map(|p| (x[p] - origin).dot(self.apply_row(x, p)))
+            .sum::<f64>()
+    }
+
+    /// An upper bound on the largest `ω²` \[1/s²\] of the undamped bending
+    /// vibrations, `max_p (Q_pp + Σ_j |Q_pj|) / m_p` over the free
+    /// particles (Gershgorin's bound on `M⁻¹ Q`; tight for the grid's
+    /// checkerboard mode): symplectic Euler is stable for bending alone
+    /// while `dt < 2/ω`.
+    pub fn omega_squared_bound(&self, mass: &[f64], pinned: &[bool]) -> f64 {
+        (0..self.particle_count())
+            .filter(|&p| !pinned[p])
+            .map(|p| {
+                let off: f64 = self.row(p).1.iter().map(|q| q.abs()).sum();
+                (self.diagonal(p) + off) / mass[p]
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The stencil of every interior edge of `triangles`, in the order of the
+/// edges' first appearance; refuses a rest fold above [`FLAT_REST_ANGLE`].
+fn stencils(rest: &[DVec3], triangles: &[[u32; 3]], stiffness: f64) -> Result<Vec<Stencil>> {
+    use std::collections::HashMap;
+    // Each edge (ends ascending) → (its first triangle's opposite vertex,
+    // the other's, how many triangles share it).
+    let mut edges: HashMap<(u32, u32), (u32, u32, u32)> = HashMap::new();
+    let mut order = Vec::new();
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
+            let key = (a.min(b), a.max(b));
+            let entry = edges.entry(key).or_insert_with(|| {
+                order.push(key);
+                (c, u32::MAX, 0)
+            });
+            if entry.2 == 1 {
+                entry.1 = c;
+            }
+            entry.2 += 1;
+        }
+    }
+    let x = |p: u32| rest[p as usize];
+    let mut out = Vec::new();
+    for key in order {
+        let (c, d, count) = edges[&key];
+        if count != 2 {
+            continue;
+        }
+        let (a, b) = key;
+        let (x0, x1, x2, x3) = (x(a), x(b), x(c), x(d));
+        let (area0, area1) = (0.5 * twice_area(x0, x1, x2), 0.5 * twice_area(x0, x1, x3));
+        if !(area0 > 0.0 && area1 > 0.0) {
+            continue;
+        }
+        let (ca0, ca1) = (cot(x0, x1, x2), cot(x1, x0, x2));
+        let (cb0, cb1) = (cot(x0, x1, x3), cot(x1, x0, x3));
+        let weights = [ca1 + cb1, ca0 + cb0, -(ca0 + ca1), -(cb0 + cb1)];
+        // The rest fold: |K| = 2|e| sin(θ/2).
+        let k = x0 * weights[0] + x1 * weights[1] + x2 * weights[2] + x3 * weights[3];
+        let edge = (x1 - x0).length();
+        let fold = 2.0 * (k.length() / (2.0 * edge)).min(1.0).asin();
+        if fold > FLAT_REST_ANGLE {
+            return Err(Error::InvalidParameter {
+                key: "material.bending".to_string(),
+                allowed: format!(
+                    "0 for a cloth whose rest shape is not flat: the quadratic bending model \
+                     measures bending from a flat rest state, and this cloth's rest shape folds \
+                     by {} rad (more than {}) about the edge between particles {a} and {b}",
+                    format_number(fold),
+                    format_number(FLAT_REST_ANGLE)
+                ),
+                got: format_number(stiffness),
+            });
+        }
+        out.push(Stencil {
+            particles: [a, b, c, d],
+            weights,
+            scale: stiffness / (area0 + area1),
+        });
+    }
+    Ok(out)
+}
+
+/// The triangles a grid of `columns` particles per row bends on: each cell
+/// `[a, b, c, d]` (corners counter-clockwise from its lowest index, as
+/// [`crate::model::Model::grid_cells`] lists them) split along `a c` or
+/// `b d` alternately, like a checkerboard. One diagonal everywhere would
+/// make bending about the other diagonal about 2.9 times stiffer than about
+/// an axis; the alternating split leaves both diagonals at about 1.5 times
+/// (`docs/integrators.md`).
+pub fn alternating_split(cells: &[[u32; 4]], columns: usize) -> Vec<[u32; 3]> {
+    let mut out = Vec::with_capacity(2 * cells.len());
+    for (k, &[a, b, c, d]) in cells.iter().enumerate() {
+        let cols = columns.saturating_sub(1).max(1);
+        let (row, col) = (k / cols, k % cols);
+        if (row + col) % 2 == 0 {
+            out.push([a, b, c]);
+            out.push([a, c, d]);
+        } else {
+            out.push([a, b, d]);
+            out.push([b, c, d]);
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rounding of `f64` sums over a few dozen terms of size ~1.
+    const ROUNDING: f64 = 1e-9;
+
+    fn square(n: usize) -> (Vec<DVec3>, Vec<[u32; 4]>) {
+        let h = 1.0 / n as f64;
+        let x = (0..=n)
+            .flat_map(|r| (0..=n).map(move |c| DVec3::new(c as f64 * h, 0.0, r as f64 * h)))
+            .collect();
+        let idx = |r: usize, c: usize| (r * (n + 1) + c) as u32;
+        let cells = (0..n)
+            .flat_map(|r| {
+                (0..n).map(move |c| [idx(r, c), idx(r, c + 1), idx(r + 1, c + 1), idx(r + 1, c)])
+            })
+            .collect();
+        (x, cells)
+    }
+
+    #[test]
+    fn flat_sheet_stores_nothing_and_rows_sum_to_zero() {
+        let (x, cells) = square(6);
+        let b = Bending::new(&x, &alternating_split(&cells, 7), 1e-3, 0.0).unwrap();
+        assert!(b.energy(&x).abs() < ROUNDING * 1e-3);
+        for p in 0..x.len() {
+            assert!(b.apply_row(&x, p).length() < ROUNDING);
+            assert!(b.diagonal(p) >= 0.0);
+        }
+    }
+
+    #[test]
+    fn dbg_strip() {
+        let h = 0.125;
+        let nx = 6;
+        let x: Vec<DVec3> = (0..2)
+            .flat_map(|r| (0..nx).map(move |c| DVec3::new(c as f64 * h, 0.0, r as f64 * 0.05)))
+            .collect();
+        let idx = |r: usize, c: usize| (r * nx + c) as u32;
+        let cells: Vec<[u32; 4]> = (0..nx - 1)
+            .map(|c| [idx(0, c), idx(0, c + 1), idx(1, c + 1), idx(1, c)])
+            .collect();
+        let t = alternating_split(&cells, nx);
+        for s in stencils(&x, &t, 1.0).unwrap() {
+            eprintln!("{:?} {:?}", s.particles, s.weights);
+        }
+    }
+
+    #[test]
+    fn curved_rest_shape_is_refused() {
+        let (mut x, cells) = square(4);
+        x[12].y = 0.05;
+        let err = Bending::new(&x, &alternating_split(&cells, 5), 1e-3, 0.0).unwrap_err();
+        assert!(err.to_string().contains("material.bending"), "{err}");
+    }
+}
