@@ -42,7 +42,7 @@
 //! than [`REST_SPEED`]; a run that does not get there within
 //! [`MAX_STEPS`] is reported as not settled.
 
-use super::{elastica, Runner};
+use super::{elastica, sheet, Runner};
 use crate::error::{Error, Result};
 use crate::evidence::Backend;
 use crate::material::Material;
@@ -654,4 +654,93 @@ pub fn overhang(density: f64, bending: f64, segments: usize) -> Result<Overhang>
         gamma: ln_gamma.exp(),
         runs: OVERHANG_BISECTIONS,
     })
+}
+
+/// Where the clamped plate of [`plate_drop`] is held: every particle with
+/// `x ≤` this \[m\] is pinned (the plate lies on a table up to there).
+pub const PLATE_CLAMP: f64 = 0.1;
+
+/// `Γ = ρ g L³ / B` of the clamped plate over its overhang `L = 1 −`
+/// [`PLATE_CLAMP`]: a large, smooth sag (the elastica's tip would drop 57 %
+/// of its length), no folds for the resolutions to disagree on.
+pub const PLATE_GAMMA: f64 = 5.0;
+
+/// How the unit square of [`plate_drop`] is discretised.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlateMesh {
+    /// A grid of `n × n` particles (the Hessian bending operator).
+    Grid(usize),
+    /// The irregular triangle mesh of [`sheet::irregular_sheet`] with this
+    /// many rows (Bergou's operator).
+    Irregular(usize),
+}
+
+/// The same material discretised as `mesh`: a unit-square plate of
+/// [`MATERIAL_DENSITY`], horizontal, clamped where `x ≤` [`PLATE_CLAMP`]
+/// and sagging under its own weight at [`PLATE_GAMMA`], settled as the
+/// strips are. Returns the mean drop of its free edge (`x = 1`, every
+/// particle within 1 mm of it) over the overhang, and whether it settled.
+pub fn plate_drop(mesh: PlateMesh) -> Result<(f64, bool)> {
+    use crate::mesh::{Mesh, MeshCloth};
+    use crate::scene::Scene;
+    let gravity = -Params::default().gravity.y;
+    let overhang = 1.0 - PLATE_CLAMP;
+    let bending = MATERIAL_DENSITY * gravity * overhang.powi(3) / PLATE_GAMMA;
+    let stretch = MATERIAL_STRETCH_OVER_TENSION * MATERIAL_DENSITY * gravity * overhang;
+    let n = match mesh {
+        PlateMesh::Grid(n) | PlateMesh::Irregular(n) => n,
+    };
+    let text = format!(
+        "[simulation]\nintegrator = \"implicit\"\ndt = {SETTLE_DT}\n\
+         [implicit]\ntolerance = {CG_TOLERANCE}\nmax_iterations = {CG_MAX_ITERATIONS}\n\
+         [fixup]\niterations = 0\n\
+         [cloth]\nresolution = [{n}, {n}]\nsize = [1.0, 1.0]\norigin = [0.0, 0.0, 0.0]\n\
+         pins = [{{ box = [[-1.0, -1.0, -1.0], [{PLATE_CLAMP}, 1.0, 2.0]] }}]\n\
+         [material]\ndensity = {MATERIAL_DENSITY}\nstretch = {stretch}\nshear = {}\n\
+         bending = {bending}\ndamping = 0.0\n",
+        0.1 * stretch
+    );
+    let mut scene = Scene::from_toml(&text, std::path::Path::new("plate.toml"))?;
+    if let PlateMesh::Irregular(rows) = mesh {
+        let (obj, _) = sheet::irregular_sheet(1.0, rows);
+        // The sheet lies in the xy-plane hanging from y = 0; turn it into
+        // the xz-plane, z from 0 to 1.
+        let flat: String = obj
+            .lines()
+            .map(|l| match l.strip_prefix("v ") {
+                Some(v) => {
+                    let c: Vec<&str> = v.split(' ').collect();
+                    let y: f64 = c[1].parse().unwrap_or(0.0);
+                    format!("v {} 0 {}\n", c[0], -y)
+                }
+                None => format!("{l}\n"),
+            })
+            .collect();
+        let path = std::path::Path::new("plate.obj");
+        let parsed = Mesh::parse(flat.as_bytes(), path, None, &|_| {
+            Err("no external files".to_string())
+        })?;
+        scene.mesh = Some(MeshCloth {
+            path: path.to_path_buf(),
+            mesh_name: None,
+            scale: 1.0,
+            mesh: parsed,
+        });
+    }
+    let model = scene.model()?;
+    let edge: Vec<usize> = (0..model.particle_count())
+        .filter(|&p| model.rest_positions[p].x > 1.0 - 1e-3)
+        .collect();
+    let mut runner = Runner::new(Backend::CpuF64, &model, &scene.params)?;
+    let mut steps = 0;
+    loop {
+        runner.advance(CHECK_EVERY)?;
+        steps += CHECK_EVERY;
+        let (x, v) = runner.state()?;
+        let at_rest = v.iter().all(|v| v.length() < REST_SPEED);
+        if at_rest || steps >= MAX_STEPS {
+            let drop = edge.iter().map(|&p| -x[p].y).sum::<f64>() / edge.len() as f64;
+            return Ok((drop / overhang, at_rest));
+        }
+    }
 }

@@ -11,6 +11,7 @@ pub mod accuracy;
 pub mod cantilever;
 pub mod elastica;
 mod gpu_runs;
+pub mod sheet;
 pub mod stability;
 
 pub use accuracy::{
