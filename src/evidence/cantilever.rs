@@ -657,12 +657,16 @@ pub fn overhang(density: f64, bending: f64, segments: usize) -> Result<Overhang>
 }
 
 /// Where the clamped plate of [`plate_drop`] is held: every particle with
-/// `x ≤` this \[m\] is pinned (the plate lies on a table up to there).
-pub const PLATE_CLAMP: f64 = 0.1;
+/// `x ≤` this \[m\] is pinned (the plate lies on a table up to there). A
+/// column of every grid of `2ᵏ + 1` particles a side lies on it, so the
+/// grids' clamps differ only by the half cell before the first free
+/// column (a first-order effect); the irregular meshes' clamp follows
+/// their vertices.
+pub const PLATE_CLAMP: f64 = 0.125;
 
 /// `Γ = ρ g L³ / B` of the clamped plate over its overhang `L = 1 −`
-/// [`PLATE_CLAMP`]: a large, smooth sag (the elastica's tip would drop 57 %
-/// of its length), no folds for the resolutions to disagree on.
+/// [`PLATE_CLAMP`]: a large, smooth sag, no folds for the resolutions to
+/// disagree on.
 pub const PLATE_GAMMA: f64 = 5.0;
 
 /// How the unit square of [`plate_drop`] is discretised.
@@ -695,9 +699,10 @@ pub fn plate_drop(mesh: PlateMesh) -> Result<(f64, bool)> {
          [implicit]\ntolerance = {CG_TOLERANCE}\nmax_iterations = {CG_MAX_ITERATIONS}\n\
          [fixup]\niterations = 0\n\
          [cloth]\nresolution = [{n}, {n}]\nsize = [1.0, 1.0]\norigin = [0.0, 0.0, 0.0]\n\
-         pins = [{{ box = [[-1.0, -1.0, -1.0], [{PLATE_CLAMP}, 1.0, 2.0]] }}]\n\
+         pins = [{{ box = [[-1.0, -1.0, -1.0], [{}, 1.0, 2.0]] }}]\n\
          [material]\ndensity = {MATERIAL_DENSITY}\nstretch = {stretch}\nshear = {}\n\
          bending = {bending}\ndamping = 0.0\n",
+        PLATE_CLAMP + 1e-9,
         0.1 * stretch
     );
     let mut scene = Scene::from_toml(&text, std::path::Path::new("plate.toml"))?;
