@@ -53,6 +53,7 @@ pub mod params;
 pub mod real;
 pub mod render;
 pub mod scene;
+pub mod sdf;
 mod stats;
 
 pub use cpu::CpuSolver;

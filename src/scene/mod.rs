@@ -17,7 +17,7 @@ pub mod animation;
 mod file;
 mod shape;
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use std::fmt::Write as _;
 use std::io::Read as _;
 use std::path::{Path, PathBuf};
@@ -136,6 +136,7 @@ impl Scene {
         let mesh_keys = parsed.mesh_keys().map_err(fail)?;
         let material = parsed.material().map_err(fail)?;
         let character = parsed.take_character();
+        let colliders = parsed.take_colliders();
         let (mut cloth, mut params, duration, camera) = parsed.into_parts();
         if let Some(m) = &material {
             m.validate().map_err(|e| fail(e.to_string()))?;
@@ -156,6 +157,13 @@ impl Scene {
             .and_then(|()| check_duration(duration))
             .and_then(|()| camera.validate())
             .map_err(|e| fail(e.to_string()))?;
+        for (n, keys) in colliders.into_iter().enumerate() {
+            let collider = mesh_collider(n, keys, path, read_mesh).map_err(|e| match e {
+                Error::InvalidParameter { .. } => fail(e.to_string()),
+                e => e,
+            })?;
+            params.mesh_colliders.push(collider);
+        }
         let mesh = match mesh_keys {
             None => {
                 cloth.validate().map_err(|e| fail(e.to_string()))?;
@@ -363,6 +371,68 @@ impl Scene {
     }
 }
 
+/// The `[[collider]]` number `n` of the scene file `scene` from its keys:
+/// its numbers checked, then its mesh read (through `read_mesh`, relative
+/// to the scene's folder, as a mesh cloth's) and baked.
+fn mesh_collider(
+    n: usize,
+    k: file::ColliderKeys,
+    scene: &Path,
+    read_mesh: &dyn Fn(&Path, Option<&str>) -> Result<Mesh>,
+) -> Result<crate::sdf::MeshCollider> {
+    let key = format!("collider[{n}]");
+    check(
+        &format!("{key}.scale"),
+        k.scale,
+        k.scale > 0.0 && k.scale.is_finite(),
+        "> 0 (a factor on the mesh file's coordinates)",
+    )?;
+    check(
+        &format!("{key}.thickness"),
+        k.thickness,
+        k.thickness >= 0.0 && k.thickness.is_finite(),
+        "≥ 0 (m)",
+    )?;
+    check(
+        &format!("{key}.friction"),
+        k.friction,
+        k.friction >= 0.0 && k.friction.is_finite(),
+        "friction ≥ 0",
+    )?;
+    let turns = k.degrees != 0.0;
+    check(
+        &format!("{key}.rotation"),
+        k.axis.length(),
+        k.axis.is_finite() && k.degrees.is_finite() && (!turns || k.axis.length() > 0.0),
+        "[x, y, z, degrees]: an axis (not zero where the angle is not) and an angle",
+    )?;
+    let rotation = if turns {
+        DQuat::from_axis_angle(k.axis.normalize(), k.degrees.to_radians())
+    } else {
+        DQuat::IDENTITY
+    };
+    let pose = crate::sdf::MeshPose {
+        position: k.position,
+        rotation,
+        velocity: k.velocity,
+        angular_velocity: k.angular_velocity,
+    };
+    crate::params::check_mesh_pose(n, &pose)?;
+    let file = scene.parent().unwrap_or(Path::new("")).join(&k.file);
+    let mesh = read_mesh(&file, k.name.as_deref())?;
+    let grid = crate::sdf::bake(&mesh, &file, &key, k.scale, k.resolution, k.thickness)?;
+    Ok(crate::sdf::MeshCollider {
+        path: PathBuf::from(k.file),
+        grid: std::sync::Arc::new(grid),
+        position: pose.position,
+        rotation,
+        velocity: pose.velocity,
+        angular_velocity: pose.angular_velocity,
+        friction: k.friction,
+        thickness: k.thickness,
+    })
+}
+
 /// The mesh files of the built-in scenes, embedded so a built-in scene
 /// works from any working directory; `file` as the scene resolves it
 /// (`scenes/<file>`).
@@ -532,6 +602,19 @@ fn expected_shape(key: &str) -> Option<&'static str> {
         "ground.friction" | "sphere.friction" | "capsule.friction" => {
             "a number (friction coefficient)"
         }
+        "collider.mesh" => {
+            "a file path in quotes (.obj, .gltf or .glb) of a closed mesh, relative to the \
+             scene file"
+        }
+        "collider.mesh_name" => "the name of a mesh of the glTF file, in quotes",
+        "collider.position" => "[x, y, z], three numbers in m",
+        "collider.rotation" => "[x, y, z, degrees]: an axis and an angle in degrees",
+        "collider.scale" => "a number (a factor on the mesh file's coordinates)",
+        "collider.friction" => "a number (friction coefficient)",
+        "collider.velocity" => "[x, y, z], three numbers in m/s",
+        "collider.angular_velocity" => "[x, y, z], three numbers in rad/s",
+        "collider.resolution" => "a whole number of cells along the mesh's longest side",
+        "collider.thickness" => "a number in m",
         "wind.velocity" => "[x, y, z], three numbers in m/s",
         "wind.drag" | "wind.lift" => "a number in kg/m³",
         "camera.target" => "[x, y, z], three numbers in m",
