@@ -269,6 +269,7 @@ impl Scene {
             "banner",
             "cape",
             "heap",
+            "table",
         ]
     }
 
@@ -284,6 +285,7 @@ impl Scene {
             "banner" => include_str!("../../scenes/banner.toml"),
             "cape" => include_str!("../../scenes/cape.toml"),
             "heap" => include_str!("../../scenes/heap.toml"),
+            "table" => include_str!("../../scenes/table.toml"),
             _ => {
                 return Err(Error::UnknownScene {
                     name: name.to_string(),
@@ -441,6 +443,7 @@ fn builtin_mesh(file: &Path) -> Option<&'static [u8]> {
     Some(match name {
         "tablecloth.obj" => include_bytes!("../../scenes/tablecloth.obj"),
         "banner.gltf" => include_bytes!("../../scenes/banner.gltf"),
+        "table.obj" => include_bytes!("../../scenes/table.obj"),
         _ => return None,
     })
 }
