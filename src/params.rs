@@ -433,20 +433,20 @@ pub(crate) fn check_vec(key: &str, v: DVec3, unit: &str) -> Result<()> {
     Ok(())
 }
 
-/// Refuses a mesh collider pose `n` (`collider[n]`) with a non-finite
+/// Refuses a mesh collider pose (`key`: `collider[0]`) with a non-finite
 /// number or a rotation that is not a unit quaternion (to 1e-6: a host's
 /// `f32` quaternion is normalised to about 1e-7).
-pub(crate) fn check_mesh_pose(n: usize, pose: &crate::sdf::MeshPose) -> Result<()> {
-    check_vec(&format!("collider[{n}].position"), pose.position, "m")?;
-    check_vec(&format!("collider[{n}].velocity"), pose.velocity, "m/s")?;
+pub(crate) fn check_mesh_pose(key: &str, pose: &crate::sdf::MeshPose) -> Result<()> {
+    check_vec(&format!("{key}.position"), pose.position, "m")?;
+    check_vec(&format!("{key}.velocity"), pose.velocity, "m/s")?;
     check_vec(
-        &format!("collider[{n}].angular_velocity"),
+        &format!("{key}.angular_velocity"),
         pose.angular_velocity,
         "rad/s",
     )?;
     let q = pose.rotation;
     check(
-        &format!("collider[{n}].rotation"),
+        &format!("{key}.rotation"),
         q.length(),
         q.is_finite() && (q.length() - 1.0).abs() < 1e-6,
         "a unit quaternion (a finite axis and angle)",
@@ -552,7 +552,7 @@ impl Params {
             check_vec(&format!("capsule[{n}].velocity"), c.velocity, "m/s")?;
         }
         for (n, m) in self.mesh_colliders.iter().enumerate() {
-            check_mesh_pose(n, &m.pose())?;
+            check_mesh_pose(&format!("collider[{n}]"), &m.pose())?;
             check(
                 &format!("collider[{n}].friction"),
                 m.friction,

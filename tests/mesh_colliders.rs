@@ -5,13 +5,14 @@
 //! `f32` mirror bit for bit on both step paths, in a batch and with poses
 //! set every frame; an open mesh and bad keys are refused.
 
+#[path = "common/closed_meshes.rs"]
+mod closed_meshes;
 mod gpu_common;
 
-use std::collections::HashMap;
-use std::fmt::Write as _;
 use std::path::Path;
 use std::sync::Arc;
 
+use closed_meshes::{uv_sphere, voxels};
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::{DQuat, DVec3, Vec3};
@@ -21,102 +22,6 @@ use wgcloth::model::ClothSpec;
 use wgcloth::params::{FixupMethod, Integrator, Sphere};
 use wgcloth::sdf::{bake, MeshCollider, MeshPose};
 use wgcloth::{Model, Params, Scene, Vector};
-
-/// A closed mesh's OBJ text: the boundary of a union of unit voxels
-/// (`filled(i, j, k)` over `0..n`), each face a quad wound outward.
-fn voxels(n: [i32; 3], filled: impl Fn(i32, i32, i32) -> bool) -> String {
-    let inside =
-        |p: [i32; 3]| (0..3).all(|a| (0..n[a]).contains(&p[a])) && filled(p[0], p[1], p[2]);
-    let mut index: HashMap<[i32; 3], usize> = HashMap::new();
-    let mut verts = String::new();
-    let mut faces = String::new();
-    let mut vertex = |p: [i32; 3], verts: &mut String| {
-        let next = index.len() + 1;
-        *index.entry(p).or_insert_with(|| {
-            let _ = writeln!(verts, "v {} {} {}", p[0], p[1], p[2]);
-            next
-        })
-    };
-    for i in 0..n[0] {
-        for j in 0..n[1] {
-            for k in 0..n[2] {
-                if !inside([i, j, k]) {
-                    continue;
-                }
-                for d in 0..3 {
-                    let (u, v) = ((d + 1) % 3, (d + 2) % 3);
-                    let unit = |a: usize| {
-                        let mut e = [0; 3];
-                        e[a] = 1;
-                        e
-                    };
-                    let add = |p: [i32; 3], q: [i32; 3]| [p[0] + q[0], p[1] + q[1], p[2] + q[2]];
-                    for positive in [true, false] {
-                        let mut nb = [i, j, k];
-                        nb[d] += if positive { 1 } else { -1 };
-                        if inside(nb) {
-                            continue;
-                        }
-                        let p = if positive {
-                            add([i, j, k], unit(d))
-                        } else {
-                            [i, j, k]
-                        };
-                        let (eu, ev) = (unit(u), unit(v));
-                        let ring = if positive {
-                            [p, add(p, eu), add(add(p, eu), ev), add(p, ev)]
-                        } else {
-                            [p, add(p, ev), add(add(p, eu), ev), add(p, eu)]
-                        };
-                        let ids = ring.map(|c| vertex(c, &mut verts));
-                        let _ = writeln!(faces, "f {} {} {} {}", ids[0], ids[1], ids[2], ids[3]);
-                    }
-                }
-            }
-        }
-    }
-    verts + &faces
-}
-
-/// A UV sphere of unit radius, `rings` × `segments`, as OBJ text.
-fn uv_sphere(rings: usize, segments: usize) -> String {
-    let mut s = String::from("v 0 1 0\n");
-    for i in 1..rings {
-        let theta = std::f64::consts::PI * i as f64 / rings as f64;
-        for j in 0..segments {
-            let phi = std::f64::consts::TAU * j as f64 / segments as f64;
-            let _ = writeln!(
-                s,
-                "v {} {} {}",
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin()
-            );
-        }
-    }
-    s += "v 0 -1 0\n";
-    let ring = |i: usize, j: usize| 2 + (i - 1) * segments + j % segments;
-    let south = 2 + (rings - 1) * segments;
-    for j in 0..segments {
-        let _ = writeln!(s, "f 1 {} {}", ring(1, j + 1), ring(1, j));
-        for i in 1..rings - 1 {
-            let (a, b, c, d) = (
-                ring(i, j),
-                ring(i, j + 1),
-                ring(i + 1, j + 1),
-                ring(i + 1, j),
-            );
-            let _ = writeln!(s, "f {a} {b} {c}\nf {a} {c} {d}");
-        }
-        let _ = writeln!(
-            s,
-            "f {south} {} {}",
-            ring(rings - 1, j),
-            ring(rings - 1, j + 1)
-        );
-    }
-    s
-}
 
 /// A mesh collider baked from OBJ `text`, scaled, at `position`.
 fn collider(
@@ -553,18 +458,68 @@ fn more_mesh_colliders_than_the_gpu_holds_and_a_wrong_pose_count_are_refused() {
 /// A scene with one collider whose keys are `keys`, its mesh `mesh.obj`
 /// in a fresh folder holding `obj`.
 fn scene_with(obj: &str, keys: &str) -> (std::path::PathBuf, wgcloth::Result<Scene>) {
+    scene_text(obj, &format!("[[collider]]\nmesh = \"mesh.obj\"\n{keys}\n"))
+}
+
+/// The scene file `text` beside `mesh.obj` holding `obj`, in a fresh
+/// folder (returned, for removal).
+fn scene_text(obj: &str, text: &str) -> (std::path::PathBuf, wgcloth::Result<Scene>) {
     let dir = std::env::temp_dir().join(format!(
         "wgcloth-mesh-collider-{}-{}",
         std::process::id(),
-        keys.len() + obj.len()
+        text.len() + obj.len()
     ));
     std::fs::create_dir_all(&dir).expect("temp dir");
     std::fs::write(dir.join("mesh.obj"), obj).expect("mesh written");
     let path = dir.join("scene.toml");
-    let text = format!("[[collider]]\nmesh = \"mesh.obj\"\n{keys}\n");
     std::fs::write(&path, text).expect("scene written");
     let scene = Scene::load(&path);
     (dir, scene)
+}
+
+/// A character walking 1 m along +z in 1 s, turning 90°, carrying a box.
+const CHARACTER: &str = "[character]\n\
+    [[character.key]]\ntime = 0.0\nposition = [0, 0, 0]\n\
+    [[character.key]]\ntime = 1.0\nposition = [0, 0, 1]\nyaw = 90\n\
+    [[character.collider]]\nmesh = \"mesh.obj\"\nposition = [0, 1, 0]\n";
+
+#[test]
+fn a_character_carries_its_mesh_colliders_along_its_keys() {
+    let cube = voxels([1, 1, 1], |_, _, _| true);
+    let (dir, scene) = scene_text(&cube, CHARACTER);
+    let _ = std::fs::remove_dir_all(dir);
+    let scene = scene.expect("a character with a mesh collider");
+    // Posed at the first key, after the scene's own (none here).
+    assert_eq!(scene.params.mesh_colliders.len(), 1);
+    assert_eq!(scene.params.mesh_colliders[0].position, DVec3::Y);
+    let model = cloth(4, 0.2, DVec3::new(0.0, 2.5, 0.0), &scene.params);
+    let animation = scene.animation(&model).expect("a character");
+    let frame = 0.1;
+    let pose = animation.mesh_poses(0.5, frame)[0];
+    // Halfway: at z = 0.5, moving at 1 m/s along z (the frame's
+    // displacement over its length), turned 45°, turning at 90°/s.
+    let rate = std::f64::consts::FRAC_PI_2;
+    assert!(
+        (pose.position - DVec3::new(0.0, 1.0, 0.5)).length() < 1e-9,
+        "{pose:?}"
+    );
+    assert!((pose.velocity - DVec3::Z).length() < 1e-9, "{pose:?}");
+    assert!(
+        (pose.angular_velocity - DVec3::Y * rate).length() < 1e-9,
+        "{pose:?}"
+    );
+    assert!((pose.rotation.to_axis_angle().1 - rate / 2.0).abs() < 1e-9);
+    // Applied to a solver, it is the solver's body.
+    let mut s = CpuSolver::<f64>::new(&model, &scene.params).expect("valid");
+    animation.apply(&mut s, 0.5, frame).expect("valid poses");
+    // A character's collider takes no velocity of its own.
+    let (dir, scene) = scene_text(&cube, &format!("{CHARACTER}velocity = [1, 0, 0]\n"));
+    let _ = std::fs::remove_dir_all(dir);
+    let msg = scene.expect_err("velocity refused").to_string();
+    assert!(
+        msg.contains("velocity") && msg.contains("character.collider"),
+        "{msg}"
+    );
 }
 
 #[test]

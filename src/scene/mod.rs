@@ -135,7 +135,7 @@ impl Scene {
             serde_path_to_error::deserialize(de).map_err(|e| fail(describe(text, &e)))?;
         let mesh_keys = parsed.mesh_keys().map_err(fail)?;
         let material = parsed.material().map_err(fail)?;
-        let character = parsed.take_character();
+        let (mut character, character_colliders) = parsed.take_character();
         let colliders = parsed.take_colliders();
         let (mut cloth, mut params, duration, camera) = parsed.into_parts();
         if let Some(m) = &material {
@@ -157,12 +157,22 @@ impl Scene {
             .and_then(|()| check_duration(duration))
             .and_then(|()| camera.validate())
             .map_err(|e| fail(e.to_string()))?;
+        let in_file = |e: Error| match e {
+            Error::InvalidParameter { .. } => fail(e.to_string()),
+            e => e,
+        };
         for (n, keys) in colliders.into_iter().enumerate() {
-            let collider = mesh_collider(n, keys, path, read_mesh).map_err(|e| match e {
-                Error::InvalidParameter { .. } => fail(e.to_string()),
-                e => e,
-            })?;
-            params.mesh_colliders.push(collider);
+            let collider = mesh_collider(&format!("collider[{n}]"), keys, path, read_mesh);
+            params.mesh_colliders.push(collider.map_err(in_file)?);
+        }
+        if let Some(c) = &mut character {
+            for (n, keys) in character_colliders.into_iter().enumerate() {
+                let key = format!("character.collider[{n}]");
+                let collider = mesh_collider(&key, keys, path, read_mesh);
+                c.colliders.push(collider.map_err(in_file)?);
+            }
+            let start = c.keys.first().map_or(0.0, |k| k.time);
+            params.mesh_colliders.extend(c.colliders_at(start));
         }
         let mesh = match mesh_keys {
             None => {
@@ -242,7 +252,17 @@ impl Scene {
     pub fn animation(&self, model: &Model) -> Option<animation::Animation> {
         self.character.as_ref().map(|c| {
             let others = self.params.capsules.len().saturating_sub(c.capsules.len());
-            animation::Animation::new(c, &self.params.capsules[..others], model)
+            let meshes = self
+                .params
+                .mesh_colliders
+                .len()
+                .saturating_sub(c.colliders.len());
+            animation::Animation::new(
+                c,
+                &self.params.capsules[..others],
+                &self.params.mesh_colliders[..meshes],
+                model,
+            )
         })
     }
 
@@ -373,16 +393,15 @@ impl Scene {
     }
 }
 
-/// The `[[collider]]` number `n` of the scene file `scene` from its keys:
+/// The `[[collider]]` `key` (`collider[0]`) of the scene file `scene` from its keys:
 /// its numbers checked, then its mesh read (through `read_mesh`, relative
 /// to the scene's folder, as a mesh cloth's) and baked.
 fn mesh_collider(
-    n: usize,
+    key: &str,
     k: file::ColliderKeys,
     scene: &Path,
     read_mesh: &dyn Fn(&Path, Option<&str>) -> Result<Mesh>,
 ) -> Result<crate::sdf::MeshCollider> {
-    let key = format!("collider[{n}]");
     check(
         &format!("{key}.scale"),
         k.scale,
@@ -419,10 +438,10 @@ fn mesh_collider(
         velocity: k.velocity,
         angular_velocity: k.angular_velocity,
     };
-    crate::params::check_mesh_pose(n, &pose)?;
+    crate::params::check_mesh_pose(key, &pose)?;
     let file = scene.parent().unwrap_or(Path::new("")).join(&k.file);
     let mesh = read_mesh(&file, k.name.as_deref())?;
-    let grid = crate::sdf::bake(&mesh, &file, &key, k.scale, k.resolution, k.thickness)?;
+    let grid = crate::sdf::bake(&mesh, &file, key, k.scale, k.resolution, k.thickness)?;
     Ok(crate::sdf::MeshCollider {
         path: PathBuf::from(k.file),
         grid: std::sync::Arc::new(grid),

@@ -130,7 +130,7 @@ pub(crate) fn posed(
         });
     }
     for (n, p) in poses.iter().enumerate() {
-        crate::params::check_mesh_pose(n, p)?;
+        crate::params::check_mesh_pose(&format!("collider[{n}]"), p)?;
     }
     Ok(colliders
         .iter()
