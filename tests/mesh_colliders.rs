@@ -167,7 +167,10 @@ fn run_f64(model: &Model, params: &Params, steps: u64) -> Vec<DVec3> {
 /// the middle top one empty: a 0.2 m notch), 0.2 m voxels, centred under
 /// the cloth.
 const VOXEL: f64 = 0.2;
-fn bodies() -> [(&'static str, [i32; 3], fn(i32, i32, i32) -> bool); 2] {
+/// Which voxels of a body are filled.
+type Filled = fn(i32, i32, i32) -> bool;
+
+fn bodies() -> [(&'static str, [i32; 3], Filled); 2] {
     [
         ("box", [2, 2, 2], |_, _, _| true),
         ("U", [3, 2, 2], |i, j, _| !(i == 1 && j == 1)),
@@ -180,7 +183,7 @@ const THICKNESS: f64 = 0.005;
 
 /// How deep `x` is inside the union of the body's voxels \[m\] (0 outside):
 /// its distance to the nearest empty voxel of the grid padded by one.
-fn depth(n: [i32; 3], filled: fn(i32, i32, i32) -> bool, origin: DVec3, x: DVec3) -> f64 {
+fn depth(n: [i32; 3], filled: Filled, origin: DVec3, x: DVec3) -> f64 {
     let inside = |i: i32, j: i32, k: i32| {
         (0..n[0]).contains(&i)
             && (0..n[1]).contains(&j)
