@@ -215,8 +215,8 @@ fn depth(n: [i32; 3], filled: Filled, origin: DVec3, x: DVec3) -> f64 {
 /// trilinear field's zero set lies within a few hundredths of a cell of a
 /// flat face but cuts corners at an edge (where the field has a crease)
 /// by up to about half a cell's diagonal less the thickness; a quarter of
-/// the 18.75 mm cell bounds what the runs show (about 1.5 mm, see the
-/// printed worst) with room for the dynamics.
+/// the 18.75 mm cell bounds what the runs show (0.8 mm on the U, none on
+/// the box; see the printed worst) with room for the dynamics.
 const DEPTH_TOLERANCE: f64 = 0.25 * 0.6 / BODY_RESOLUTION as f64;
 
 #[test]
