@@ -1,7 +1,8 @@
 //! Writes the built-in scenes' mesh files: `scenes/tablecloth.obj` (a round
-//! cloth, an irregular triangulation in rings) and `scenes/banner.gltf` (a
+//! cloth, an irregular triangulation in rings), `scenes/banner.gltf` (a
 //! banner with a round hole, triangles graded towards the hole, its buffer
-//! embedded). Deterministic: the same files on every run and machine.
+//! embedded) and `scenes/table.obj` (a closed table, top and four legs: a
+//! mesh collider). Deterministic: the same files on every run and machine.
 //!
 //! `cargo run --release --example make_meshes [OUT_DIR]` (default `scenes`)
 
@@ -224,6 +225,67 @@ fn gltf(positions: &[[f64; 3]], triangles: &[[u32; 3]], name: &str) -> String {
     )
 }
 
+/// The table's box lines \[m\] along x, y and z: a 1.2 × 0.8 m top 4 cm
+/// thick at 0.72–0.76 m on four 6 cm legs.
+const TABLE_X: [f64; 4] = [-0.6, -0.54, 0.54, 0.6];
+const TABLE_Y: [f64; 3] = [0.0, 0.72, 0.76];
+const TABLE_Z: [f64; 4] = [-0.4, -0.34, 0.34, 0.4];
+
+/// The table: the boundary of a union of boxes of the grid the lines
+/// above make (the top layer whole, the lower layer at its corners), each
+/// face two triangles wound outward; boxes that touch share whole faces,
+/// so the mesh is closed and every edge has two faces.
+fn table() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let lines = [&TABLE_X[..], &TABLE_Y[..], &TABLE_Z[..]];
+    let n = [3i32, 2, 3];
+    let filled = |c: [i32; 3]| {
+        (0..3).all(|a| (0..n[a]).contains(&c[a])) && (c[1] == 1 || (c[0] != 1 && c[2] != 1))
+    };
+    let mut index = std::collections::BTreeMap::new();
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    let mut vertex = |c: [i32; 3]| {
+        *index.entry(c).or_insert_with(|| {
+            positions.push([0, 1, 2].map(|a| lines[a][c[a] as usize]));
+            (positions.len() - 1) as u32
+        })
+    };
+    for i in 0..n[0] {
+        for j in 0..n[1] {
+            for k in 0..n[2] {
+                let cell = [i, j, k];
+                if !filled(cell) {
+                    continue;
+                }
+                for d in 0..3 {
+                    let (u, v) = ((d + 1) % 3, (d + 2) % 3);
+                    let step = |mut c: [i32; 3], a: usize| {
+                        c[a] += 1;
+                        c
+                    };
+                    for outward in [true, false] {
+                        let mut next = cell;
+                        next[d] += if outward { 1 } else { -1 };
+                        if filled(next) {
+                            continue;
+                        }
+                        let p = if outward { step(cell, d) } else { cell };
+                        let ring = if outward {
+                            [p, step(p, u), step(step(p, u), v), step(p, v)]
+                        } else {
+                            [p, step(p, v), step(step(p, u), v), step(p, u)]
+                        };
+                        let q = ring.map(&mut vertex);
+                        triangles.push([q[0], q[1], q[2]]);
+                        triangles.push([q[0], q[2], q[3]]);
+                    }
+                }
+            }
+        }
+    }
+    (positions, triangles)
+}
+
 /// Writes a mesh file and says what it holds.
 fn write(
     path: &Path,
@@ -250,6 +312,13 @@ fn main() -> anyhow::Result<()> {
     let (p, t) = tablecloth();
     let text = obj(&p, &t, "A round tablecloth, 1.4 m across, in the xz-plane.");
     write(&dir.join("tablecloth.obj"), &text, &p, &t)?;
+    let (p, t) = table();
+    let text = obj(
+        &p,
+        &t,
+        "A table, 1.2 × 0.8 m, 0.76 m high: a closed mesh (a collider).",
+    );
+    write(&dir.join("table.obj"), &text, &p, &t)?;
     let (p, t) = banner();
     write(&dir.join("banner.gltf"), &gltf(&p, &t, "banner"), &p, &t)
 }

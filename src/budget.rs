@@ -391,7 +391,8 @@ pub fn gpu_bytes(
             + u64::from(layout::CG_SCALARS),
     );
     // The two buffers the kernels bind: read-only model data, scratch.
-    let model = total(&[springs, topo, dense_buffer]);
+    let grids = array::<u32>(crate::gpu::build::mesh_grid_words(&params.mesh_colliders));
+    let model = total(&[springs, topo, dense_buffer, grids]);
     let scratch = total(&[work, spring_work, partials]);
     // alpha_args' three slots and beta_args' two per recorded CG
     // iteration, and one more.

@@ -38,12 +38,12 @@ pub const SUM_GROUP: u32 = 256;
 pub const WORKGROUP_STEP_MAX_PARTICLES: u32 = 4096;
 
 /// Workgroup memory the workgroup kernels need at most \[bytes\]: the
-/// cloth's parameters (`Params`, 1 616 bytes), the staging of the block
-/// sums (`SUM_GROUP` words), self-collision's scan (`SUM_GROUP` words), the
-/// reduction scratch (`WORKGROUP` words) and a few shared words, within
-/// 4 KiB — a quarter of the 16 KiB every
-/// WebGPU device allows.
-pub const WORKGROUP_STEP_SHARED_BYTES: u32 = 4096;
+/// cloth's parameters (`Params`, 1 888 bytes with the mesh colliders'
+/// poses), the staging of the block sums (`SUM_GROUP` words),
+/// self-collision's scan (`SUM_GROUP` words), the reduction scratch
+/// (`WORKGROUP` words) and a few shared words, within 8 KiB — half of the
+/// 16 KiB every WebGPU device allows.
+pub const WORKGROUP_STEP_SHARED_BYTES: u32 = 8192;
 
 /// The scene features as the kernels read them at run time
 /// (`params.features`, WGSL: `FEATURE_*`): a feature's code runs where its
@@ -63,6 +63,9 @@ pub mod feature {
     pub const DAMPING: u32 = 16;
     /// Self-collision (`[self_collision]`).
     pub const SELF_COLLISION: u32 = 32;
+    /// At least one mesh collider (`[[collider]]`); a cloth with one has
+    /// [`SPHERES`] too, which gates every collider's contact code.
+    pub const MESH_COLLIDERS: u32 = 64;
 }
 
 /// The integrators as the kernels know them (`params.integrator`,
@@ -88,6 +91,10 @@ pub const MAX_SPHERES: usize = 16;
 
 /// Most capsules the GPU solver takes (they live in the uniform block too).
 pub const MAX_CAPSULES: usize = 16;
+
+/// Most mesh colliders (`[[collider]]`) the GPU solver takes: their poses
+/// live in the uniform block (64 bytes each), their grids in `model`.
+pub const MAX_MESH_COLLIDERS: usize = 4;
 
 /// The most steps one frame of pin motion may span: a pin moves while
 /// its goal's step count is 1 to this many steps ahead of its clock, so a
@@ -319,6 +326,7 @@ fn wgsl_u32() -> Vec<(String, u32)> {
     let mut out = vec![
         ("MAX_SPHERES".to_string(), MAX_SPHERES as u32),
         ("MAX_CAPSULES".to_string(), MAX_CAPSULES as u32),
+        ("MAX_MESH_COLLIDERS".to_string(), MAX_MESH_COLLIDERS as u32),
         ("MAX_FRAME_STEPS".to_string(), MAX_FRAME_STEPS),
     ];
     out.extend(
@@ -327,7 +335,7 @@ fn wgsl_u32() -> Vec<(String, u32)> {
             .zip(0u32..)
             .map(|(n, k)| (format!("W_{n}"), k)),
     );
-    let named: [(&str, u32); 50] = [
+    let named: [(&str, u32); 51] = [
         ("INTEGRATOR_EXPLICIT", integrator::EXPLICIT),
         ("INTEGRATOR_IMPLICIT", integrator::IMPLICIT),
         ("INTEGRATOR_SEMI_IMPLICIT", integrator::SEMI_IMPLICIT),
@@ -377,6 +385,7 @@ fn wgsl_u32() -> Vec<(String, u32)> {
         ("FEATURE_SPHERES", feature::SPHERES),
         ("FEATURE_FILTER", feature::FILTER),
         ("FEATURE_DAMPING", feature::DAMPING),
+        ("FEATURE_MESH_COLLIDERS", feature::MESH_COLLIDERS),
         ("FEATURE_SELF_COLLISION", feature::SELF_COLLISION),
     ];
     out.extend(named.iter().map(|&(n, v)| (n.to_string(), v)));

@@ -54,6 +54,7 @@ pub mod params;
 pub mod real;
 pub mod render;
 pub mod scene;
+pub mod sdf;
 mod stats;
 
 pub use cpu::CpuSolver;

@@ -301,6 +301,10 @@ pub struct Params {
     pub spheres: Vec<Sphere>,
     /// Capsule colliders, any number.
     pub capsules: Vec<Capsule>,
+    /// Mesh colliders (`[[collider]]`), baked; at most
+    /// [`MAX_MESH_COLLIDERS`](crate::kernel_config::MAX_MESH_COLLIDERS) on
+    /// the GPU.
+    pub mesh_colliders: Vec<crate::sdf::MeshCollider>,
     /// Optional wind.
     pub wind: Option<Wind>,
     /// Self-collision; `None`: off, and nothing of it runs.
@@ -349,6 +353,7 @@ impl Default for Params {
             ground: None,
             spheres: Vec::new(),
             capsules: Vec::new(),
+            mesh_colliders: Vec::new(),
             wind: None,
             self_collision: None,
         }
@@ -426,6 +431,26 @@ pub(crate) fn check_vec(key: &str, v: DVec3, unit: &str) -> Result<()> {
         check_finite(&format!("{key}[{c}]"), *value, unit)?;
     }
     Ok(())
+}
+
+/// Refuses a mesh collider pose (`key`: `collider[0]`) with a non-finite
+/// number or a rotation that is not a unit quaternion (to 1e-6: a host's
+/// `f32` quaternion is normalised to about 1e-7).
+pub(crate) fn check_mesh_pose(key: &str, pose: &crate::sdf::MeshPose) -> Result<()> {
+    check_vec(&format!("{key}.position"), pose.position, "m")?;
+    check_vec(&format!("{key}.velocity"), pose.velocity, "m/s")?;
+    check_vec(
+        &format!("{key}.angular_velocity"),
+        pose.angular_velocity,
+        "rad/s",
+    )?;
+    let q = pose.rotation;
+    check(
+        &format!("{key}.rotation"),
+        q.length(),
+        q.is_finite() && (q.length() - 1.0).abs() < 1e-6,
+        "a unit quaternion (a finite axis and angle)",
+    )
 }
 
 impl Params {
@@ -525,6 +550,21 @@ impl Params {
                 "friction ≥ 0",
             )?;
             check_vec(&format!("capsule[{n}].velocity"), c.velocity, "m/s")?;
+        }
+        for (n, m) in self.mesh_colliders.iter().enumerate() {
+            check_mesh_pose(&format!("collider[{n}]"), &m.pose())?;
+            check(
+                &format!("collider[{n}].friction"),
+                m.friction,
+                m.friction >= 0.0,
+                "friction ≥ 0",
+            )?;
+            check(
+                &format!("collider[{n}].thickness"),
+                m.thickness,
+                m.thickness >= 0.0,
+                "thickness ≥ 0 (m)",
+            )?;
         }
         if let Some(w) = &self.wind {
             check_vec("wind.velocity", w.velocity, "m/s")?;

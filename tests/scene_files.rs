@@ -229,6 +229,7 @@ fn a_file_with_every_key_gives_exactly_those_values() {
             },
         ],
         capsules: vec![],
+        mesh_colliders: vec![],
         wind: Some(Wind {
             velocity: DVec3::new(3.0, 0.0, -1.0),
             drag: 0.7,

@@ -2,7 +2,7 @@
 //! every Pod twin matches its WGSL struct field by field.
 
 use naga::valid::{Capabilities, ValidationFlags, Validator};
-use wgcloth::gpu::layout::{GpuCapsule, GpuParams, GpuSphere, GpuSpring};
+use wgcloth::gpu::layout::{GpuCapsule, GpuMeshCollider, GpuParams, GpuSphere, GpuSpring};
 use wgcloth::gpu::shaders;
 use wgcloth::gpu::{GridBlock, Kernel};
 
@@ -230,7 +230,9 @@ fn pod_twins_match_their_wgsl_structs() {
             self_collision,
             self_grid,
             spheres,
-            capsules
+            capsules,
+            mesh,
+            meshes
         }),
         std::mem::size_of::<GpuParams>(),
     );
@@ -266,6 +268,19 @@ fn pod_twins_match_their_wgsl_structs() {
             velocity
         }),
         std::mem::size_of::<GpuCapsule>(),
+    );
+    check(
+        "MeshCollider",
+        offsets!(GpuMeshCollider {
+            rotation,
+            position,
+            friction,
+            velocity,
+            thickness,
+            angular_velocity,
+            grid
+        }),
+        std::mem::size_of::<GpuMeshCollider>(),
     );
 }
 

@@ -25,6 +25,7 @@ last_frame hanging     # the README's top picture: the quick start's last frame
 last_frame tablecloth # a mesh cloth (OBJ)
 last_frame banner     # a mesh cloth (glTF) with a hole
 last_frame heap       # self-collision: a cloth folded onto itself
+last_frame table      # a mesh collider: a tablecloth on a table
 
 target/release/examples/cape "$images/cape.png"
 target/release/examples/batch "$images/batch.png"

@@ -21,6 +21,8 @@ override HAS_WIND: bool = true;
 override HAS_GROUND: bool = true;
 // Some sphere or capsule collider.
 override HAS_SPHERES: bool = true;
+// Some mesh collider (a cloth with one has HAS_SPHERES too).
+override HAS_MESH_COLLIDERS: bool = true;
 // Some particle can be constrained in CG (pins or colliders).
 override HAS_FILTER: bool = true;
 // Some spring has damping.
@@ -48,6 +50,9 @@ fn has_ground() -> bool {
 }
 fn has_spheres() -> bool {
     return HAS_SPHERES && (params.features & FEATURE_SPHERES) != 0u;
+}
+fn has_mesh_colliders() -> bool {
+    return HAS_MESH_COLLIDERS && (params.features & FEATURE_MESH_COLLIDERS) != 0u;
 }
 fn has_filter() -> bool {
     return HAS_FILTER && (params.features & FEATURE_FILTER) != 0u;
@@ -80,6 +85,20 @@ struct Capsule {
     friction: f32,
     velocity: vec3<f32>,
     _pad0: f32,
+}
+
+// Twin: layout::GpuMeshCollider. A mesh collider's pose: the world-to-body
+// rotation (a unit quaternion x, y, z, w), its origin when set [m], moving
+// at `velocity` [m/s] and spinning at `angular_velocity` [rad/s] about it;
+// `grid`: the vec4 index in `model` of its distance grid (mesh_contact).
+struct MeshCollider {
+    rotation: vec4<f32>,
+    position: vec3<f32>,
+    friction: f32,
+    velocity: vec3<f32>,
+    thickness: f32,
+    angular_velocity: vec3<f32>,
+    grid: u32,
 }
 
 // Twin: layout::GpuParams.
@@ -159,6 +178,9 @@ struct Params {
     self_grid: vec4<u32>,
     spheres: array<Sphere, MAX_SPHERES>,
     capsules: array<Capsule, MAX_CAPSULES>,
+    // Mesh colliders in use, the step count at which they were set, unused.
+    mesh: vec4<u32>,
+    meshes: array<MeshCollider, MAX_MESH_COLLIDERS>,
 }
 
 // Twin: layout::GpuSpring.

@@ -392,8 +392,90 @@ fn find_contact(xp: vec3<f32>, slop: f32, clock: u32) -> Contact {
                 best = c;
             }
         }
+        if (has_mesh_colliders()) {
+            let tm = collider_time(clock, params.mesh.y);
+            for (var k = 0u; k < params.mesh.x; k++) {
+                let c = mesh_contact(xp, params.meshes[k], tm);
+                if (c.found && c.distance < slop && (!best.found || c.distance < best.distance)) {
+                    best = c;
+                }
+            }
+        }
     }
     return best;
+}
+
+// Twin: cpu::collide::rotate. `v` rotated by the unit quaternion `q`.
+fn rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
+    let u = q.xyz;
+    let t = cross3(u, v) * 2.0;
+    return v + unseen3(t * q.w) + cross3(u, t);
+}
+
+// Twins: cpu::collide::lerp and bilerp.
+fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    return a + unseen1((b - a) * t);
+}
+
+fn bilerp(a: f32, b: f32, c: f32, d: f32, u: f32, v: f32) -> f32 {
+    return lerp(lerp(a, b, u), lerp(c, d, u), v);
+}
+
+// Sample `i` (0-based, x fastest) of the distance grid whose samples
+// start at vec4 index `at` of `model`.
+fn grid_sample(at: u32, i: u32) -> f32 {
+    let w = 4u * at + i;
+    return bitcast<f32>(model[w >> 2u][w & 3u]);
+}
+
+// Twin: cpu::collide::mesh_contact. The contact of `xp` with mesh collider
+// `m` `t` seconds after it was set; not found outside its grid. The grid's
+// header in `model`: origin [m] and cell [m], then the lattice points
+// along x, y, z; its samples follow.
+fn mesh_contact(xp: vec3<f32>, m: MeshCollider, t: f32) -> Contact {
+    let none = Contact(false, vec3<f32>(0.0, 1.0, 0.0), 0.0, 0.0, vec3<f32>(0.0));
+    let r = xp - (m.position + unseen3(m.velocity * t));
+    let local = rotate(m.rotation, r);
+    let head = bitcast<vec4<f32>>(model[m.grid]);
+    let dims = model[m.grid + 1u].xyz;
+    let at = (local - head.xyz) / head.w;
+    let top = vec3<f32>(dims - 1u);
+    // Written so that NaN is outside too.
+    if (!(all(at >= vec3<f32>(0.0)) && all(at < top))) {
+        return none;
+    }
+    let corner = vec3<u32>(at);
+    let f = at - vec3<f32>(corner);
+    let s = m.grid + 2u;
+    let i = corner.x + dims.x * (corner.y + dims.y * corner.z);
+    let dy = dims.x;
+    let dz = dims.x * dims.y;
+    let s000 = grid_sample(s, i);
+    let s100 = grid_sample(s, i + 1u);
+    let s010 = grid_sample(s, i + dy);
+    let s110 = grid_sample(s, i + dy + 1u);
+    let s001 = grid_sample(s, i + dz);
+    let s101 = grid_sample(s, i + dz + 1u);
+    let s011 = grid_sample(s, i + dz + dy);
+    let s111 = grid_sample(s, i + dz + dy + 1u);
+    let x0 = bilerp(s000, s010, s001, s011, f.y, f.z);
+    let x1 = bilerp(s100, s110, s101, s111, f.y, f.z);
+    let gy = bilerp(s010 - s000, s110 - s100, s011 - s001, s111 - s101, f.x, f.z);
+    let gz = bilerp(s001 - s000, s101 - s100, s011 - s010, s111 - s110, f.x, f.y);
+    let grad = vec3<f32>(x1 - x0, gy, gz);
+    let l = len3(grad);
+    var outward = vec3<f32>(0.0, 1.0, 0.0);
+    if (l > TINY) {
+        outward = grad / l;
+    }
+    let q = m.rotation;
+    return Contact(
+        true,
+        rotate(vec4<f32>(-q.xyz, q.w), outward),
+        lerp(x0, x1, f.x) - m.thickness,
+        m.friction,
+        m.velocity + cross3(m.angular_velocity, r),
+    );
 }
 
 // `a` itself, through an xor with the uniform's opaque zero

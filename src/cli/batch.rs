@@ -159,6 +159,10 @@ impl Animated for BatchCloth<'_> {
         self.batch.set_capsules(self.id, capsules)
     }
 
+    fn set_mesh_colliders(&mut self, poses: &[wgcloth::sdf::MeshPose]) -> wgcloth::Result<()> {
+        self.batch.set_mesh_colliders(self.id, poses)
+    }
+
     fn set_pin_targets(
         &mut self,
         targets: &[PinTarget],

@@ -1,4 +1,4 @@
-//! Ground plane, sphere and capsule colliders.
+//! Ground plane, sphere, capsule and mesh colliders.
 //!
 //! After a step, a free particle found inside a collider is moved to its
 //! surface, loses its inward normal velocity relative to the collider, and
@@ -16,7 +16,7 @@
 //! The implicit integrator also asks [`contact`] at the start of a step which
 //! particles are touching, to constrain them in the CG filter.
 
-use super::System;
+use super::{MeshColliderR, System};
 use crate::real::{Real, Vec3};
 
 /// A particle's distance to the surface within which it counts as touching
@@ -131,7 +131,96 @@ pub fn contact<R: Real>(sys: &System<R>, x: Vec3<R>, slop: R, clock: u32) -> Opt
         let q = closest_on_segment(c.a + shift, c.b + shift, x);
         consider(ball(x, q, c.radius, c.friction, c.velocity));
     }
+    let t = collider_time(sys, clock, sys.mesh_base);
+    for m in &sys.mesh_colliders {
+        if let Some(c) = mesh_contact(m, x, t) {
+            consider(c);
+        }
+    }
     best
+}
+
+/// `v` rotated by the unit quaternion `q` `(x, y, z, w)`: `v + w t + u × t`
+/// with `t = 2 u × v` (twin: `rotate` in `shaders/common/physics.wgsl`).
+fn rotate<R: Real>(q: [R; 4], v: Vec3<R>) -> Vec3<R> {
+    let u = Vec3::new(q[0], q[1], q[2]);
+    let t = u.cross(v) * R::from_f64(2.0);
+    v + t * q[3] + u.cross(t)
+}
+
+/// `a + (b − a) t`.
+fn lerp<R: Real>(a: R, b: R, t: R) -> R {
+    a + (b - a) * t
+}
+
+/// The bilinear blend of `a` (0, 0), `b` (1, 0), `c` (0, 1), `d` (1, 1) at
+/// `(u, v)`.
+fn bilerp<R: Real>(a: R, b: R, c: R, d: R, u: R, v: R) -> R {
+    lerp(lerp(a, b, u), lerp(c, d, u), v)
+}
+
+/// The contact of `x` with mesh collider `m` `t` seconds after it was set,
+/// if `x` is inside its grid: the trilinear distance less the thickness,
+/// the normal along the gradient of the same trilinear field in `x`'s cell
+/// (exact for the interpolant, so the normal and the distance agree), the
+/// surface velocity `v + ω × r` (twin: `mesh_contact` in
+/// `shaders/common/physics.wgsl`). Outside the grid, which reaches two
+/// cells beyond `thickness` around the mesh, there is no contact.
+fn mesh_contact<R: Real>(m: &MeshColliderR<R>, x: Vec3<R>, t: R) -> Option<Contact<R>> {
+    let g = &m.grid;
+    let r = x - (m.position + m.velocity * t);
+    let local = rotate(m.rotation, r);
+    let origin = Vec3::from_f64(g.origin.map(f64::from));
+    let at = (local - origin) / R::from_f64(f64::from(g.cell));
+    let mut corner = [0u32; 3];
+    let mut f = [R::ZERO; 3];
+    for k in 0..3 {
+        let c = at.get(k);
+        // Written so that NaN is outside too.
+        if !(c >= R::ZERO && c < R::from_f64(f64::from(g.dims[k] - 1))) {
+            return None;
+        }
+        corner[k] = c.to_f64() as u32;
+        f[k] = c - R::from_f64(f64::from(corner[k]));
+    }
+    let s = |i: u32, j: u32, k: u32| {
+        R::from_f64(f64::from(g.at(corner[0] + i, corner[1] + j, corner[2] + k)))
+    };
+    let (s000, s100, s010, s110) = (s(0, 0, 0), s(1, 0, 0), s(0, 1, 0), s(1, 1, 0));
+    let (s001, s101, s011, s111) = (s(0, 0, 1), s(1, 0, 1), s(0, 1, 1), s(1, 1, 1));
+    let x0 = bilerp(s000, s010, s001, s011, f[1], f[2]);
+    let x1 = bilerp(s100, s110, s101, s111, f[1], f[2]);
+    let gy = bilerp(
+        s010 - s000,
+        s110 - s100,
+        s011 - s001,
+        s111 - s101,
+        f[0],
+        f[2],
+    );
+    let gz = bilerp(
+        s001 - s000,
+        s101 - s100,
+        s011 - s010,
+        s111 - s110,
+        f[0],
+        f[1],
+    );
+    let grad = Vec3::new(x1 - x0, gy, gz);
+    let len = grad.length();
+    // A flat spot of the field (a cell at a medial sheet): push up.
+    let outward = if len > R::TINY {
+        grad / len
+    } else {
+        Vec3::new(R::ZERO, R::ONE, R::ZERO)
+    };
+    let q = m.rotation;
+    Some(Contact {
+        normal: rotate([-q[0], -q[1], -q[2], q[3]], outward),
+        distance: lerp(x0, x1, f[0]) - m.thickness,
+        friction: m.friction,
+        velocity: m.velocity + m.angular_velocity.cross(r),
+    })
 }
 
 /// The velocity [m/s] after a contact that removed the normal velocity

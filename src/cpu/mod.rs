@@ -168,6 +168,27 @@ impl<R: Real> BendingR<R> {
     }
 }
 
+/// A mesh collider in the solver's precision: its pose as the kernels
+/// hold it (twin: `layout::GpuMeshCollider`) and its grid.
+#[derive(Clone, Debug)]
+#[doc(hidden)]
+pub struct MeshColliderR<R> {
+    /// World-to-body rotation, a unit quaternion `(x, y, z, w)`.
+    pub rotation: [R; 4],
+    /// The body's origin when set \[m\].
+    pub position: Vec3<R>,
+    /// Velocity [m/s].
+    pub velocity: Vec3<R>,
+    /// Angular velocity [rad/s] about the origin.
+    pub angular_velocity: Vec3<R>,
+    /// Friction coefficient.
+    pub friction: R,
+    /// The distance the cloth keeps \[m\].
+    pub thickness: R,
+    /// The baked grid.
+    pub grid: std::sync::Arc<crate::sdf::DistanceGrid>,
+}
+
 /// Wind in the solver's precision.
 #[derive(Clone, Copy, Debug)]
 #[doc(hidden)]
@@ -220,6 +241,10 @@ pub struct System<R> {
     pub capsules: Vec<CapsuleR<R>>,
     /// The step count at which the capsules were set.
     pub capsule_base: u32,
+    /// Mesh colliders.
+    pub mesh_colliders: Vec<MeshColliderR<R>>,
+    /// The step count at which the mesh colliders were set.
+    pub mesh_base: u32,
     /// Wind.
     pub wind: Option<WindR<R>>,
     /// Fix-up passes (0 = off).
@@ -313,6 +338,8 @@ impl<R: Real> System<R> {
             sphere_base: 0,
             capsules: capsules_r(&params.capsules),
             capsule_base: 0,
+            mesh_colliders: mesh_colliders_r(&params.mesh_colliders),
+            mesh_base: 0,
             wind: params.wind.map(|w| WindR {
                 velocity: Vec3::from_f64(w.velocity),
                 drag: R::from_f64(w.drag),
@@ -331,8 +358,31 @@ impl<R: Real> System<R> {
 
     /// `true` when there is a ground plane or at least one sphere.
     pub fn has_colliders(&self) -> bool {
-        self.ground.is_some() || !self.spheres.is_empty() || !self.capsules.is_empty()
+        self.ground.is_some()
+            || !self.spheres.is_empty()
+            || !self.capsules.is_empty()
+            || !self.mesh_colliders.is_empty()
     }
+}
+
+/// Mesh colliders in the solver's precision: the rotation inverted
+/// (world to body) as the kernels take it.
+fn mesh_colliders_r<R: Real>(colliders: &[crate::sdf::MeshCollider]) -> Vec<MeshColliderR<R>> {
+    colliders
+        .iter()
+        .map(|m| {
+            let q = m.rotation.inverse().as_quat().to_array();
+            MeshColliderR {
+                rotation: q.map(|c| R::from_f64(f64::from(c))),
+                position: Vec3::from_f64(m.position),
+                velocity: Vec3::from_f64(m.velocity),
+                angular_velocity: Vec3::from_f64(m.angular_velocity),
+                friction: R::from_f64(m.friction),
+                thickness: R::from_f64(m.thickness),
+                grid: m.grid.clone(),
+            }
+        })
+        .collect()
 }
 
 /// Spheres in the solver's precision.
@@ -558,6 +608,8 @@ pub struct CpuSolver<R: Real> {
     last: StepStats,
     /// The moving bodies, for [`CpuSolver::check_divergence`].
     motion: diagnostics::Motion,
+    /// The mesh colliders as last set.
+    mesh_colliders: Vec<crate::sdf::MeshCollider>,
 }
 
 impl<R: Real> CpuSolver<R> {
@@ -616,6 +668,7 @@ impl<R: Real> CpuSolver<R> {
             time: 0.0,
             last: StepStats::default(),
             motion: diagnostics::Motion::new(model, params),
+            mesh_colliders: params.mesh_colliders.clone(),
         };
         if solver.integrator == Integrator::SemiImplicit {
             solver.build_filter()?;
@@ -805,6 +858,18 @@ impl<R: Real> CpuSolver<R> {
         self.sys.capsules = capsules_r(capsules);
         self.sys.capsule_base = self.work.clock;
         self.motion.set_capsules(self.time, capsules);
+        Ok(())
+    }
+
+    /// Moves the mesh colliders to `poses`, one per collider in the order
+    /// the scene gives them (their meshes stay); each moves at its velocity
+    /// from its pose from now on, as [`CpuSolver::set_spheres`] a sphere.
+    pub fn set_mesh_colliders(&mut self, poses: &[crate::sdf::MeshPose]) -> Result<()> {
+        let moved = crate::sdf::posed(&self.mesh_colliders, poses)?;
+        self.sys.mesh_colliders = mesh_colliders_r(&moved);
+        self.sys.mesh_base = self.work.clock;
+        self.motion.set_mesh_colliders(self.time, &moved);
+        self.mesh_colliders = moved;
         Ok(())
     }
 

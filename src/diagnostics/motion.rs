@@ -112,6 +112,48 @@ trait Body: Copy {
     fn points(&self) -> [DVec3; 2];
     fn radius(&self) -> f64;
     fn velocity(&self) -> DVec3;
+    /// The fastest its surface moves [m/s].
+    fn surface_speed(&self) -> f64 {
+        self.velocity().length()
+    }
+}
+
+/// A mesh collider as [`Motion`] sees it: the sphere that holds it
+/// (centre, radius \[m\]), its velocity [m/s] and its angular velocity
+/// [rad/s], whose surface speed is at most `|ω| × radius` more.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct MeshBody {
+    centre: DVec3,
+    radius: f64,
+    velocity: DVec3,
+    angular_velocity: DVec3,
+}
+
+impl MeshBody {
+    fn of(m: &crate::sdf::MeshCollider) -> Self {
+        let (centre, radius) = m.bounding_sphere();
+        MeshBody {
+            centre,
+            radius,
+            velocity: m.velocity,
+            angular_velocity: m.angular_velocity,
+        }
+    }
+}
+
+impl Body for MeshBody {
+    fn points(&self) -> [DVec3; 2] {
+        [self.centre; 2]
+    }
+    fn radius(&self) -> f64 {
+        self.radius
+    }
+    fn velocity(&self) -> DVec3 {
+        self.velocity
+    }
+    fn surface_speed(&self) -> f64 {
+        self.velocity.length() + self.angular_velocity.length() * self.radius
+    }
 }
 
 impl Body for Sphere {
@@ -151,7 +193,7 @@ impl<T: Body> Set<T> {
     fn tops(&self, time: f64, up: DVec3) -> impl Iterator<Item = f64> + '_ {
         self.bodies
             .iter()
-            .filter(|(b, _)| b.velocity() != DVec3::ZERO)
+            .filter(|(b, _)| b.surface_speed() > 0.0)
             .map(move |(b, _)| top(b, b.velocity() * (time - self.time), up))
     }
 }
@@ -176,6 +218,8 @@ pub struct Motion {
     spheres: Set<Sphere>,
     /// The capsules as last set.
     capsules: Set<Capsule>,
+    /// The mesh colliders as last set.
+    meshes: Set<MeshBody>,
     /// Every pinned particle's path.
     pins: BTreeMap<usize, PinPath>,
 }
@@ -199,10 +243,12 @@ impl Motion {
             },
             spheres: Set::empty(),
             capsules: Set::empty(),
+            meshes: Set::empty(),
             pins: BTreeMap::new(),
         };
         motion.set_spheres(0.0, &params.spheres);
         motion.set_capsules(0.0, &params.capsules);
+        motion.set_mesh_colliders(0.0, &params.mesh_colliders);
         for p in (0..model.particle_count()).filter(|&p| model.pinned[p]) {
             let x = model.rest_positions[p];
             motion
@@ -219,6 +265,7 @@ impl Motion {
             .spheres
             .tops(time, self.up)
             .chain(self.capsules.tops(time, self.up))
+            .chain(self.meshes.tops(time, self.up))
             .fold(self.past.top, f64::max);
         // A pin still moving to its target stops there if no new target
         // comes: that change is already possible.
@@ -248,6 +295,14 @@ impl Motion {
         self.capsules = self.replace(&self.capsules.clone(), time, capsules);
     }
 
+    /// The mesh colliders are now `meshes`, set at `time` \[s\], as
+    /// [`Motion::set_spheres`] the spheres (each as the sphere that holds
+    /// it, its surface as fast as its spin makes it).
+    pub fn set_mesh_colliders(&mut self, time: f64, meshes: &[crate::sdf::MeshCollider]) {
+        let bodies: Vec<MeshBody> = meshes.iter().map(MeshBody::of).collect();
+        self.meshes = self.replace(&self.meshes.clone(), time, &bodies);
+    }
+
     /// The colliders `old` replaced at `time` \[s\] by `new`: notes what
     /// they reached and returns the new set.
     fn replace<T: Body>(&mut self, old: &Set<T>, time: f64, new: &[T]) -> Set<T> {
@@ -267,7 +322,7 @@ impl Motion {
                             *change + (body.velocity() - o.velocity()).length(),
                         )
                     }
-                    None => (None, body.velocity().length()),
+                    None => (None, body.surface_speed()),
                 };
                 let jumped = was.is_some_and(|w| w != body.points());
                 let jump = match was {
@@ -279,7 +334,7 @@ impl Motion {
                 };
                 // A jump starts and stops: two changes of its speed.
                 let change = change + 2.0 * jump;
-                let speed = body.velocity().length().max(jump);
+                let speed = body.surface_speed().max(jump);
                 self.past.speed = self.past.speed.max(speed);
                 self.past.change = self.past.change.max(change);
                 if speed > 0.0 || jumped {

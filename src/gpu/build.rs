@@ -10,8 +10,8 @@ use super::layout::{torque_bits, GpuParams, GpuSpring};
 use super::path::{PathChoice, StepPath};
 use super::semi_filter::{SemiFilter, FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 use super::solver::{
-    compiled_features, gpu_capsules, gpu_spheres, plan_inputs, scene_features, GpuSolver, Prepared,
-    NO_GROUND, NO_WIND,
+    compiled_features, gpu_capsules, gpu_mesh_colliders, gpu_spheres, plan_inputs, scene_features,
+    GpuSolver, Prepared, NO_GROUND, NO_WIND,
 };
 use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_with_capacity};
@@ -21,6 +21,8 @@ use crate::error::Result;
 use crate::kernel_config::{integrator, partials, spring_work, status, work, WORKGROUP};
 use crate::model::Model;
 use crate::params::{Integrator, Params, SpringParams};
+use crate::sdf::{DistanceGrid, MeshCollider};
+use std::sync::Arc;
 
 /// Word offsets of the parts of `topo` after the spring adjacency offsets.
 struct TopoOffsets {
@@ -143,6 +145,9 @@ struct Shape<'a> {
     fixup_iterations: u32,
     /// Self-collision in the GPU's precision (the `f32` mirror's values).
     self_collision: Option<&'a SelfCollisionR<f32>>,
+    /// Each mesh collider's grid header, a `vec4` index from the grids'
+    /// first word (see [`mesh_grids`]).
+    grids: Vec<u32>,
 }
 
 /// The integrator as the kernels know it (`params.integrator`).
@@ -243,7 +248,51 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
         }),
         spheres: gpu_spheres(&params.spheres),
         capsules: gpu_capsules(&params.capsules),
+        mesh: [params.mesh_colliders.len() as u32, 0, 0, 0],
+        // The grids' places are made absolute by `ClothArrays::place`.
+        meshes: gpu_mesh_colliders(&params.mesh_colliders, &shape.grids),
     }
+}
+
+/// The mesh colliders' grids as `model` holds them: each distinct grid (a
+/// grid shared by colliders is stored once) a header of two `vec4` — origin
+/// \[m\] and cell \[m\] as `f32` bits, then its lattice points along x, y
+/// and z — and its samples' bits, padded to a whole `vec4`. Returns the
+/// words and each collider's header (a `vec4` index from the first word).
+pub(crate) fn mesh_grids(colliders: &[MeshCollider]) -> Result<(Vec<u32>, Vec<u32>)> {
+    let mut words: Vec<u32> = try_with_capacity(mesh_grid_words(colliders) as usize, UPLOAD)?;
+    let mut placed: Vec<(&Arc<DistanceGrid>, u32)> = Vec::new();
+    let mut at = Vec::with_capacity(colliders.len());
+    for m in colliders {
+        if let Some((_, h)) = placed.iter().find(|(g, _)| Arc::ptr_eq(g, &m.grid)) {
+            at.push(*h);
+            continue;
+        }
+        let g = &m.grid;
+        let head = (words.len() / 4) as u32;
+        words.extend(g.origin.map(f32::to_bits));
+        words.push(g.cell.to_bits());
+        words.extend(g.dims);
+        words.push(0);
+        words.extend(g.samples.iter().map(|s| s.to_bits()));
+        words.resize(words.len().next_multiple_of(4), 0);
+        placed.push((g, head));
+        at.push(head);
+    }
+    Ok((words, at))
+}
+
+/// Words of [`mesh_grids`]: what the budget and the device limits count.
+pub(crate) fn mesh_grid_words(colliders: &[MeshCollider]) -> u64 {
+    let mut seen: Vec<&Arc<DistanceGrid>> = Vec::new();
+    let mut words = 0;
+    for m in colliders {
+        if !seen.iter().any(|g| Arc::ptr_eq(g, &m.grid)) {
+            seen.push(&m.grid);
+            words += 8 + (m.grid.samples.len() as u64).next_multiple_of(4);
+        }
+    }
+    words
 }
 
 /// What the host uploads for a cloth, built from its model and
@@ -266,6 +315,8 @@ pub(crate) struct ClothArrays {
     /// Self-collision's rest positions, in exclusion radii (empty
     /// without it).
     pub rest: Vec<[f32; 4]>,
+    /// The mesh colliders' grids ([`mesh_grids`]; empty without them).
+    pub grids: Vec<u32>,
 }
 
 /// `u32` words of a spring record in `model` (two `vec4<u32>`).
@@ -292,7 +343,10 @@ impl ClothArrays {
     /// `topo` and the dense filter, as `u32` words, padded to a whole
     /// `vec4` so the next cloth's records start aligned.
     pub(crate) fn model_len(&self) -> u64 {
-        let words = SPRING_WORDS * self.spring_count() + self.rest_words() + self.topo.len() as u64;
+        let words = SPRING_WORDS * self.spring_count()
+            + self.rest_words()
+            + self.grids.len() as u64
+            + self.topo.len() as u64;
         (words + self.dense_capacity()).div_ceil(4)
     }
 
@@ -325,15 +379,17 @@ impl ClothArrays {
     }
 
     /// The cloth's part of `model` as uploaded: the spring records,
-    /// self-collision's rest positions, `topo`, the dense filter's bits (its unused capacity is left out:
+    /// self-collision's rest positions, the mesh colliders' grids, `topo`, the dense filter's bits (its unused capacity is left out:
     /// a new buffer is zeroed, and no kernel reads past the filter).
     pub(crate) fn model_words(&self) -> Result<Vec<u32>> {
         let springs: &[u32] = bytemuck::cast_slice(&self.springs);
         let rest: &[u32] = bytemuck::cast_slice(&self.rest);
-        let len = springs.len() + rest.len() + self.topo.len() + self.dense.len();
+        let len =
+            springs.len() + rest.len() + self.grids.len() + self.topo.len() + self.dense.len();
         let mut words: Vec<u32> = try_with_capacity(len, UPLOAD)?;
         words.extend_from_slice(springs);
         words.extend_from_slice(rest);
+        words.extend_from_slice(&self.grids);
         words.extend_from_slice(&self.topo);
         words.extend(self.dense.iter().map(|w| w.to_bits()));
         Ok(words)
@@ -348,10 +404,14 @@ impl ClothArrays {
         let n = u64::from(self.params.particle_count);
         let s = self.spring_count();
         let rest_at = 4 * model_at + SPRING_WORDS * s;
-        let topo_at = (rest_at + self.rest_words()) as u32;
+        let grids_at = rest_at + self.rest_words();
+        let topo_at = (grids_at + self.grids.len() as u64) as u32;
         let p = &mut self.params;
         p.spring_base = model_at as u32;
         p.self_grid[3] = (rest_at / 4) as u32;
+        for m in &mut p.meshes[..p.mesh[0] as usize] {
+            m.grid += (grids_at / 4) as u32;
+        }
         p.topo_base = topo_at;
         p.spring_adj_entries += topo_at;
         p.tri_adj_offsets += topo_at;
@@ -394,6 +454,7 @@ pub(super) fn cloth_arrays(
     let (topo, offsets) = topology(model, slot_of)?;
     let springs = device_springs(model, params, slots, slot_of)?;
     let (x, v) = initial_state(model)?;
+    let (grids, grid_at) = mesh_grids(&params.mesh_colliders)?;
     let shape = Shape {
         grid,
         block,
@@ -405,6 +466,7 @@ pub(super) fn cloth_arrays(
         cg_max_iterations,
         fixup_iterations: fixup_iterations(params),
         self_collision: self_collision.as_ref(),
+        grids: grid_at,
     };
     let params = uniform_block(model, params, shape);
     let no_rest = Vec::new();
@@ -418,6 +480,7 @@ pub(super) fn cloth_arrays(
         v,
         dense: filter.map_or_else(Vec::new, |f| f.words),
         rest,
+        grids,
     })
 }
 

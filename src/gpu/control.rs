@@ -8,13 +8,14 @@ use super::kernels::Features;
 use super::layout::{section, torque_bits, GpuParams};
 use super::semi_filter::SemiFilter;
 use super::solver::{
-    check_collider_counts, compiled_features, gpu_capsules, gpu_spheres, scene_features, GpuSolver,
-    NO_GROUND, NO_WIND,
+    check_collider_counts, compiled_features, gpu_capsules, gpu_mesh_colliders, gpu_spheres,
+    scene_features, GpuSolver, NO_GROUND, NO_WIND,
 };
 use crate::cpu::motion;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::params::{Capsule, Ground, Params, PinTarget, Sphere, Wind};
+use crate::sdf::{MeshCollider, MeshPose};
 use glam::{DVec3, Vec3};
 
 /// What pinning or releasing a particle changes besides its own model
@@ -117,6 +118,16 @@ pub(super) mod entry {
         }
     }
 
+    /// Mesh colliders moved to `colliders` (their grids stay), moving from
+    /// the steps recorded so far.
+    pub fn mesh_colliders(colliders: &[MeshCollider]) -> impl FnOnce(&mut GpuParams, u64) + '_ {
+        move |p, steps| {
+            let grids = p.meshes.map(|m| m.grid);
+            p.meshes = gpu_mesh_colliders(colliders, &grids);
+            p.mesh[1] = steps as u32;
+        }
+    }
+
     /// Capsule colliders, moving from the steps recorded so far.
     pub fn capsules(capsules: &[Capsule]) -> impl FnOnce(&mut GpuParams, u64) + '_ {
         move |p, steps| {
@@ -169,7 +180,7 @@ impl GpuSolver {
     /// and velocity; the steps of one submit see it move (the kernels
     /// compute its position from the steps since this call).
     pub fn set_spheres(&mut self, spheres: &[Sphere]) -> Result<()> {
-        check_collider_counts(spheres.len(), 0)?;
+        check_collider_counts(spheres.len(), 0, 0)?;
         let mut p = self.host_params.clone();
         p.spheres = spheres.to_vec();
         p.validate()?;
@@ -182,7 +193,7 @@ impl GpuSolver {
     /// Replaces the capsule colliders (at most [`MAX_CAPSULES`](super::layout::MAX_CAPSULES)), as
     /// [`GpuSolver::set_spheres`] the spheres.
     pub fn set_capsules(&mut self, capsules: &[Capsule]) -> Result<()> {
-        check_collider_counts(0, capsules.len())?;
+        check_collider_counts(0, capsules.len(), 0)?;
         let mut p = self.host_params.clone();
         p.capsules = capsules.to_vec();
         p.validate()?;
@@ -221,6 +232,18 @@ impl GpuSolver {
     /// The time step \[s\].
     pub fn dt(&self) -> f64 {
         self.host_params.dt
+    }
+
+    /// Moves the mesh colliders to `poses`, one per collider in the order
+    /// the scene gives them (their meshes stay), from the next recorded
+    /// step on, as [`GpuSolver::set_spheres`] the spheres.
+    pub fn set_mesh_colliders(&mut self, poses: &[MeshPose]) -> Result<()> {
+        let moved = crate::sdf::posed(&self.host_params.mesh_colliders, poses)?;
+        entry::mesh_colliders(&moved)(&mut self.params, self.steps_recorded);
+        self.motion.set_mesh_colliders(self.time(), &moved);
+        self.host_params.mesh_colliders = moved;
+        self.upload_params();
+        Ok(())
     }
 
     /// The spheres and the capsules where they are after the steps

@@ -30,8 +30,10 @@ pub struct Features {
     pub wind: bool,
     /// A ground plane.
     pub ground: bool,
-    /// At least one sphere.
+    /// At least one sphere, capsule or mesh collider.
     pub spheres: bool,
+    /// At least one mesh collider (`[[collider]]`).
+    pub mesh_colliders: bool,
     /// Some particle can be constrained in CG (pins or colliders).
     pub filter: bool,
     /// Some spring is damped.
@@ -63,6 +65,7 @@ impl Features {
             (self.wind, feature::WIND),
             (self.ground, feature::GROUND),
             (self.spheres, feature::SPHERES),
+            (self.mesh_colliders, feature::MESH_COLLIDERS),
             (self.filter, feature::FILTER),
             (self.damping, feature::DAMPING),
             (self.self_collision, feature::SELF_COLLISION),
@@ -84,6 +87,7 @@ impl Features {
             wind: true,
             ground: true,
             spheres: true,
+            mesh_colliders: true,
             filter: true,
             damping: true,
             ..self
@@ -432,6 +436,7 @@ impl GpuKernels {
             ("HAS_WIND", flag(features.wind)),
             ("HAS_GROUND", flag(features.ground)),
             ("HAS_SPHERES", flag(features.spheres)),
+            ("HAS_MESH_COLLIDERS", flag(features.mesh_colliders)),
             ("HAS_FILTER", flag(features.filter)),
             ("HAS_DAMPING", flag(features.damping)),
             ("GRID", flag(features.grid)),

@@ -5,7 +5,9 @@
 
 use bytemuck::{Pod, Zeroable};
 
-pub use crate::kernel_config::{status, work as section, MAX_CAPSULES, MAX_SPHERES};
+pub use crate::kernel_config::{
+    status, work as section, MAX_CAPSULES, MAX_MESH_COLLIDERS, MAX_SPHERES,
+};
 
 /// Twin of WGSL `Sphere`.
 #[repr(C)]
@@ -40,6 +42,28 @@ pub struct GpuCapsule {
     pub _pad: f32,
 }
 const _: () = assert!(std::mem::size_of::<GpuCapsule>() == 48);
+
+/// Twin of WGSL `MeshCollider`: a mesh collider's pose as the kernels
+/// take it; its grid is in `model` (see `ClothArrays::grids`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMeshCollider {
+    /// World-to-body rotation, a unit quaternion `(x, y, z, w)`.
+    pub rotation: [f32; 4],
+    /// The body's origin \[m\] when set.
+    pub position: [f32; 3],
+    /// Friction coefficient.
+    pub friction: f32,
+    /// Velocity [m/s].
+    pub velocity: [f32; 3],
+    /// The distance the cloth keeps \[m\].
+    pub thickness: f32,
+    /// Angular velocity [rad/s] about the origin.
+    pub angular_velocity: [f32; 3],
+    /// The `vec4` index in `model` of its grid's header.
+    pub grid: u32,
+}
+const _: () = assert!(std::mem::size_of::<GpuMeshCollider>() == 64);
 
 /// Twin of WGSL `Params` (the uniform block of the multi-dispatch
 /// kernels; an element of the cloth table of the workgroup kernels).
@@ -152,9 +176,16 @@ pub struct GpuParams {
     pub spheres: [GpuSphere; MAX_SPHERES],
     /// Capsule colliders; the first `motion[0]` are used.
     pub capsules: [GpuCapsule; MAX_CAPSULES],
+    /// Mesh colliders: in use, the step count at which they were set
+    /// (their time origin), two unused.
+    pub mesh: [u32; 4],
+    /// Mesh colliders; the first `mesh[0]` are used.
+    pub meshes: [GpuMeshCollider; MAX_MESH_COLLIDERS],
 }
-const _: () =
-    assert!(std::mem::size_of::<GpuParams>() == 336 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES);
+const _: () = assert!(
+    std::mem::size_of::<GpuParams>()
+        == 352 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES + 64 * MAX_MESH_COLLIDERS
+);
 // A workgroup kernel's copy of its cloth's parameters, its staging,
 // self-collision scan and reduction words and its shared words fit the memory it is chosen for.
 const _: () = assert!(

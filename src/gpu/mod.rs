@@ -14,7 +14,7 @@
 
 mod batch;
 mod buffers;
-mod build;
+pub(crate) mod build;
 mod cg_budget;
 mod context;
 mod control;

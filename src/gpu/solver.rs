@@ -6,7 +6,10 @@ use super::errors::{block_on, guarded, guarded_async};
 use super::grid::{GridBlock, GridLayout};
 use super::kernel::{Dispatch, Kernel, Launch};
 use super::kernels::{Features, GpuKernels};
-use super::layout::{self, GpuCapsule, GpuParams, GpuSphere, MAX_CAPSULES, MAX_SPHERES};
+use super::layout::{
+    self, GpuCapsule, GpuMeshCollider, GpuParams, GpuSphere, MAX_CAPSULES, MAX_MESH_COLLIDERS,
+    MAX_SPHERES,
+};
 use super::path::{self, PathChoice, PathInputs, StepPath};
 use super::path_cost::{self, AdapterCost};
 use super::plan::{self, Plan, PlanInputs};
@@ -20,6 +23,7 @@ use crate::error::{Error, Result};
 use crate::kernel_config::WORKGROUP;
 use crate::model::Model;
 use crate::params::{Capsule, FilterMethod, Ground, Integrator, Params, Sphere, Wind};
+use crate::sdf::MeshCollider;
 use crate::stats::StepStats;
 use glam::{DVec3, Vec3};
 
@@ -224,13 +228,16 @@ impl Prepared {
 /// What the scene uses, for the kernel variants.
 /// `grid`: the block shape of the grid kernels, `None` without grid layout.
 pub(super) fn scene_features(model: &Model, params: &Params, grid: Option<GridBlock>) -> Features {
-    let round = !params.spheres.is_empty() || !params.capsules.is_empty();
+    let meshes = !params.mesh_colliders.is_empty();
+    let round = !params.spheres.is_empty() || !params.capsules.is_empty() || meshes;
     let colliders = params.ground.is_some() || round;
     Features {
         wind: params.wind.is_some(),
         ground: params.ground.is_some(),
-        // The kernels' HAS_SPHERES covers both round colliders.
+        // The kernels' HAS_SPHERES covers every body collider (it gates
+        // their contact code); HAS_MESH_COLLIDERS the grids' sampling.
         spheres: round,
+        mesh_colliders: meshes,
         filter: colliders || model.pinned_count() > 0,
         damping: params
             .springs
@@ -300,12 +307,35 @@ pub(super) fn gpu_capsules(capsules: &[Capsule]) -> [GpuCapsule; MAX_CAPSULES] {
     out
 }
 
-/// Refuses more spheres or capsules than the uniform block holds, before
-/// anything runs.
-pub(super) fn check_collider_counts(spheres: usize, capsules: usize) -> Result<()> {
+/// Mesh colliders' poses as the uniform block holds them (the caller
+/// checks the count), each with its grid's header at `grids[k]` (a `vec4`
+/// index in `model`).
+pub(super) fn gpu_mesh_colliders(
+    colliders: &[MeshCollider],
+    grids: &[u32],
+) -> [GpuMeshCollider; MAX_MESH_COLLIDERS] {
+    let mut out = [GpuMeshCollider::default(); MAX_MESH_COLLIDERS];
+    for ((g, m), &grid) in out.iter_mut().zip(colliders).zip(grids) {
+        *g = GpuMeshCollider {
+            rotation: m.rotation.inverse().as_quat().to_array(),
+            position: m.position.as_vec3().to_array(),
+            friction: m.friction as f32,
+            velocity: m.velocity.as_vec3().to_array(),
+            thickness: m.thickness as f32,
+            angular_velocity: m.angular_velocity.as_vec3().to_array(),
+            grid,
+        };
+    }
+    out
+}
+
+/// Refuses more spheres, capsules or mesh colliders than the uniform block
+/// holds, before anything runs.
+pub(super) fn check_collider_counts(spheres: usize, capsules: usize, meshes: usize) -> Result<()> {
     for (key, count, max) in [
         ("sphere", spheres, MAX_SPHERES),
         ("capsule", capsules, MAX_CAPSULES),
+        ("collider", meshes, MAX_MESH_COLLIDERS),
     ] {
         if count > max {
             return Err(Error::InvalidParameter {
@@ -513,7 +543,11 @@ impl GpuSolver {
             limits.max_compute_workgroups_per_dimension.into(),
             groups,
         )?;
-        check_collider_counts(params.spheres.len(), params.capsules.len())?;
+        check_collider_counts(
+            params.spheres.len(),
+            params.capsules.len(),
+            params.mesh_colliders.len(),
+        )?;
         let what = if dense {
             format!(
                 "the GPU solver for {n} particles with the dense semi-implicit filter \

@@ -162,7 +162,7 @@ impl Mesh {
 
     /// Where face `f` is, for a message: `line 12` or
     /// `meshes[0].primitives[0], triangle 3`.
-    fn where_face(&self, f: &Face) -> String {
+    pub(crate) fn where_face(&self, f: &Face) -> String {
         match &self.place {
             FacePlace::Obj => format!("line {}", f.at),
             FacePlace::Gltf(primitive) => format!("{primitive}, triangle {}", f.at),

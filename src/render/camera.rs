@@ -46,7 +46,7 @@ pub struct Camera {
 impl Camera {
     /// Frames `model` under `params`: the cloth's rest bounding box, grown
     /// downwards by the cloth's largest extent (room for it to fall or hang
-    /// down) but not below the ground, plus the spheres and capsules.
+    /// down) but not below the ground, plus the spheres, capsules and mesh colliders.
     pub fn framing(model: &Model, params: &Params, aspect: f32) -> Camera {
         Camera::framing_with(model, params, &[], aspect)
     }
@@ -67,7 +67,11 @@ impl Camera {
         if let Some(ground) = &params.ground {
             lo[1] = lo[1].max(ground.height);
         }
-        let balls = params.spheres.iter().map(|s| (s.center, s.radius));
+        let balls = params
+            .spheres
+            .iter()
+            .map(|s| (s.center, s.radius))
+            .chain(params.mesh_colliders.iter().map(|m| m.bounding_sphere()));
         let ends = params
             .capsules
             .iter()

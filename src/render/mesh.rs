@@ -24,6 +24,37 @@ pub fn quad() -> Mesh {
     }
 }
 
+/// A mesh collider's triangles where it is set, flat-shaded, divided by
+/// a factor that puts every vertex within |y| < 0.5 (so `vs_collider`
+/// moves none to a capsule end); returns the mesh and the factor, the
+/// scale of its instance at the origin.
+pub fn body(m: &crate::sdf::MeshCollider) -> (Mesh, f32) {
+    let rotation = m.rotation.as_quat();
+    let position = m.position.as_vec3();
+    let world: Vec<[glam::Vec3; 3]> = m
+        .grid
+        .triangles
+        .iter()
+        .map(|t| t.map(|v| position + rotation * v))
+        .collect();
+    let reach = world
+        .iter()
+        .flatten()
+        .map(|v| v.y.abs())
+        .fold(0.0f32, f32::max);
+    let factor = 2.0 * reach + 1.0;
+    let mut vertices = Vec::with_capacity(3 * world.len());
+    for t in &world {
+        let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+        for v in t {
+            let p = *v / factor;
+            vertices.push([p.x, p.y, p.z, n.x, n.y, n.z]);
+        }
+    }
+    let indices = (0..vertices.len() as u32).collect();
+    (Mesh { vertices, indices }, factor)
+}
+
 /// The unit capsule: the unit sphere's upper half raised to y = 1 and its
 /// lower half lowered to y = −1, joined by a cylinder (the equator ring
 /// twice). Every vertex has |y| ≥ 1 (up to the rounding of cos(π/2)),

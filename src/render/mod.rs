@@ -120,6 +120,8 @@ const CLOTH_BACK: [f32; 3] = [0.85, 0.45, 0.15];
 const GROUND: [f32; 3] = [0.45, 0.45, 0.42];
 /// Sphere colour.
 const SPHERE: [f32; 3] = [0.25, 0.40, 0.70];
+/// Mesh collider colour: a warm wood, apart from the blue round bodies.
+const BODY: [f32; 3] = [0.55, 0.38, 0.24];
 /// Direction towards the light (normalised in `Renderer::new`): from above,
 /// a little to the front-right.
 const LIGHT: [f32; 3] = [0.4, 1.0, 0.6];
@@ -195,6 +197,8 @@ pub struct Renderer {
     /// How much smaller than they collide colliders are drawn \[m\]
     /// (`COLLIDER_INSET` of the camera's radius).
     inset: f32,
+    /// Mesh colliders, each drawn where the scene sets it.
+    bodies: Vec<Collider>,
 }
 
 /// A colour texture and its depth buffer, the size of one frame.
@@ -418,6 +422,19 @@ impl Renderer {
         let count = round_instances(&params.spheres, &params.capsules, inset, &mut round);
         let round = Collider::new(device, "round", &mesh::capsule(), &round);
         round.instance_count.store(count, Ordering::Relaxed);
+        let bodies = params
+            .mesh_colliders
+            .iter()
+            .map(|m| {
+                let (body, factor) = mesh::body(m);
+                Collider::new(
+                    device,
+                    "body",
+                    &body,
+                    &[instance([0.0, 0.0, 0.0, factor], BODY, 0.0)],
+                )
+            })
+            .collect();
         let renderer = Renderer {
             queue: queue.clone(),
             formats,
@@ -432,6 +449,7 @@ impl Renderer {
             ground,
             round,
             inset,
+            bodies,
         };
         renderer.set_camera(camera);
         renderer
@@ -527,7 +545,7 @@ impl Renderer {
     pub fn draw_colliders(&self, pass: &mut wgpu::RenderPass<'_>) {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_pipeline(&self.collider);
-        for c in self.ground.iter().chain([&self.round]) {
+        for c in self.ground.iter().chain([&self.round]).chain(&self.bodies) {
             let instances = c.instance_count.load(Ordering::Relaxed);
             if instances == 0 {
                 continue;

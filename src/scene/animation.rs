@@ -22,6 +22,7 @@ use crate::gpu::GpuSolver;
 use crate::model::{check_position, Model};
 use crate::params::{check, check_finite, Capsule, PinTarget};
 use crate::real::Real;
+use crate::sdf::{MeshCollider, MeshPose};
 
 /// One keyed pose of the character.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -39,6 +40,9 @@ pub struct Key {
 pub struct Character {
     /// Capsules in the character's frame (`velocity` unused).
     pub capsules: Vec<Capsule>,
+    /// Mesh colliders in the character's frame (their pose relative to
+    /// it; velocities unused).
+    pub colliders: Vec<MeshCollider>,
     /// Poses, in increasing time.
     pub keys: Vec<Key>,
 }
@@ -131,6 +135,21 @@ impl Character {
         }
     }
 
+    /// The mesh colliders in the world at time `t` \[s\] (at rest).
+    pub fn colliders_at(&self, t: f64) -> Vec<MeshCollider> {
+        let pose = self.pose(t);
+        self.colliders
+            .iter()
+            .map(|m| MeshCollider {
+                position: pose.world(m.position),
+                rotation: pose.rotation * m.rotation,
+                velocity: DVec3::ZERO,
+                angular_velocity: DVec3::ZERO,
+                ..m.clone()
+            })
+            .collect()
+    }
+
     /// The capsules in the world at time `t` \[s\] (at rest).
     pub fn capsules_at(&self, t: f64) -> Vec<Capsule> {
         let pose = self.pose(t);
@@ -152,11 +171,16 @@ pub trait Animated {
     fn set_capsules(&mut self, capsules: &[Capsule]) -> Result<()>;
     /// See [`GpuSolver::set_pin_targets`].
     fn set_pin_targets(&mut self, targets: &[PinTarget], frame_seconds: f64) -> Result<()>;
+    /// See [`GpuSolver::set_mesh_colliders`].
+    fn set_mesh_colliders(&mut self, poses: &[MeshPose]) -> Result<()>;
 }
 
 impl Animated for GpuSolver {
     fn set_capsules(&mut self, capsules: &[Capsule]) -> Result<()> {
         GpuSolver::set_capsules(self, capsules)
+    }
+    fn set_mesh_colliders(&mut self, poses: &[MeshPose]) -> Result<()> {
+        GpuSolver::set_mesh_colliders(self, poses)
     }
     fn set_pin_targets(&mut self, targets: &[PinTarget], frame_seconds: f64) -> Result<()> {
         GpuSolver::set_pin_targets(self, targets, frame_seconds)
@@ -166,6 +190,9 @@ impl Animated for GpuSolver {
 impl<R: Real> Animated for CpuSolver<R> {
     fn set_capsules(&mut self, capsules: &[Capsule]) -> Result<()> {
         CpuSolver::set_capsules(self, capsules)
+    }
+    fn set_mesh_colliders(&mut self, poses: &[MeshPose]) -> Result<()> {
+        CpuSolver::set_mesh_colliders(self, poses)
     }
     fn set_pin_targets(&mut self, targets: &[PinTarget], frame_seconds: f64) -> Result<()> {
         CpuSolver::set_pin_targets(self, targets, frame_seconds)
@@ -179,16 +206,23 @@ pub struct Animation {
     character: Character,
     /// The scene's own `[[capsule]]`s, as set at the start.
     others: Vec<Capsule>,
+    /// The scene's own `[[collider]]`s, as set at the start.
+    other_meshes: Vec<MeshCollider>,
     /// Each pinned particle and where it sits in the character's frame.
     pins: Vec<(usize, DVec3)>,
 }
 
 impl Animation {
     /// The animation of `character` with the scene's other capsules
-    /// `others` (which keep their own constant velocities) on the cloth
-    /// `model`, whose pinned particles ride on the character from where
-    /// they rest at its first key.
-    pub fn new(character: &Character, others: &[Capsule], model: &Model) -> Animation {
+    /// `others` and mesh colliders `other_meshes` (which keep their own
+    /// constant velocities) on the cloth `model`, whose pinned particles
+    /// ride on the character from where they rest at its first key.
+    pub fn new(
+        character: &Character,
+        others: &[Capsule],
+        other_meshes: &[MeshCollider],
+        model: &Model,
+    ) -> Animation {
         let start = character.pose(character.keys.first().map_or(0.0, |k| k.time));
         let pins = (0..model.particle_count())
             .filter(|&p| model.pinned[p])
@@ -197,6 +231,7 @@ impl Animation {
         Animation {
             character: character.clone(),
             others: others.to_vec(),
+            other_meshes: other_meshes.to_vec(),
             pins,
         }
     }
@@ -232,6 +267,30 @@ impl Animation {
         others.chain(own).collect()
     }
 
+    /// Every mesh collider's pose for the frame from `t` to
+    /// `t + frame_seconds` \[s\], as [`Animation::capsules`] the capsules:
+    /// the character's where they are at `t`, moving to where they are at
+    /// the frame's end and turning at the character's rate about y.
+    pub fn mesh_poses(&self, t: f64, frame_seconds: f64) -> Vec<MeshPose> {
+        let (now, next) = (
+            self.character.pose(t),
+            self.character.pose(t + frame_seconds),
+        );
+        let (axis, angle) = (next.rotation * now.rotation.inverse()).to_axis_angle();
+        let spin = axis * (angle / frame_seconds);
+        let others = self.other_meshes.iter().map(|m| MeshPose {
+            position: m.position + m.velocity * t,
+            ..m.pose()
+        });
+        let own = self.character.colliders.iter().map(|m| MeshPose {
+            position: now.world(m.position),
+            rotation: now.rotation * m.rotation,
+            velocity: (next.world(m.position) - now.world(m.position)) / frame_seconds,
+            angular_velocity: spin,
+        });
+        others.chain(own).collect()
+    }
+
     /// Where the pinned particles are to be at `t` \[s\].
     pub fn pin_targets(&self, t: f64) -> Vec<PinTarget> {
         let pose = self.character.pose(t);
@@ -249,6 +308,9 @@ impl Animation {
     /// host steps `frame_seconds` of simulated time.
     pub fn apply(&self, solver: &mut impl Animated, t: f64, frame_seconds: f64) -> Result<()> {
         solver.set_capsules(&self.capsules(t, frame_seconds))?;
+        if !self.character.colliders.is_empty() {
+            solver.set_mesh_colliders(&self.mesh_poses(t, frame_seconds))?;
+        }
         solver.set_pin_targets(&self.pin_targets(t + frame_seconds), frame_seconds)
     }
 }
@@ -260,6 +322,7 @@ mod tests {
     fn walker() -> Character {
         Character {
             capsules: vec![],
+            colliders: vec![],
             keys: vec![
                 Key {
                     time: 0.0,

@@ -31,6 +31,9 @@ pub(super) const DEFAULT_DURATION: f64 = 2.0;
 /// Friction of a `[ground]`, `[[sphere]]` or `[[capsule]]` that does not give one: a plain
 /// cloth-on-floor value, so a dropped cloth settles instead of sliding away.
 pub(super) const DEFAULT_FRICTION: f64 = 0.5;
+/// `[[collider]] thickness` when absent \[m\]: 5 mm, the thickness of a
+/// heavy cloth, keeps the cloth visibly on the surface without a gap.
+pub(super) const DEFAULT_COLLIDER_THICKNESS: f64 = 0.005;
 /// `[wind] drag` when absent [kg/m³]: `½ ρ_air C_d` with `ρ_air = 1.2` and
 /// `C_d = 1` (a flat plate face-on).
 pub(super) const DEFAULT_WIND_DRAG: f64 = 0.6;
@@ -60,6 +63,8 @@ pub(super) struct SceneFile {
     sphere: List<Table<SphereTable>>,
     #[serde(default)]
     capsule: List<Table<CapsuleTable>>,
+    #[serde(default)]
+    collider: List<Table<ColliderTable>>,
     character: Option<Table<CharacterTable>>,
     wind: Option<Table<WindTable>>,
     self_collision: Option<Table<SelfCollisionTable>>,
@@ -193,7 +198,32 @@ struct CharacterTable {
     #[serde(default)]
     capsule: List<Table<CharacterCapsuleTable>>,
     #[serde(default)]
+    collider: List<Table<CharacterColliderTable>>,
+    #[serde(default)]
     key: List<Table<KeyTable>>,
+}
+
+/// A `[[character.collider]]`: a `[[collider]]` without `velocity` and
+/// `angular_velocity`, which the character's keys give; its `position`
+/// and `rotation` in the character's frame.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CharacterColliderTable {
+    mesh: String,
+    mesh_name: Option<String>,
+    position: Option<Vec3>,
+    rotation: Option<Exactly<Number, 4>>,
+    scale: Option<Number>,
+    friction: Option<Number>,
+    resolution: Option<Whole<u32>>,
+    thickness: Option<Number>,
+}
+
+impl Form for CharacterColliderTable {
+    const ONE: &'static str =
+        "a table: a `[[character.collider]]` line with its keys on the lines below";
+    const MANY: &'static str = "tables, each a `[[character.collider]]` line (double brackets) \
+                                with its keys on the lines below";
 }
 
 /// A `[[character.capsule]]`: a `[[capsule]]` without `velocity`, which
@@ -225,6 +255,56 @@ struct CapsuleTable {
     radius: Number,
     friction: Option<Number>,
     velocity: Option<Vec3>,
+}
+
+/// A `[[collider]]`: a closed mesh (see `crate::sdf`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ColliderTable {
+    /// Required: the body is the mesh.
+    mesh: String,
+    mesh_name: Option<String>,
+    position: Option<Vec3>,
+    rotation: Option<Exactly<Number, 4>>,
+    scale: Option<Number>,
+    friction: Option<Number>,
+    velocity: Option<Vec3>,
+    angular_velocity: Option<Vec3>,
+    resolution: Option<Whole<u32>>,
+    thickness: Option<Number>,
+}
+
+impl Form for ColliderTable {
+    const ONE: &'static str = "a table: a `[[collider]]` line with its keys on the lines below";
+    const MANY: &'static str =
+        "tables, each a `[[collider]]` line (double brackets) with its keys on the lines below";
+}
+
+/// A `[[collider]]` as the file gives it, defaults filled in, not yet read
+/// or checked (`Scene` reads and bakes its mesh).
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct ColliderKeys {
+    /// `mesh`, as written (relative to the scene file's folder).
+    pub file: String,
+    /// `mesh_name`.
+    pub name: Option<String>,
+    /// `position` \[m\].
+    pub position: DVec3,
+    /// `rotation`: an axis and an angle \[deg\].
+    pub axis: DVec3,
+    pub degrees: f64,
+    /// `scale`.
+    pub scale: f64,
+    /// `friction`.
+    pub friction: f64,
+    /// `velocity` [m/s].
+    pub velocity: DVec3,
+    /// `angular_velocity` [rad/s].
+    pub angular_velocity: DVec3,
+    /// `resolution`.
+    pub resolution: u32,
+    /// `thickness` \[m\].
+    pub thickness: f64,
 }
 
 #[derive(Deserialize)]
@@ -559,9 +639,41 @@ fn capsule(a: Vec3, b: Vec3, radius: Number, friction: Option<Number>) -> Capsul
 }
 
 impl SceneFile {
-    /// The file's `[character]`, taken out (not yet validated).
-    pub(super) fn take_character(&mut self) -> Option<Character> {
-        self.character.take().map(|Table(c)| Character {
+    /// The file's `[[collider]]` tables, taken out.
+    pub(super) fn take_colliders(&mut self) -> Vec<ColliderKeys> {
+        std::mem::take(&mut self.collider.0)
+            .into_iter()
+            .map(|Table(c)| collider_keys(c))
+            .collect()
+    }
+
+    /// The file's `[character]`, taken out (not yet validated), and its
+    /// `[[character.collider]]` tables (which `Scene` reads and bakes).
+    pub(super) fn take_character(&mut self) -> (Option<Character>, Vec<ColliderKeys>) {
+        let Some(Table(c)) = self.character.take() else {
+            return (None, Vec::new());
+        };
+        let colliders = c
+            .collider
+            .0
+            .into_iter()
+            .map(|Table(c)| {
+                collider_keys(ColliderTable {
+                    mesh: c.mesh,
+                    mesh_name: c.mesh_name,
+                    position: c.position,
+                    rotation: c.rotation,
+                    scale: c.scale,
+                    friction: c.friction,
+                    velocity: None,
+                    angular_velocity: None,
+                    resolution: c.resolution,
+                    thickness: c.thickness,
+                })
+            })
+            .collect();
+        let character = Character {
+            colliders: Vec::new(),
             capsules: c
                 .capsule
                 .0
@@ -578,7 +690,28 @@ impl SceneFile {
                     yaw: k.yaw.map_or(0.0, f64::from),
                 })
                 .collect(),
-        })
+        };
+        (Some(character), colliders)
+    }
+}
+
+/// A `[[collider]]`'s keys with the defaults of those absent.
+fn collider_keys(c: ColliderTable) -> ColliderKeys {
+    let [x, y, z, degrees] = c
+        .rotation
+        .map_or([0.0, 1.0, 0.0, 0.0], |r| r.0.map(f64::from));
+    ColliderKeys {
+        file: c.mesh,
+        name: c.mesh_name,
+        position: c.position.map_or(DVec3::ZERO, DVec3::from),
+        axis: DVec3::new(x, y, z),
+        degrees,
+        scale: c.scale.map_or(1.0, f64::from),
+        friction: c.friction.map_or(DEFAULT_FRICTION, f64::from),
+        velocity: c.velocity.map_or(DVec3::ZERO, DVec3::from),
+        angular_velocity: c.angular_velocity.map_or(DVec3::ZERO, DVec3::from),
+        resolution: c.resolution.map_or(crate::sdf::DEFAULT_RESOLUTION, |r| r.0),
+        thickness: c.thickness.map_or(DEFAULT_COLLIDER_THICKNESS, f64::from),
     }
 }
 

@@ -17,7 +17,7 @@ pub mod animation;
 mod file;
 mod shape;
 
-use glam::DVec3;
+use glam::{DQuat, DVec3};
 use std::fmt::Write as _;
 use std::io::Read as _;
 use std::path::{Path, PathBuf};
@@ -135,7 +135,8 @@ impl Scene {
             serde_path_to_error::deserialize(de).map_err(|e| fail(describe(text, &e)))?;
         let mesh_keys = parsed.mesh_keys().map_err(fail)?;
         let material = parsed.material().map_err(fail)?;
-        let character = parsed.take_character();
+        let (mut character, character_colliders) = parsed.take_character();
+        let colliders = parsed.take_colliders();
         let (mut cloth, mut params, duration, camera) = parsed.into_parts();
         if let Some(m) = &material {
             m.validate().map_err(|e| fail(e.to_string()))?;
@@ -156,6 +157,23 @@ impl Scene {
             .and_then(|()| check_duration(duration))
             .and_then(|()| camera.validate())
             .map_err(|e| fail(e.to_string()))?;
+        let in_file = |e: Error| match e {
+            Error::InvalidParameter { .. } => fail(e.to_string()),
+            e => e,
+        };
+        for (n, keys) in colliders.into_iter().enumerate() {
+            let collider = mesh_collider(&format!("collider[{n}]"), keys, path, read_mesh);
+            params.mesh_colliders.push(collider.map_err(in_file)?);
+        }
+        if let Some(c) = &mut character {
+            for (n, keys) in character_colliders.into_iter().enumerate() {
+                let key = format!("character.collider[{n}]");
+                let collider = mesh_collider(&key, keys, path, read_mesh);
+                c.colliders.push(collider.map_err(in_file)?);
+            }
+            let start = c.keys.first().map_or(0.0, |k| k.time);
+            params.mesh_colliders.extend(c.colliders_at(start));
+        }
         let mesh = match mesh_keys {
             None => {
                 cloth.validate().map_err(|e| fail(e.to_string()))?;
@@ -234,7 +252,17 @@ impl Scene {
     pub fn animation(&self, model: &Model) -> Option<animation::Animation> {
         self.character.as_ref().map(|c| {
             let others = self.params.capsules.len().saturating_sub(c.capsules.len());
-            animation::Animation::new(c, &self.params.capsules[..others], model)
+            let meshes = self
+                .params
+                .mesh_colliders
+                .len()
+                .saturating_sub(c.colliders.len());
+            animation::Animation::new(
+                c,
+                &self.params.capsules[..others],
+                &self.params.mesh_colliders[..meshes],
+                model,
+            )
         })
     }
 
@@ -261,6 +289,7 @@ impl Scene {
             "banner",
             "cape",
             "heap",
+            "table",
         ]
     }
 
@@ -276,6 +305,7 @@ impl Scene {
             "banner" => include_str!("../../scenes/banner.toml"),
             "cape" => include_str!("../../scenes/cape.toml"),
             "heap" => include_str!("../../scenes/heap.toml"),
+            "table" => include_str!("../../scenes/table.toml"),
             _ => {
                 return Err(Error::UnknownScene {
                     name: name.to_string(),
@@ -364,6 +394,67 @@ impl Scene {
     }
 }
 
+/// The `[[collider]]` `key` (`collider[0]`) of the scene file `scene` from its keys:
+/// its numbers checked, then its mesh read (through `read_mesh`, relative
+/// to the scene's folder, as a mesh cloth's) and baked.
+fn mesh_collider(
+    key: &str,
+    k: file::ColliderKeys,
+    scene: &Path,
+    read_mesh: &dyn Fn(&Path, Option<&str>) -> Result<Mesh>,
+) -> Result<crate::sdf::MeshCollider> {
+    check(
+        &format!("{key}.scale"),
+        k.scale,
+        k.scale > 0.0 && k.scale.is_finite(),
+        "> 0 (a factor on the mesh file's coordinates)",
+    )?;
+    check(
+        &format!("{key}.thickness"),
+        k.thickness,
+        k.thickness >= 0.0 && k.thickness.is_finite(),
+        "≥ 0 (m)",
+    )?;
+    check(
+        &format!("{key}.friction"),
+        k.friction,
+        k.friction >= 0.0 && k.friction.is_finite(),
+        "friction ≥ 0",
+    )?;
+    let turns = k.degrees != 0.0;
+    check(
+        &format!("{key}.rotation"),
+        k.axis.length(),
+        k.axis.is_finite() && k.degrees.is_finite() && (!turns || k.axis.length() > 0.0),
+        "[x, y, z, degrees]: an axis (not zero where the angle is not) and an angle",
+    )?;
+    let rotation = if turns {
+        DQuat::from_axis_angle(k.axis.normalize(), k.degrees.to_radians())
+    } else {
+        DQuat::IDENTITY
+    };
+    let pose = crate::sdf::MeshPose {
+        position: k.position,
+        rotation,
+        velocity: k.velocity,
+        angular_velocity: k.angular_velocity,
+    };
+    crate::params::check_mesh_pose(key, &pose)?;
+    let file = scene.parent().unwrap_or(Path::new("")).join(&k.file);
+    let mesh = read_mesh(&file, k.name.as_deref())?;
+    let grid = crate::sdf::bake(&mesh, &file, key, k.scale, k.resolution, k.thickness)?;
+    Ok(crate::sdf::MeshCollider {
+        path: PathBuf::from(k.file),
+        grid: std::sync::Arc::new(grid),
+        position: pose.position,
+        rotation,
+        velocity: pose.velocity,
+        angular_velocity: pose.angular_velocity,
+        friction: k.friction,
+        thickness: k.thickness,
+    })
+}
+
 /// The mesh files of the built-in scenes, embedded so a built-in scene
 /// works from any working directory; `file` as the scene resolves it
 /// (`scenes/<file>`).
@@ -372,6 +463,7 @@ fn builtin_mesh(file: &Path) -> Option<&'static [u8]> {
     Some(match name {
         "tablecloth.obj" => include_bytes!("../../scenes/tablecloth.obj"),
         "banner.gltf" => include_bytes!("../../scenes/banner.gltf"),
+        "table.obj" => include_bytes!("../../scenes/table.obj"),
         _ => return None,
     })
 }
@@ -533,6 +625,19 @@ fn expected_shape(key: &str) -> Option<&'static str> {
         "ground.friction" | "sphere.friction" | "capsule.friction" => {
             "a number (friction coefficient)"
         }
+        "collider.mesh" => {
+            "a file path in quotes (.obj, .gltf or .glb) of a closed mesh, relative to the \
+             scene file"
+        }
+        "collider.mesh_name" => "the name of a mesh of the glTF file, in quotes",
+        "collider.position" => "[x, y, z], three numbers in m",
+        "collider.rotation" => "[x, y, z, degrees]: an axis and an angle in degrees",
+        "collider.scale" => "a number (a factor on the mesh file's coordinates)",
+        "collider.friction" => "a number (friction coefficient)",
+        "collider.velocity" => "[x, y, z], three numbers in m/s",
+        "collider.angular_velocity" => "[x, y, z], three numbers in rad/s",
+        "collider.resolution" => "a whole number of cells along the mesh's longest side",
+        "collider.thickness" => "a number in m",
         "wind.velocity" => "[x, y, z], three numbers in m/s",
         "wind.drag" | "wind.lift" => "a number in kg/m³",
         "camera.target" => "[x, y, z], three numbers in m",

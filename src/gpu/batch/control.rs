@@ -12,6 +12,7 @@ use crate::error::Result;
 use crate::gpu::control::entry;
 use crate::gpu::GpuSolver;
 use crate::params::{Capsule, PinTarget, Sphere, Wind};
+use crate::sdf::MeshPose;
 
 impl GpuBatch {
     /// Changes cloth `id`: by `solo` on its own solver, by `table` in the
@@ -82,7 +83,7 @@ impl GpuBatch {
 
     /// [`GpuSolver::set_spheres`] for cloth `id`.
     pub fn set_spheres(&mut self, id: ClothId, spheres: &[Sphere]) -> Result<()> {
-        crate::gpu::solver::check_collider_counts(spheres.len(), 0)?;
+        crate::gpu::solver::check_collider_counts(spheres.len(), 0, 0)?;
         self.change_params(
             id,
             |s| s.set_spheres(spheres),
@@ -94,7 +95,7 @@ impl GpuBatch {
 
     /// [`GpuSolver::set_capsules`] for cloth `id`.
     pub fn set_capsules(&mut self, id: ClothId, capsules: &[Capsule]) -> Result<()> {
-        crate::gpu::solver::check_collider_counts(0, capsules.len())?;
+        crate::gpu::solver::check_collider_counts(0, capsules.len(), 0)?;
         self.change_params(
             id,
             |s| s.set_capsules(capsules),
@@ -102,6 +103,29 @@ impl GpuBatch {
             entry::capsules(capsules),
         )?;
         self.moved(id, |m, t| m.set_capsules(t, capsules))
+    }
+
+    /// [`GpuSolver::set_mesh_colliders`] for cloth `id`.
+    pub fn set_mesh_colliders(&mut self, id: ClothId, poses: &[MeshPose]) -> Result<()> {
+        let slot = id.slot;
+        let moved = std::cell::RefCell::new(Vec::new());
+        self.change(
+            id,
+            |s| {
+                s.set_mesh_colliders(poses)?;
+                *moved.borrow_mut() = s.host_params.mesh_colliders.clone();
+                Ok(())
+            },
+            |c, t| {
+                let mut p = c.host_params();
+                let now = crate::sdf::posed(&p.mesh_colliders, poses)?;
+                p.mesh_colliders = now.clone();
+                *moved.borrow_mut() = now.clone();
+                c.change(t, slot, p, entry::mesh_colliders(&now))
+            },
+        )?;
+        let moved = moved.into_inner();
+        self.moved(id, |m, t| m.set_mesh_colliders(t, &moved))
     }
 
     /// [`GpuSolver::set_position`] for particle `p` of cloth `id` (`p`

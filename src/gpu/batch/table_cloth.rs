@@ -104,7 +104,11 @@ impl TableCloth {
         model: &Model,
         params: &Params,
     ) -> Result<TableCloth> {
-        check_collider_counts(params.spheres.len(), params.capsules.len())?;
+        check_collider_counts(
+            params.spheres.len(),
+            params.capsules.len(),
+            params.mesh_colliders.len(),
+        )?;
         let device = table.device().clone();
         // The arrays built on the host (the device's bytes are the shared
         // buffers', checked when they grow).
