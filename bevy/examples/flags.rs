@@ -74,19 +74,16 @@ fn main() -> anyhow::Result<()> {
             fixed: capture.frames.is_some(),
         })
         .insert_resource(Flags(flags))
+        .insert_resource(Label(format!(
+            "bevy{}: {count} flags, {steps} steps a frame",
+            if paused { " (paused)" } else { "" }
+        )))
         .init_resource::<FrameTimes>()
         .add_systems(Startup, setup)
         .add_systems(Update, (gust, common::orbit_with_mouse))
         .add_systems(Last, time_frames);
     common::add_capture(&mut app, capture);
     let exit = app.run();
-    if let Some(median) = app.world().resource::<FrameTimes>().median() {
-        println!(
-            "bevy{}: {count} flags, {steps} steps a frame: median frame {:.2} ms",
-            if paused { " (paused)" } else { "" },
-            median.as_secs_f64() * 1e3
-        );
-    }
     match exit {
         AppExit::Success => Ok(()),
         AppExit::Error(code) => anyhow::bail!("the app exited with status {code}"),
@@ -210,8 +207,28 @@ fn median(mut times: Vec<Duration>) -> Option<Duration> {
     times.get(times.len() / 2).copied()
 }
 
-fn time_frames(time: Res<Time<Real>>, mut times: ResMut<FrameTimes>) {
+/// What the timing line says the run was.
+#[derive(Resource)]
+struct Label(String);
+
+/// Records each frame's real duration; at the last frame of a `--frames`
+/// run prints the median (the app's world is gone once it exits).
+fn time_frames(
+    time: Res<Time<Real>>,
+    capture: Res<Capture>,
+    label: Res<Label>,
+    mut times: ResMut<FrameTimes>,
+) {
     times.0.push(time.delta());
+    if Some(times.0.len()) == capture.frames.map(|n| n as usize) {
+        if let Some(median) = times.median() {
+            println!(
+                "{}: median frame {:.2} ms",
+                label.0,
+                median.as_secs_f64() * 1e3
+            );
+        }
+    }
 }
 
 /// The same cloths stepped by wgcloth alone: one `GpuBatch` on a device of

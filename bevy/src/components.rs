@@ -90,7 +90,7 @@ impl Cloth {
             Some(Indices::U16(i)) => i.iter().map(|&i| u32::from(i)).collect(),
             None => (0..positions.len() as u32).collect(),
         };
-        if indices.len() % 3 != 0 {
+        if !indices.len().is_multiple_of(3) {
             return Err(fail(format!(
                 "{} indices is not a whole number of triangles",
                 indices.len()

@@ -22,13 +22,14 @@ const CAPE_RED_MARGIN: i32 = 40;
 /// covers about 1500 pixels of the 640 × 480 window; a tenth of that is a
 /// cape drawn, and a picture without it has none.
 const MIN_CAPE_PIXELS: usize = 150;
-/// Frames of the two screenshots (60 a simulated second): 0.5 s, the
-/// character standing while the cape settles; 2.5 s, running after its
-/// turn, 3 m away.
-const EARLY: u32 = 30;
-const LATE: u32 = 150;
+/// Frames of the two screenshots (60 a simulated second): 1/3 s, the
+/// character standing while the cape settles; 5/3 s, jogging, 2.1 m
+/// further on (each frame is about half a second on lavapipe, shadows and
+/// all).
+const EARLY: u32 = 20;
+const LATE: u32 = 100;
 /// How far the cape's centre on the screen must move between them
-/// \[pixels\]: the character crosses about a third of the window; a tenth
+/// \[pixels\]: the character crosses about a fifth of the window; a tenth
 /// of that is motion, a cape left where it started is none.
 const MIN_SHIFT: f32 = 20.0;
 

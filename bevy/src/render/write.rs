@@ -217,7 +217,7 @@ impl WriteBinding {
             wgpu::BindGroupEntry {
                 binding: 2,
                 resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &**slice.buffer,
+                    buffer: slice.buffer,
                     offset,
                     size: NonZeroU64::new(size),
                 }),
