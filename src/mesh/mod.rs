@@ -83,6 +83,8 @@ enum FacePlace {
     Obj,
     /// By triangle of a glTF primitive, `meshes[m].primitives[p]`.
     Gltf(String),
+    /// By triangle of a host's own mesh ([`Mesh::from_triangles`]).
+    Triangles,
 }
 
 /// A mesh as its file gives it: positions in the file's units and order,
@@ -155,6 +157,51 @@ impl Mesh {
         Ok(mesh)
     }
 
+    /// A mesh a host already holds (a game engine's mesh asset): vertex
+    /// positions in the host's units and triangles of 0-based indices,
+    /// checked as a file's mesh is. `what` names the mesh in messages (the
+    /// `path` of [`Error::Mesh`]), which name its triangles by number.
+    pub fn from_triangles(
+        what: &str,
+        positions: Vec<DVec3>,
+        triangles: &[[u32; 3]],
+    ) -> Result<Mesh> {
+        let fail = |message: String| Error::Mesh {
+            path: PathBuf::from(what),
+            message,
+        };
+        if positions.len() > MAX_PARTICLES {
+            return Err(fail(too_many_vertices(positions.len())));
+        }
+        if let Some(v) = positions.iter().position(|p| !p.is_finite()) {
+            return Err(fail(format!(
+                "vertex {v}: position {} is not finite",
+                positions[v]
+            )));
+        }
+        let mut faces = Vec::with_capacity(triangles.len());
+        for (t, tri) in triangles.iter().enumerate() {
+            if let Some(&bad) = tri.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(fail(format!(
+                    "triangle {t}: vertex index {bad} is out of range: the mesh has {} vertices",
+                    positions.len()
+                )));
+            }
+            faces.push(Face {
+                corners: [tri[0], tri[1], tri[2], 0],
+                quad: false,
+                at: t,
+            });
+        }
+        let mesh = Mesh {
+            positions,
+            faces,
+            place: FacePlace::Triangles,
+        };
+        mesh.check().map_err(fail)?;
+        Ok(mesh)
+    }
+
     /// Number of vertices (particles).
     pub fn vertex_count(&self) -> usize {
         self.positions.len()
@@ -166,6 +213,7 @@ impl Mesh {
         match &self.place {
             FacePlace::Obj => format!("line {}", f.at),
             FacePlace::Gltf(primitive) => format!("{primitive}, triangle {}", f.at),
+            FacePlace::Triangles => format!("triangle {}", f.at),
         }
     }
 
@@ -342,6 +390,28 @@ mod tests {
             Err("no buffers".to_string())
         })
         .map_err(|e| e.to_string())
+    }
+
+    /// A host's unit square as two triangles, and what `from_triangles`
+    /// makes of it or says is wrong.
+    fn square(triangles: &[[u32; 3]]) -> std::result::Result<Mesh, String> {
+        let positions = vec![DVec3::ZERO, DVec3::X, DVec3::new(1.0, 1.0, 0.0), DVec3::Y];
+        Mesh::from_triangles("the host's mesh", positions, triangles).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn a_hosts_triangles_are_a_mesh_checked_as_a_files() {
+        let mesh = square(&[[0, 1, 2], [0, 2, 3]]).expect("a square");
+        assert_eq!((mesh.vertex_count(), mesh.faces.len()), (4, 2));
+        let out = square(&[[0, 1, 2], [0, 2, 4]]).expect_err("index 4 of 4 vertices");
+        assert!(
+            out.contains("the host's mesh") && out.contains("triangle 1: vertex index 4"),
+            "{out}"
+        );
+        let twice = square(&[[0, 1, 2], [2, 1, 0], [0, 2, 3]]).expect_err("a face twice");
+        assert!(twice.contains("triangle 0 and triangle 1"), "{twice}");
+        let unused = square(&[[0, 1, 2]]).expect_err("vertex 3 in no face");
+        assert!(unused.contains("vertex 3"), "{unused}");
     }
 
     #[test]

@@ -1,0 +1,281 @@
+//! What a game puts on its entities and in its resources: the cloth, the
+//! colliders and pins that drive it, the world's gravity and wind, how the
+//! simulation clock advances, and the opt-in read-back.
+
+use std::sync::Arc;
+
+use bevy::asset::RenderAssetUsages;
+use bevy::camera::visibility::NoFrustumCulling;
+use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
+use bevy::prelude::*;
+use wgcloth::glam::DVec3;
+use wgcloth::mesh::Placement;
+use wgcloth::model::Pin;
+use wgcloth::{Model, Params, Scene};
+
+/// A cloth the plugin simulates on Bevy's render device and draws through
+/// the entity's mesh and material.
+///
+/// The solver works in world coordinates: the cloth's vertices are world
+/// positions \[m\], so its entity stays at the identity transform (the
+/// default this component requires). The plugin gives the entity a
+/// [`Mesh3d`] of the cloth's rest shape (positions and normals, the
+/// model's triangles) unless it has one; it adds no material: the game
+/// adds a [`MeshMaterial3d`] of its choice (a double-sided
+/// [`StandardMaterial`] suits cloth). Frustum culling is off for the
+/// cloth ([`NoFrustumCulling`]): the mesh's bounds at rest say nothing of
+/// where the simulated cloth is.
+///
+/// Cloths with the same time step `params.dt` share one
+/// [`wgcloth::gpu::GpuBatch`] and one fixed-step clock
+/// ([`ClothStepping`]); despawning the entity frees its slot.
+#[derive(Component, Clone, Debug)]
+#[require(Transform, Visibility, NoFrustumCulling)]
+pub struct Cloth {
+    model: Arc<Model>,
+    params: Arc<Params>,
+}
+
+impl Cloth {
+    /// A cloth of `model` stepped with `params`. Invalid parameters are
+    /// refused here, naming the key, before anything reaches the device.
+    pub fn new(model: Model, params: Params) -> wgcloth::Result<Cloth> {
+        params.validate()?;
+        Ok(Cloth {
+            model: Arc::new(model),
+            params: Arc::new(params),
+        })
+    }
+
+    /// The cloth of a wgcloth scene (a built-in name's or a file's:
+    /// [`Scene::builtin`], [`Scene::load`]) with the scene's parameters.
+    pub fn from_scene(scene: &Scene) -> wgcloth::Result<Cloth> {
+        Cloth::new(scene.model()?, scene.params.clone())
+    }
+
+    /// A cloth of a Bevy mesh: a triangle list whose vertex positions are
+    /// world positions \[m\] at rest, each vertex a particle (in order, so
+    /// the game may keep drawing the mesh it has, UVs and all), `mass`
+    /// \[kg\] spread by lumped area, `pins` as a scene's, springs from the
+    /// faces with `params.springs` (as for a mesh file: see wgcloth's
+    /// `Mesh::model`). The mesh is checked as a mesh file is (no degenerate
+    /// or repeated faces, a manifold, every vertex in a face); an error
+    /// names the triangle. A mesh split at UV seams has separate vertices
+    /// there, so it is torn along them: weld it first.
+    pub fn from_mesh(
+        mesh: &Mesh,
+        mass: f64,
+        pins: &[Pin],
+        params: Params,
+    ) -> wgcloth::Result<Cloth> {
+        const WHAT: &str = "the Bevy mesh";
+        let fail = |message: String| wgcloth::Error::Mesh {
+            path: WHAT.into(),
+            message,
+        };
+        if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
+            return Err(fail(format!(
+                "topology {:?}: a cloth is a triangle list",
+                mesh.primitive_topology()
+            )));
+        }
+        let positions: Vec<DVec3> = match mesh.attribute(Mesh::ATTRIBUTE_POSITION) {
+            Some(VertexAttributeValues::Float32x3(p)) => {
+                p.iter().map(|&p| Vec3::from(p).as_dvec3()).collect()
+            }
+            _ => return Err(fail("no Float32x3 positions".into())),
+        };
+        let indices: Vec<u32> = match mesh.indices() {
+            Some(Indices::U32(i)) => i.clone(),
+            Some(Indices::U16(i)) => i.iter().map(|&i| u32::from(i)).collect(),
+            None => (0..positions.len() as u32).collect(),
+        };
+        if !indices.len().is_multiple_of(3) {
+            return Err(fail(format!(
+                "{} indices is not a whole number of triangles",
+                indices.len()
+            )));
+        }
+        let triangles: Vec<[u32; 3]> = indices
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect();
+        let mesh = wgcloth::mesh::Mesh::from_triangles(WHAT, positions, &triangles)?;
+        let placement = Placement {
+            scale: 1.0,
+            origin: DVec3::ZERO,
+        };
+        let model = mesh.model(placement, mass, pins, &params.springs)?;
+        Cloth::new(model, params)
+    }
+
+    /// The particles, springs, triangles and pins.
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// The simulation parameters.
+    pub fn params(&self) -> &Params {
+        &self.params
+    }
+
+    /// The Bevy mesh of the cloth at rest: a triangle list with one vertex
+    /// per particle, in particle order (positions \[m\] and smooth
+    /// normals), which the plugin overwrites on the GPU each frame.
+    pub fn mesh(&self) -> Mesh {
+        let positions: Vec<[f32; 3]> = self
+            .model
+            .rest_positions
+            .iter()
+            .map(|p| p.as_vec3().to_array())
+            .collect();
+        let indices = self.model.triangles.iter().flatten().copied().collect();
+        Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
+        .with_inserted_indices(Indices::U32(indices))
+        .with_computed_smooth_normals()
+    }
+}
+
+/// A sphere collider: centred on its entity's [`GlobalTransform`]
+/// translation. It pushes every cloth; its velocity is derived from how
+/// the entity moved between the cloth's stepping frames.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct SphereCollider {
+    /// Radius \[m\] (the entity's scale does not change it).
+    pub radius: f32,
+    /// Coulomb friction coefficient (dimensionless, `≥ 0`).
+    pub friction: f32,
+}
+
+/// A capsule collider: the points within `radius` of the segment from
+/// `-half_length` to `+half_length` along its entity's local Y axis (Bevy's
+/// `Capsule3d` convention), placed by the entity's [`GlobalTransform`].
+/// The solver moves a capsule without turning it within a frame: its
+/// velocity is that of the segment's midpoint.
+#[derive(Component, Clone, Copy, Debug, PartialEq)]
+#[require(Transform)]
+pub struct CapsuleCollider {
+    /// Radius \[m\].
+    pub radius: f32,
+    /// Half the segment's length \[m\], in the entity's local units.
+    pub half_length: f32,
+    /// Coulomb friction coefficient (dimensionless, `≥ 0`).
+    pub friction: f32,
+}
+
+/// Pins of a cloth that follow an entity (a bone, a flagpole): each
+/// pinned particle keeps the place in the anchor's frame where it was when
+/// the plugin first saw the cloth, and moves with the anchor as a moving
+/// pin (it reaches the anchor's pose of this frame at the end of the
+/// frame's steps).
+#[derive(Component, Clone, Debug, PartialEq)]
+pub struct ClothPins {
+    /// The entity the pins follow (needs a [`GlobalTransform`]).
+    pub anchor: Entity,
+    /// The particles, by index in the model; empty: every particle the
+    /// model pins. A particle the model leaves free is pinned where it is.
+    pub particles: Vec<usize>,
+}
+
+impl ClothPins {
+    /// Every particle the model pins, following `anchor`.
+    pub fn all_to(anchor: Entity) -> ClothPins {
+        ClothPins {
+            anchor,
+            particles: Vec::new(),
+        }
+    }
+}
+
+/// Gravity \[m/s²\] for every cloth, replacing each cloth's own
+/// `params.gravity` while the resource exists.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct ClothGravity(pub Vec3);
+
+/// Wind for every cloth, replacing each cloth's own `params.wind` while
+/// the resource exists.
+#[derive(Resource, Clone, Copy, Debug, PartialEq)]
+pub struct ClothWind {
+    /// Air velocity \[m/s\].
+    pub velocity: Vec3,
+    /// Drag coefficient along the triangle normal \[kg/m³\] (`½ ρ C_d`).
+    pub drag: f32,
+    /// Lift coefficient \[kg/m³\].
+    pub lift: f32,
+}
+
+impl ClothWind {
+    /// The wgcloth form.
+    pub(crate) fn to_wind(self) -> wgcloth::params::Wind {
+        wgcloth::params::Wind {
+            velocity: self.velocity.as_dvec3(),
+            drag: f64::from(self.drag),
+            lift: f64::from(self.lift),
+        }
+    }
+}
+
+/// How the simulation clock advances each frame. The solver's time step
+/// is fixed (each cloth's `params.dt`); the frame rate is not.
+#[derive(Resource, Clone, Copy, Debug, Default, PartialEq)]
+pub enum ClothStepping {
+    /// Real time with an accumulator: each frame adds [`Time`]'s delta to
+    /// the clock of each time step, runs the whole steps it holds and
+    /// keeps the remainder for the next frame. It is Bevy's virtual time:
+    /// pausing or slowing it pauses or slows the cloth, and its
+    /// `max_delta` (0.25 s unless the game sets it) caps what one long
+    /// frame (a hitch, a breakpoint) runs, so a slow frame does not make
+    /// the next one slower. The cloth's simulated time stays within one
+    /// step of `Time::elapsed`.
+    #[default]
+    RealTime,
+    /// Exactly this many steps every frame, whatever the frame's duration:
+    /// deterministic runs, tests and offline capture.
+    StepsPerFrame(u32),
+    /// No steps (the cloths keep their state and are still drawn).
+    Paused,
+}
+
+/// Opt-in read-back: a cloth with this component has its positions and
+/// velocities read back to the CPU after every frame's steps and stored in
+/// its [`ClothState`]. One blocking copy a frame: for gameplay code that
+/// needs the vertices (tests, picking, sound), never needed to draw.
+#[derive(Component, Clone, Copy, Debug, Default)]
+pub struct ClothReadback;
+
+/// The state read back for a [`ClothReadback`] cloth, one frame behind the
+/// frame that ran its steps.
+#[derive(Component, Clone, Debug, Default, PartialEq)]
+pub struct ClothState {
+    /// Steps the cloth had run when it was read.
+    pub steps: u64,
+    /// Positions \[m\], in particle order.
+    pub positions: Vec<Vec3>,
+    /// Velocities \[m/s\].
+    pub velocities: Vec<Vec3>,
+}
+
+/// Where the plugin holds a cloth: its slot in the batch of its time step
+/// (slots of despawned cloths are reused). Inserted once the cloth is on
+/// the device.
+#[derive(Component, Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ClothSlot {
+    /// The slot ([`wgcloth::gpu::ClothId::index`]).
+    pub index: u32,
+}
+
+/// A cloth the plugin could not build or step: the device refused it
+/// (limits, memory), a setting was invalid (more than 16 colliders), or
+/// its state stopped being finite. The message is wgcloth's, for a user.
+#[derive(Message, Clone, Debug)]
+pub struct ClothFailed {
+    /// The cloth's entity.
+    pub entity: Entity,
+    /// What went wrong.
+    pub message: String,
+}
