@@ -235,9 +235,14 @@ fn the_anchor_rule_matches_githubs() {
 /// The examples cargo builds: `examples/NAME.rs` and `examples/NAME/main.rs`
 /// (`examples/common/` is a module the examples share, not one of them).
 fn example_names() -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(repo().join("examples"))
-        .expect("examples/ is readable")
-        .map(|entry| entry.expect("examples/ entry").path())
+    example_names_in("examples")
+}
+
+/// The examples under `dir` (relative to the repository), sorted.
+fn example_names_in(dir: &str) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(repo().join(dir))
+        .expect("the examples folder is readable")
+        .map(|entry| entry.expect("an examples entry").path())
         .filter_map(|p| {
             let is_example = if p.is_dir() {
                 p.join("main.rs").is_file()
@@ -330,11 +335,14 @@ fn every_example_is_listed_in_the_readme_and_no_page_names_a_missing_one() {
             "README.md does not show `cargo run --release --example {name}`"
         );
     }
+    // A page may also run the Bevy plugin's examples (`-p wgcloth-bevy`).
+    let bevy = example_names_in("bevy/examples");
     for (path, text) in pages() {
         for name in examples_named(&text) {
             assert!(
-                examples.contains(&name),
-                "{} runs `--example {name}`, which is not under examples/ (have {examples:?})",
+                examples.contains(&name) || bevy.contains(&name),
+                "{} runs `--example {name}`, which is not under examples/ or bevy/examples/ \
+                 (have {examples:?} and {bevy:?})",
                 path.display()
             );
         }
