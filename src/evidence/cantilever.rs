@@ -42,7 +42,7 @@
 //! than [`REST_SPEED`]; a run that does not get there within
 //! [`MAX_STEPS`] is reported as not settled.
 
-use super::{elastica, sheet, Runner};
+use super::{elastica, sheet, Points, Runner};
 use crate::error::{Error, Result};
 use crate::evidence::Backend;
 use crate::material::Material;
@@ -435,9 +435,25 @@ fn settle_model(
     model: &Model,
     params: &Params,
 ) -> Result<Settled> {
-    let mut runner = Runner::new(Backend::CpuF64, model, params)?;
     let nx = segments + 2;
     let tips: Vec<usize> = (0..rows).map(|r| r * nx + nx - 1).collect();
+    let (x, steps, settled) = rest_positions(model, params)?;
+    let mean =
+        |f: &dyn Fn(usize) -> f64| tips.iter().map(|&t| f(t)).sum::<f64>() / (rows as f64 * length);
+    Ok(Settled {
+        drop: mean(&|t| -x[t].y),
+        reach: mean(&|t| x[t].x),
+        steps,
+        settled,
+    })
+}
+
+/// Steps `model` on the CPU in `f64`, [`CHECK_EVERY`] steps at a time,
+/// until no particle moves faster than [`REST_SPEED`] or [`MAX_STEPS`]
+/// have passed: the positions then, the steps taken and whether it came to
+/// rest.
+fn rest_positions(model: &Model, params: &Params) -> Result<(Points, u64, bool)> {
+    let mut runner = Runner::new(Backend::CpuF64, model, params)?;
     let mut steps = 0;
     loop {
         runner.advance(CHECK_EVERY)?;
@@ -445,15 +461,7 @@ fn settle_model(
         let (x, v) = runner.state()?;
         let at_rest = v.iter().all(|v| v.length() < REST_SPEED);
         if at_rest || steps >= MAX_STEPS {
-            let mean = |f: &dyn Fn(usize) -> f64| {
-                tips.iter().map(|&t| f(t)).sum::<f64>() / (rows as f64 * length)
-            };
-            return Ok(Settled {
-                drop: mean(&|t| -x[t].y),
-                reach: mean(&|t| x[t].x),
-                steps,
-                settled: at_rest,
-            });
+            return Ok((x, steps, at_rest));
         }
     }
 }
@@ -736,16 +744,7 @@ pub fn plate_drop(mesh: PlateMesh) -> Result<(f64, bool)> {
     let edge: Vec<usize> = (0..model.particle_count())
         .filter(|&p| model.rest_positions[p].x > 1.0 - 1e-3)
         .collect();
-    let mut runner = Runner::new(Backend::CpuF64, &model, &scene.params)?;
-    let mut steps = 0;
-    loop {
-        runner.advance(CHECK_EVERY)?;
-        steps += CHECK_EVERY;
-        let (x, v) = runner.state()?;
-        let at_rest = v.iter().all(|v| v.length() < REST_SPEED);
-        if at_rest || steps >= MAX_STEPS {
-            let drop = edge.iter().map(|&p| -x[p].y).sum::<f64>() / edge.len() as f64;
-            return Ok((drop / overhang, at_rest));
-        }
-    }
+    let (x, _, settled) = rest_positions(&model, &scene.params)?;
+    let drop = edge.iter().map(|&p| -x[p].y).sum::<f64>() / edge.len() as f64;
+    Ok((drop / overhang, settled))
 }
