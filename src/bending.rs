@@ -313,32 +313,32 @@ fn stencils(rest: &[DVec3], triangles: &[[u32; 3]], stiffness: f64) -> Result<Ve
     Ok(out)
 }
 
-/// The triangles a grid of `columns` particles per row bends on: each cell
-/// `[a, b, c, d]` (corners counter-clockwise from its lowest index, as
-/// [`crate::model::Model::grid_cells`] lists them) split along `a c` or
-/// `b d` alternately, like a checkerboard. One diagonal everywhere would
-/// make bending about the other diagonal about 2.9 times stiffer than about
-/// an axis; the alternating split leaves both diagonals at about 1.5 times
-/// (`docs/integrators.md`).
-pub fn alternating_split(cells: &[[u32; 4]], columns: usize) -> Vec<[u32; 3]> {
-    let mut out = Vec::with_capacity(2 * cells.len());
-    for (k, &[a, b, c, d]) in cells.iter().enumerate() {
-        let cols = columns.saturating_sub(1).max(1);
-        let (row, col) = (k / cols, k % cols);
-        if (row + col) % 2 == 0 {
-            out.push([a, b, c]);
-            out.push([a, c, d]);
-        } else {
-            out.push([a, b, d]);
-            out.push([b, c, d]);
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Bergou's triangles for a grid of `columns` particles per row: each cell
+    /// `[a, b, c, d]` (corners counter-clockwise from its lowest index, as
+    /// [`crate::model::Model::grid_cells`] lists them) split along `a c` or
+    /// `b d` alternately, like a checkerboard. One diagonal everywhere would
+    /// make bending about the other diagonal about 2.9 times stiffer than about
+    /// an axis; the alternating split leaves both diagonals at about 1.5 times
+    /// (`docs/integrators.md`).
+    fn alternating_split(cells: &[[u32; 4]], columns: usize) -> Vec<[u32; 3]> {
+        let mut out = Vec::with_capacity(2 * cells.len());
+        for (k, &[a, b, c, d]) in cells.iter().enumerate() {
+            let cols = columns.saturating_sub(1).max(1);
+            let (row, col) = (k / cols, k % cols);
+            if (row + col) % 2 == 0 {
+                out.push([a, b, c]);
+                out.push([a, c, d]);
+            } else {
+                out.push([a, b, d]);
+                out.push([b, c, d]);
+            }
+        }
+        out
+    }
 
     /// Rounding of `f64` sums over a few dozen terms of size ~1.
     const ROUNDING: f64 = 1e-9;
@@ -365,23 +365,6 @@ mod tests {
         for p in 0..x.len() {
             assert!(b.apply_row(&x, p).length() < ROUNDING);
             assert!(b.diagonal(p) >= 0.0);
-        }
-    }
-
-    #[test]
-    fn dbg_strip() {
-        let h = 0.125;
-        let nx = 6;
-        let x: Vec<DVec3> = (0..2)
-            .flat_map(|r| (0..nx).map(move |c| DVec3::new(c as f64 * h, 0.0, r as f64 * 0.05)))
-            .collect();
-        let idx = |r: usize, c: usize| (r * nx + c) as u32;
-        let cells: Vec<[u32; 4]> = (0..nx - 1)
-            .map(|c| [idx(0, c), idx(0, c + 1), idx(1, c + 1), idx(1, c)])
-            .collect();
-        let t = alternating_split(&cells, nx);
-        for s in stencils(&x, &t, 1.0).unwrap() {
-            eprintln!("{:?} {:?}", s.particles, s.weights);
         }
     }
 
