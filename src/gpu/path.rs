@@ -11,8 +11,9 @@
 //! the parallelism each path can use.
 
 use super::grid::{GridBlock, GridLayout};
+use super::kernel::Kernel;
 use super::layout::{torque_bits, TORQUE_GLOBAL};
-use super::path_cost::{AdapterCost, Work, CG_ITERATIONS_ESTIMATE};
+use super::path_cost::{AdapterCost, Work, CG_ITERATIONS_ESTIMATE, DENSE_FILTER_ENTRIES_PER_ITEM};
 use super::plan::{Plan, PlanInputs};
 use crate::aggregation::Aggregation;
 use crate::error::{Error, Result};
@@ -222,7 +223,9 @@ fn micros(us: f64) -> String {
 /// iterations: the dispatches of the plan the solver would record (`grid`:
 /// its grid layout there; `block`: the grid kernels' block shape), the
 /// items of the plan in general layout (a grid kernel's invocation takes a
-/// block of particles). `dense`: the semi-implicit filter is the dense one.
+/// block of particles; a dense filter row counts its entries,
+/// [`DENSE_FILTER_ENTRIES_PER_ITEM`] to an item). `dense`: the
+/// semi-implicit filter is the dense one.
 pub(super) fn work(
     model: &Model,
     params: &Params,
@@ -256,7 +259,14 @@ pub(super) fn work(
         let (mut dispatches, mut items) = (0, 0);
         plan.for_each_in_step(0, cg, |d, _| {
             dispatches += 1;
-            items += u64::from(d.items);
+            items += match d.kernel {
+                // A row of the dense filter is a dot product over every
+                // free particle, not one item's work.
+                Kernel::FilterDense => {
+                    u64::from(d.items) * u64::from(d.items) / DENSE_FILTER_ENTRIES_PER_ITEM
+                }
+                _ => u64::from(d.items),
+            };
         });
         (dispatches, items)
     };

@@ -27,6 +27,14 @@ use crate::kernel_config::WORKGROUP;
 /// since every iteration adds dispatches and work to both paths alike).
 pub(super) const CG_ITERATIONS_ESTIMATE: u32 = 20;
 
+/// Entries of the dense semi-implicit filter that cost what one item (a
+/// particle's or a spring's work) costs: an item loads two or three
+/// vectors and does a 3 × 3 block's arithmetic, a filter entry one scalar
+/// load and a multiply-add. 16 fits both measured adapters: lavapipe's
+/// 33² semi-implicit step on the workgroup path (21.6 ms, model 21.9 ms)
+/// and the H200's choice of path at 15² and 33² (docs/performance.md).
+pub(super) const DENSE_FILTER_ENTRIES_PER_ITEM: u64 = 16;
+
 /// A step of one cloth, as the cost model sees it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Work {
@@ -80,14 +88,41 @@ const CPU_WORKGROUP_ITEM_US: f64 = 0.23;
 /// lavapipe: an item on the multi-dispatch path, per core \[µs\].
 const CPU_DISPATCH_ITEM_US: f64 = 0.104;
 
+// The discrete-GPU class, fitted to an NVIDIA H200 through Vulkan
+// (gpu_step bench, the grown `hanging` cloth at 15² and 33², each
+// integrator on both paths; docs/performance.md): with these the model
+// chooses the faster path in all six cases.
+
+/// H200: a dependent dispatch in one compute pass — the device drains and
+/// launches the next: 4.6 µs (explicit, 12 dispatches) to 9 µs (implicit,
+/// 286) per dispatch of a 33² step \[µs\].
+const GPU_DISPATCH_US: f64 = 6.0;
+/// H200: a phase of the one-workgroup kernels: 0.1 µs between the
+/// explicit step's phases, about 2 µs between the CG's (each sums over the
+/// workgroup in a tree of barriers) \[µs\].
+const GPU_BARRIER_US: f64 = 1.0;
+/// H200: streaming multiprocessors that each run a cloth's workgroup
+/// (132; a batch of 256 `hanging` cloths steps in about twice the time of
+/// 64, one of 1 024 in six times).
+const GPU_UNITS: u32 = 128;
+/// H200: an item on the workgroup path, 256 lanes of one multiprocessor:
+/// the explicit step's 15 372 more items at 33² than at 15² cost 61 µs
+/// \[µs\].
+const GPU_WORKGROUP_ITEM_US: f64 = 0.004;
+/// H200: an item on the multi-dispatch path per multiprocessor reached,
+/// whose 64-lane workgroups take four times the one-workgroup kernel's
+/// 256 lanes' time \[µs\].
+const GPU_DISPATCH_ITEM_US: f64 = 0.016;
+
 impl AdapterCost {
     /// The constants of the class of an adapter of `device_type`
     /// (`wgpu::AdapterInfo::device_type`). A CPU adapter (lavapipe, SwiftShader,
     /// WARP) has the constants measured with lavapipe and `cpu_threads`
     /// units (the threads it runs workgroups on: lavapipe's
-    /// `LP_NUM_THREADS`, else one per core). The GPU classes' constants are
-    /// estimates, not measurements (`docs/performance.md` says how they
-    /// were reasoned and what would change them).
+    /// `LP_NUM_THREADS`, else one per core); a discrete GPU the constants
+    /// measured with an NVIDIA H200; the other GPU classes' constants are
+    /// estimates, not measurements (`docs/performance.md` says how each
+    /// was found).
     pub fn of(device_type: wgpu::DeviceType, cpu_threads: u32) -> AdapterCost {
         match device_type {
             wgpu::DeviceType::Cpu => AdapterCost {
@@ -98,17 +133,15 @@ impl AdapterCost {
                 workgroup_item_us: CPU_WORKGROUP_ITEM_US,
                 dispatch_item_us: CPU_DISPATCH_ITEM_US,
             },
-            // A discrete GPU has 20 to 130 multiprocessors; a dependent
-            // dispatch drains the device and launches the next (a few µs);
-            // one workgroup of 256 invocations keeps a multiprocessor's
-            // lanes a quarter busy, stalled at every barrier.
+            // Fitted to an NVIDIA H200 (Vulkan; docs/performance.md, "The
+            // automatic step path"): see the constants' comments.
             wgpu::DeviceType::DiscreteGpu => AdapterCost {
-                class: "discrete GPU (estimated)",
-                dispatch_us: 4.0,
-                units: 64,
-                barrier_us: 0.2,
-                workgroup_item_us: 0.002,
-                dispatch_item_us: 0.001,
+                class: "discrete GPU (measured with an NVIDIA H200)",
+                dispatch_us: GPU_DISPATCH_US,
+                units: GPU_UNITS,
+                barrier_us: GPU_BARRIER_US,
+                workgroup_item_us: GPU_WORKGROUP_ITEM_US,
+                dispatch_item_us: GPU_DISPATCH_ITEM_US,
             },
             // An integrated or virtual GPU, or one the driver does not
             // classify: fewer units, slower launches.
@@ -213,6 +246,37 @@ mod tests {
             items: 72_000,
         };
         assert!(gpu.multi_dispatch_us(&large, 1) < gpu.workgroup_us(&large, 1));
+    }
+
+    /// The H200 measurement the discrete-GPU class is fitted to: the
+    /// grown `hanging` cloth's steps (their work as `--verbose` reports
+    /// it) and the path that stepped each faster (gpu_step bench, one
+    /// run: multi-dispatch against workgroup, µs per step).
+    #[test]
+    fn the_discrete_gpu_class_chooses_the_path_the_h200_measured_faster() {
+        let gpu = AdapterCost::of(wgpu::DeviceType::DiscreteGpu, 2);
+        let work = |particles, dispatches, items| Work {
+            particles,
+            dispatches,
+            items,
+        };
+        // (case, work, workgroup measured faster)
+        let cases = [
+            ("15² explicit, 67 vs 23", work(225, 12, 3_902), true),
+            ("15² implicit, 1518 vs 580", work(225, 86, 9_690), true),
+            ("15² semi-implicit, 207 vs 172", work(225, 14, 7_235), true),
+            ("33² explicit, 55 vs 84", work(1089, 12, 19_274), false),
+            ("33² implicit, 2560 vs 1828", work(1089, 86, 37_369), true),
+            (
+                "33² semi-implicit, 385 vs 1749",
+                work(1089, 14, 94_211),
+                false,
+            ),
+        ];
+        for (case, w, workgroup_faster) in cases {
+            let chose_workgroup = gpu.workgroup_us(&w, 1) < gpu.multi_dispatch_us(&w, 1);
+            assert_eq!(chose_workgroup, workgroup_faster, "{case}");
+        }
     }
 
     #[test]
