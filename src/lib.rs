@@ -29,6 +29,8 @@
 // The coarse levels' aggregates, shared by the CPU and GPU solvers.
 pub(crate) mod aggregation;
 pub mod atomic_file;
+// Banded Cholesky, shared by the semi-implicit filter and the evidence.
+mod band;
 pub mod bending;
 pub mod budget;
 pub mod cpu;

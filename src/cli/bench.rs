@@ -17,8 +17,8 @@ use wgcloth::gpu::GpuContext;
 use wgcloth::Scene;
 
 use super::{
-    chart, BenchAccuracyArgs, BenchCantileverArgs, BenchOverhangArgs, BenchStabilityArgs,
-    UsageError,
+    chart, BenchAccuracyArgs, BenchCantileverArgs, BenchDrapeArgs, BenchOverhangArgs,
+    BenchStabilityArgs, UsageError,
 };
 
 /// Stiffness range [N/m] the article reached with its semi-implicit
@@ -341,6 +341,108 @@ pub fn cantilever(args: &BenchCantileverArgs) -> anyhow::Result<()> {
     commit_all(files)?;
     say_written(&paths)?;
     out!("{}", cantilever_table(&report))
+}
+
+/// `wgcloth bench drape`.
+pub fn drape(args: &BenchDrapeArgs) -> anyhow::Result<()> {
+    // Both destinations are checked before the sweep runs.
+    let csv = args.csv.as_deref().map(AtomicFile::create).transpose()?;
+    let svg = args.chart.as_deref().map(AtomicFile::create).transpose()?;
+    let rows = evidence::cantilever::drape(&args.sizes)?;
+    let mut files = Vec::new();
+    for (file, text) in [(csv, drape_csv(&rows)), (svg, chart::drape_svg(&rows))] {
+        if let Some(mut f) = file {
+            f.write_with(|out| out.write_all(text.as_bytes()))?;
+            files.push(f);
+        }
+    }
+    let paths: Vec<String> = files
+        .iter()
+        .map(|f| f.path().display().to_string())
+        .collect();
+    commit_all(files)?;
+    say_written(&paths)?;
+    out!("{}", drape_table(&rows))
+}
+
+/// The name of a plate's discretisation in the table and the CSV.
+pub(super) fn plate_mesh_name(mesh: evidence::cantilever::PlateMesh) -> &'static str {
+    match mesh {
+        evidence::cantilever::PlateMesh::Grid(_) => "grid",
+        evidence::cantilever::PlateMesh::Irregular(_) => "irregular",
+    }
+}
+
+/// Each row with its difference from the previous resolution of its
+/// discretisation and the order over the last three.
+fn drape_lines(rows: &[evidence::cantilever::DrapeRow]) -> Vec<(usize, Option<f64>, Option<f64>)> {
+    (0..rows.len())
+        .map(|k| {
+            let same = |j: usize| plate_mesh_name(rows[j].mesh) == plate_mesh_name(rows[k].mesh);
+            let prev = (k >= 1 && same(k - 1)).then(|| k - 1);
+            let difference = prev.map(|j| rows[k].drop - rows[j].drop);
+            let order = match prev {
+                Some(j) if j >= 1 && same(j - 1) => {
+                    evidence::cantilever::drape_order(&rows[j - 1], &rows[j], &rows[k])
+                }
+                _ => None,
+            };
+            (k, difference, order)
+        })
+        .collect()
+}
+
+/// `wgcloth bench drape`'s table.
+pub fn drape_table(rows: &[evidence::cantilever::DrapeRow]) -> String {
+    let mut s = format!(
+        "clamped plate (Γ = {} over the overhang), free edge's drop over the overhang at rest\n\
+         {:<10} {:>5} {:>10} {:>10} {:>11} {:>6}\n",
+        evidence::cantilever::PLATE_GAMMA,
+        "mesh",
+        "rows",
+        "spacing",
+        "drop",
+        "difference",
+        "order"
+    );
+    for (k, difference, order) in drape_lines(rows) {
+        let r = &rows[k];
+        let _ = writeln!(
+            s,
+            "{:<10} {:>5} {:>10.5} {:>10.6}{} {:>11} {:>6}",
+            plate_mesh_name(r.mesh),
+            r.rows,
+            r.spacing,
+            r.drop,
+            if r.converged { " " } else { "*" },
+            difference.map_or("-".into(), |d| format!("{d:+.6}")),
+            order.map_or("-".into(), |o| format!("{o:.2}"))
+        );
+    }
+    if rows.iter().any(|r| !r.converged) {
+        s.push_str("* the equilibrium did not converge\n");
+    }
+    s
+}
+
+/// `wgcloth bench drape`'s CSV.
+pub fn drape_csv(rows: &[evidence::cantilever::DrapeRow]) -> String {
+    let mut s = String::from("mesh,rows,spacing_m,drop_over_overhang,converged,difference,order\n");
+    for (k, difference, order) in drape_lines(rows) {
+        let r = &rows[k];
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{}",
+            plate_mesh_name(r.mesh),
+            r.rows,
+            r.spacing,
+            r.drop,
+            r.converged,
+            difference.map_or(String::new(), |d| d.to_string()),
+            order.map_or(String::new(), |o| o.to_string())
+        );
+    }
+    s
 }
 
 /// `wgcloth bench overhang`.

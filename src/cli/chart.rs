@@ -8,7 +8,7 @@
 
 use std::fmt::Write as _;
 
-use wgcloth::evidence::cantilever::BendingModel;
+use wgcloth::evidence::cantilever::{BendingModel, DrapeRow};
 use wgcloth::evidence::{elastica, AccuracyReport, Backend, CantileverReport, StabilityReport};
 use wgcloth::Integrator;
 
@@ -307,6 +307,91 @@ pub fn cantilever_svg(report: &CantileverReport) -> String {
             r#"<text x="{:.0}" y="{y:.0}" fill="{fill}">{label}</text>"#,
             MARGIN + 10.0
         );
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
+/// The clamped plate's differences between successive resolutions
+/// (log) against the finer one's spacing (log), a series per
+/// discretisation, with first- and second-order slopes for reference.
+pub fn drape_svg(rows: &[DrapeRow]) -> String {
+    let mut series: Vec<(&str, Vec<(f64, f64)>)> = Vec::new();
+    for pair in rows.windows(2) {
+        let name = super::bench::plate_mesh_name(pair[1].mesh);
+        if name != super::bench::plate_mesh_name(pair[0].mesh) {
+            continue;
+        }
+        let point = (pair[1].spacing, (pair[1].drop - pair[0].drop).abs());
+        match series.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, points)) => points.push(point),
+            None => series.push((name, vec![point])),
+        }
+    }
+    let points = || series.iter().flat_map(|(_, p)| p.iter().copied());
+    let (x0, x1) = decades(points().map(|(h, _)| h));
+    let (y0, y1) = decades(points().map(|(_, d)| d));
+    let px = log_scale((x0, x1), MARGIN, WIDTH - MARGIN);
+    let py = log_scale((y0, y1), HEIGHT - MARGIN, MARGIN);
+    let mut s =
+        header("Clamped plate: change of the free edge's drop between successive resolutions");
+    axes(
+        &mut s,
+        (x0, x1),
+        (y0, y1),
+        "spacing of the finer resolution [m]",
+        "|difference of drop / overhang|",
+    );
+    // Reference slopes through the first point of the first series.
+    if let Some(&(h, d)) = series.first().and_then(|(_, p)| p.first()) {
+        for (order, dash) in [(1, "6 4"), (2, "2 3")] {
+            // To the left edge, or to the bottom where the line leaves
+            // through it.
+            let bottom = h * (10f64.powi(y0) / d).powf(1.0 / f64::from(order));
+            let h_end = 10f64.powi(x0).max(bottom);
+            let d_end = d * (h_end / h).powi(order);
+            let _ = writeln!(
+                s,
+                r##"<line x1="{:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="#888" stroke-dasharray="{dash}"/>"##,
+                px(h),
+                py(d),
+                px(h_end),
+                py(d_end)
+            );
+            let _ = writeln!(
+                s,
+                r##"<text x="{:.0}" y="{:.0}" fill="#888">order {order}</text>"##,
+                px(h_end) + 4.0,
+                py(d_end) - 6.0
+            );
+        }
+    }
+    let mut y = MARGIN + 10.0;
+    for (k, (name, points)) in series.iter().enumerate() {
+        let fill = RESOLUTION_COLOURS[k % RESOLUTION_COLOURS.len()];
+        let pts: Vec<String> = points
+            .iter()
+            .map(|&(h, d)| format!("{:.1},{:.1}", px(h), py(d)))
+            .collect();
+        let _ = writeln!(
+            s,
+            r#"<polyline points="{}" fill="none" stroke="{fill}" stroke-width="2"/>"#,
+            pts.join(" ")
+        );
+        for &(h, d) in points {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{fill}"/>"#,
+                px(h),
+                py(d)
+            );
+        }
+        let _ = writeln!(
+            s,
+            r#"<text x="{:.0}" y="{y:.0}" fill="{fill}">● {name}</text>"#,
+            WIDTH - MARGIN - 120.0
+        );
+        y += 16.0;
     }
     s.push_str("</svg>\n");
     s

@@ -135,6 +135,29 @@ enum BenchCommand {
     /// the overhang at which its tip meets the 41.5° line, the bending
     /// length and the rigidity it implies against the material's.
     Overhang(BenchOverhangArgs),
+    /// Resolution independence of the linear bending model: the same
+    /// material plate, clamped and sagging, as grids and irregular meshes
+    /// of several resolutions at rest; the differences between
+    /// resolutions and the order they fall at.
+    Drape(BenchDrapeArgs),
+}
+
+/// The options of `wgcloth bench drape`.
+#[derive(Args, Debug)]
+struct BenchDrapeArgs {
+    /// Rows of particles across the plate, comma-separated (each 3 to
+    /// 257; `2ᵏ + 1` rows halve the spacing each time, which the order
+    /// assumes). 65 takes minutes.
+    #[arg(long, value_name = "N,N,…", value_delimiter = ',', default_values_t = [9, 17, 33])]
+    sizes: Vec<usize>,
+
+    /// Write the table as CSV to FILE.
+    #[arg(long, value_name = "FILE")]
+    csv: Option<PathBuf>,
+
+    /// Write an SVG chart of the differences against the spacing to FILE.
+    #[arg(long, value_name = "FILE.svg")]
+    chart: Option<PathBuf>,
 }
 
 /// The options of `wgcloth bench overhang`.
@@ -646,6 +669,7 @@ pub fn main() -> ExitCode {
         Some(Command::Bench(BenchCommand::Stability(args))) => bench::stability(&args),
         Some(Command::Bench(BenchCommand::Cantilever(args))) => bench::cantilever(&args),
         Some(Command::Bench(BenchCommand::Overhang(args))) => bench::overhang(&args),
+        Some(Command::Bench(BenchCommand::Drape(args))) => bench::drape(&args),
         None => render::render(&RenderArgs::default_job()),
     };
     match outcome {

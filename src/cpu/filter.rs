@@ -170,27 +170,8 @@ fn banded_cholesky(sys: &FilterSystem) -> Result<(usize, Vec<f64>)> {
         let (r, c) = (r as usize, c as usize);
         band[r * w + (c + bw - r)] += v;
     }
-    // Row-oriented (Cholesky–Crout) factorisation: L[i][j] for j ≤ i uses
-    // the dot product of rows i and j over their common band.
-    for i in 0..n {
-        let i0 = i.saturating_sub(bw);
-        for j in i0..=i {
-            let j0 = j.saturating_sub(bw).max(i0);
-            let mut s = band[i * w + (j + bw - i)];
-            let row_i = &band[i * w + (j0 + bw - i)..i * w + (j + bw - i)];
-            let row_j = &band[j * w + (j0 + bw - j)..j * w + bw];
-            for (a, b) in row_i.iter().zip(row_j) {
-                s -= a * b;
-            }
-            if j == i {
-                if !(s.is_finite() && s > 0.0) {
-                    return Err(not_positive_definite());
-                }
-                band[i * w + bw] = s.sqrt();
-            } else {
-                band[i * w + (j + bw - i)] = s / band[j * w + bw];
-            }
-        }
+    if !crate::band::cholesky_in_place(n, bw, &mut band) {
+        return Err(not_positive_definite());
     }
     Ok((bw, band))
 }
@@ -213,31 +194,10 @@ impl<R: Real> BandedFilter<R> {
     /// Solves `A y = b` for all three coordinates; `b` and `out` are indexed
     /// by particle, `scratch` by filter position.
     pub fn apply(&self, b: &[Vec3<R>], out: &mut [Vec3<R>], scratch: &mut Vec<Vec3<R>>) {
-        let n = self.order.len();
-        let (bw, w) = (self.bw, self.bw + 1);
         scratch.clear();
         scratch.extend(self.order.iter().map(|&p| b[p as usize]));
         let y = scratch;
-        // Forward: L y = b.
-        for i in 0..n {
-            let i0 = i.saturating_sub(bw);
-            let row = &self.band[i * w + (i0 + bw - i)..i * w + bw];
-            let mut s = y[i];
-            for (l, yj) in row.iter().zip(&y[i0..i]) {
-                s -= *yj * *l;
-            }
-            y[i] = s / self.band[i * w + bw];
-        }
-        // Backward: Lᵀ x = y, column-oriented so rows stay contiguous.
-        for i in (0..n).rev() {
-            let xi = y[i] / self.band[i * w + bw];
-            y[i] = xi;
-            let i0 = i.saturating_sub(bw);
-            let row = &self.band[i * w + (i0 + bw - i)..i * w + bw];
-            for (l, yj) in row.iter().zip(&mut y[i0..i]) {
-                *yj -= xi * *l;
-            }
-        }
+        crate::band::solve_in_place(self.bw, &self.band, y);
         for (k, &p) in self.order.iter().enumerate() {
             out[p as usize] = y[k];
         }

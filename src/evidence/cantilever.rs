@@ -689,10 +689,25 @@ pub enum PlateMesh {
 
 /// The same material discretised as `mesh`: a unit-square plate of
 /// [`MATERIAL_DENSITY`], horizontal, clamped where `x ≤` [`PLATE_CLAMP`]
-/// and sagging under its own weight at [`PLATE_GAMMA`], settled as the
-/// strips are. Returns the mean drop of its free edge (`x = 1`, every
-/// particle within 1 mm of it) over the overhang, and whether it settled.
+/// and sagging under its own weight at [`PLATE_GAMMA`], at its static
+/// equilibrium ([`super::equilibrium`]). Returns the mean drop of its free
+/// edge (`x = 1`, every particle within 1 mm of it) over the overhang, and
+/// whether the equilibrium converged.
 pub fn plate_drop(mesh: PlateMesh) -> Result<(f64, bool)> {
+    let scene = plate_scene(mesh)?;
+    let model = scene.model()?;
+    let edge: Vec<usize> = (0..model.particle_count())
+        .filter(|&p| model.rest_positions[p].x > 1.0 - 1e-3)
+        .collect();
+    let rest = super::equilibrium::equilibrium(&model, &scene.params)?;
+    let drop = edge.iter().map(|&p| -rest.positions[p].y).sum::<f64>() / edge.len() as f64;
+    Ok((drop / (1.0 - PLATE_CLAMP), rest.converged))
+}
+
+/// The scene of [`plate_drop`]'s plate discretised as `mesh` (the
+/// implicit integrator at [`SETTLE_DT`], for a host that lets it settle
+/// by steps).
+pub fn plate_scene(mesh: PlateMesh) -> Result<crate::scene::Scene> {
     use crate::mesh::{Mesh, MeshCloth};
     use crate::scene::Scene;
     let gravity = -Params::default().gravity.y;
@@ -740,11 +755,56 @@ pub fn plate_drop(mesh: PlateMesh) -> Result<(f64, bool)> {
             mesh: parsed,
         });
     }
-    let model = scene.model()?;
-    let edge: Vec<usize> = (0..model.particle_count())
-        .filter(|&p| model.rest_positions[p].x > 1.0 - 1e-3)
-        .collect();
-    let (x, _, settled) = rest_positions(&model, &scene.params)?;
-    let drop = edge.iter().map(|&p| -x[p].y).sum::<f64>() / edge.len() as f64;
-    Ok((drop / overhang, settled))
+    Ok(scene)
+}
+
+/// One discretisation of the clamped plate of [`plate_drop`] at rest.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DrapeRow {
+    /// The discretisation.
+    pub mesh: PlateMesh,
+    /// Rows of particles across the unit square (`n`).
+    pub rows: usize,
+    /// Spacing between rows, `1 / (n − 1)` \[m\].
+    pub spacing: f64,
+    /// The free edge's mean drop over the overhang.
+    pub drop: f64,
+    /// Whether the equilibrium converged.
+    pub converged: bool,
+}
+
+/// The clamped plate of [`plate_drop`] as a grid and as an irregular mesh
+/// at each of `sizes` rows (grids first, each in the order given).
+pub fn drape(sizes: &[usize]) -> Result<Vec<DrapeRow>> {
+    if let Some(&n) = sizes.iter().find(|&&n| !(3..=257).contains(&n)) {
+        return Err(invalid("bench.drape.sizes", "3 ≤ n ≤ 257 rows", n));
+    }
+    let meshes = [
+        PlateMesh::Grid as fn(usize) -> PlateMesh,
+        PlateMesh::Irregular,
+    ];
+    let mut rows = Vec::new();
+    for make in meshes {
+        for &n in sizes {
+            let (drop, converged) = plate_drop(make(n))?;
+            rows.push(DrapeRow {
+                mesh: make(n),
+                rows: n,
+                spacing: 1.0 / (n - 1) as f64,
+                drop,
+                converged,
+            });
+        }
+    }
+    Ok(rows)
+}
+
+/// The convergence order between three successive rows of one
+/// discretisation whose spacings fall in a constant ratio `r` (as the
+/// `2ᵏ + 1` rows of the defaults do, `r = 2`): `log(|d₁| / |d₂|) / log r`
+/// for the differences `d₁ = drop(b) − drop(a)`, `d₂ = drop(c) − drop(b)`;
+/// `None` where a difference is zero.
+pub fn drape_order(a: &DrapeRow, b: &DrapeRow, c: &DrapeRow) -> Option<f64> {
+    let (d1, d2) = ((b.drop - a.drop).abs(), (c.drop - b.drop).abs());
+    (d1 > 0.0 && d2 > 0.0).then(|| (d1 / d2).ln() / (a.spacing / b.spacing).ln())
 }

@@ -10,6 +10,7 @@
 pub mod accuracy;
 pub mod cantilever;
 pub mod elastica;
+pub mod equilibrium;
 mod gpu_runs;
 pub mod sheet;
 pub mod stability;
