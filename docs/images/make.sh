@@ -35,5 +35,6 @@ xvfb-run -a target/release/examples/viewer --frames 60 --drag 400,153:620,43 \
 "$wgcloth" bench accuracy hanging --out "$work/accuracy"
 cp "$work/accuracy/accuracy.svg" "$images/accuracy-hanging.svg"
 "$wgcloth" bench cantilever --chart "$images/cantilever.svg"
+"$wgcloth" bench drape --sizes 9,17,33,65 --chart "$images/drape.svg"  # ~10 min
 
 echo "regenerated: $(ls "$images" | grep -v make.sh | tr '\n' ' ')"
