@@ -619,6 +619,7 @@ impl<R: Real> CpuSolver<R> {
     /// [`crate::budget`]), before anything runs.
     pub fn new(model: &Model, params: &Params) -> Result<Self> {
         params.validate()?;
+        crate::material::check_explicit_bending(model, params)?;
         self_collision::thickness(model, params)?;
         let counts = Counts::of_model(model);
         let semi = params.integrator == Integrator::SemiImplicit;
