@@ -688,6 +688,11 @@ impl<R: Real> CpuSolver<R> {
             springs: self.sys.springs.len() as u64,
             triangles: self.sys.triangles.len() as u64,
             free: fs.len() as u64,
+            bending: self
+                .sys
+                .bending
+                .as_ref()
+                .map_or(0, |b| b.columns.len() as u64),
         };
         budget::check_host(
             budget::filter_bytes::<R>(counts, fs.bandwidth() as u64, dense),
