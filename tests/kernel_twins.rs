@@ -1165,11 +1165,11 @@ fn semi_cg_prepare_matches_its_twin() {
 /// `tests/gpu_bending.rs`.)
 #[test]
 fn the_cg_filter_carries_the_bending_operator_as_its_twins() {
-    let checks: [(Kernel, usize, fn(&mut Twins, usize)); 2] = [
-        (Kernel::SemiCgPrepare, 0, check_semi_cg_prepare),
+    let check: fn(&mut Twins, usize) = check_semi_cg_prepare;
+    for (kernel, nth, check) in [
+        (Kernel::SemiCgPrepare, 0, check),
         (Kernel::CgApply, 1, check_cg_apply),
-    ];
-    for (kernel, nth, check) in checks {
+    ] {
         let mut t = semi_cg(true);
         let i = t.run_to(kernel, nth);
         check(&mut t, i);
