@@ -49,7 +49,7 @@ fn block_start(p: u32, own: BlockData) -> BlockAcc {
     return BlockAcc(
         vec3<f32>(0.0),
         vec3<f32>(0.0),
-        Sym3(vec3<f32>(own.v.w), vec3<f32>(0.0)),
+        pre_start(p, own.v.w),
         levels_start(p, own.v.w, COARSE),
     );
 }

@@ -1,5 +1,6 @@
 // Semi-implicit step with the scalable filter: set up CG on the constant
-// matrix A = M − dt² H (spring blocks a = dt² k, b = 0, uploaded once),
+// matrix A = M − dt² H (spring blocks a = dt² k, b = 0, uploaded once;
+// the linear bending operator's (dt² + dt β) Q, common/bending.wgsl),
 // pins as fixed filters, a Jacobi preconditioner, the warm start and the
 // term of δ0 in the w of W_RHS. The CPU twin solves the same system exactly with a
 // banded Cholesky factor (cpu::filter::BandedFilter).
@@ -24,6 +25,9 @@ fn semi_cg_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
         let end = spring_adj(p + 1u);
         for (var k = begin; k < end; k++) {
             diag += work[si(S_BLOCK, topo(params.spring_adj_entries + k) >> 1u)].w;
+        }
+        if (has_bending()) {
+            diag += bending_scaled_diagonal(p);
         }
         work[wi(W_Z, p)] = vec4<f32>(0.0, 0.0, 0.0, kind);
         work[wi(W_FILTER, p)] = vec4<f32>(0.0);

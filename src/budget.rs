@@ -249,6 +249,8 @@ pub struct Counts {
     pub triangles: u64,
     /// Particles that are not pinned (the semi-implicit filter's size).
     pub free: u64,
+    /// Entries of the linear bending operator's rows (0 without one).
+    pub bending: u64,
 }
 
 impl Counts {
@@ -259,6 +261,7 @@ impl Counts {
             springs: model.springs.len() as u64,
             triangles: model.triangles.len() as u64,
             free: (model.particle_count() - model.pinned_count()) as u64,
+            bending: model.bending.as_ref().map_or(0, |b| b.columns.len() as u64),
         }
     }
 }
@@ -310,6 +313,19 @@ pub fn filter_bytes<R: Real>(counts: Counts, bandwidth: u64, dense: bool) -> u64
     total(&[system, array::<f64>(band), held, array::<Vec3<R>>(free)])
 }
 
+/// Bytes of the linear bending operator's rows in precision `R`: offsets,
+/// columns and coefficients (none without one).
+fn bending_bytes<R>(counts: Counts) -> u64 {
+    if counts.bending == 0 {
+        return 0;
+    }
+    total(&[
+        array::<u32>(counts.particles + 1),
+        array::<u32>(counts.bending),
+        array::<R>(counts.bending),
+    ])
+}
+
 /// Host bytes of a [`CpuSolver`](crate::cpu::CpuSolver) in precision `R`
 /// besides its filter: the system in `R`, the state and the workspace.
 pub fn cpu_solver_bytes<R: Real>(counts: Counts) -> u64 {
@@ -328,6 +344,7 @@ pub fn cpu_solver_bytes<R: Real>(counts: Counts) -> u64 {
         array::<u32>(n + 1),
         array::<u32>(3 * t),
         array::<R>(2 * n),
+        bending_bytes::<R>(counts),
     ]);
     // Positions and velocities; eleven per-particle vectors of the
     // workspace (force … z), its CG terms (three per particle) and its
@@ -392,7 +409,13 @@ pub fn gpu_bytes(
     );
     // The two buffers the kernels bind: read-only model data, scratch.
     let grids = array::<u32>(crate::gpu::build::mesh_grid_words(&params.mesh_colliders));
-    let model = total(&[springs, topo, dense_buffer, grids]);
+    let model = total(&[
+        springs,
+        topo,
+        dense_buffer,
+        grids,
+        bending_bytes::<f32>(counts),
+    ]);
     let scratch = total(&[work, spring_work, partials]);
     // alpha_args' three slots and beta_args' two per recorded CG
     // iteration, and one more.
@@ -512,6 +535,7 @@ mod tests {
             springs: 3 * free,
             triangles: 2 * free,
             free,
+            bending: 0,
         };
         let small = filter_bytes::<f64>(counts(1000), 4, true);
         let big = filter_bytes::<f64>(counts(1_000_000), 4, true);

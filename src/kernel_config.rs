@@ -38,7 +38,7 @@ pub const SUM_GROUP: u32 = 256;
 pub const WORKGROUP_STEP_MAX_PARTICLES: u32 = 4096;
 
 /// Workgroup memory the workgroup kernels need at most \[bytes\]: the
-/// cloth's parameters (`Params`, 1 888 bytes with the mesh colliders'
+/// cloth's parameters (`Params`, 1 920 bytes with the mesh colliders'
 /// poses), the staging of the block sums (`SUM_GROUP` words),
 /// self-collision's scan (`SUM_GROUP` words), the reduction scratch
 /// (`WORKGROUP` words) and a few shared words, within 8 KiB — half of the
@@ -66,6 +66,9 @@ pub mod feature {
     /// At least one mesh collider (`[[collider]]`); a cloth with one has
     /// [`SPHERES`] too, which gates every collider's contact code.
     pub const MESH_COLLIDERS: u32 = 64;
+    /// The linear bending model (`[material] bending`,
+    /// [`crate::bending`]).
+    pub const BENDING: u32 = 128;
 }
 
 /// The integrators as the kernels know them (`params.integrator`,
@@ -335,7 +338,7 @@ fn wgsl_u32() -> Vec<(String, u32)> {
             .zip(0u32..)
             .map(|(n, k)| (format!("W_{n}"), k)),
     );
-    let named: [(&str, u32); 51] = [
+    let named: [(&str, u32); 52] = [
         ("INTEGRATOR_EXPLICIT", integrator::EXPLICIT),
         ("INTEGRATOR_IMPLICIT", integrator::IMPLICIT),
         ("INTEGRATOR_SEMI_IMPLICIT", integrator::SEMI_IMPLICIT),
@@ -387,6 +390,7 @@ fn wgsl_u32() -> Vec<(String, u32)> {
         ("FEATURE_DAMPING", feature::DAMPING),
         ("FEATURE_MESH_COLLIDERS", feature::MESH_COLLIDERS),
         ("FEATURE_SELF_COLLISION", feature::SELF_COLLISION),
+        ("FEATURE_BENDING", feature::BENDING),
     ];
     out.extend(named.iter().map(|&(n, v)| (n.to_string(), v)));
     out

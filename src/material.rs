@@ -85,6 +85,44 @@ fn invalid(key: &str, allowed: String, got: impl std::fmt::Display) -> Error {
     }
 }
 
+/// Where the explicit integrator at `params.dt` cannot step `model`'s
+/// bending stably (`dt ω ≥ 2` for its stiffest bending vibration, `ω²`
+/// bounded from above by [`Bending::omega_squared_bound`]), the factor
+/// `4 / (dt² ω²) ≤ 1` its bending stiffness must shrink by; `None` where
+/// it can, and without a bending operator or with another integrator,
+/// which are stable at any bending.
+fn explicit_headroom(model: &Model, params: &Params) -> Option<f64> {
+    let bending = model.bending.as_ref()?;
+    if params.integrator != Integrator::Explicit {
+        return None;
+    }
+    let omega2 = bending.omega_squared_bound(&model.mass, &model.pinned);
+    let limit = 4.0 / (params.dt * params.dt);
+    (omega2 >= limit).then(|| limit / omega2)
+}
+
+/// Refuses a model whose linear bending operator the explicit integrator
+/// cannot step stably at `params.dt` ([`Material::check_explicit`] for a
+/// model built without its material: a solver made through the API), as
+/// `material.bending`, naming the factor it must shrink by.
+pub fn check_explicit_bending(model: &Model, params: &Params) -> Result<()> {
+    let Some(headroom) = explicit_headroom(model, params) else {
+        return Ok(());
+    };
+    Err(invalid(
+        "material.bending",
+        format!(
+            "for the explicit integrator at dt = {} s, at most {} times this cloth's bending \
+             stiffness (its stiffest bending vibration must satisfy dt ω < 2); give a smaller \
+             bending, a smaller dt, or the implicit or semi-implicit integrator, which are \
+             stable at any bending",
+            format_number(params.dt),
+            format_number(headroom)
+        ),
+        "a bending operator too stiff for the explicit integrator",
+    ))
+}
+
 impl Material {
     /// Refuses a non-positive or non-finite density, stretch or shear
     /// stiffness, a damping outside `0..=1` s, and a non-zero bending
@@ -149,17 +187,9 @@ impl Material {
     /// vibration of `model`, bounded from above by
     /// [`Bending::omega_squared_bound`]), naming the largest that it can.
     pub fn check_explicit(&self, model: &Model, params: &Params) -> Result<()> {
-        let Some(bending) = &model.bending else {
+        let Some(headroom) = explicit_headroom(model, params) else {
             return Ok(());
         };
-        if params.integrator != Integrator::Explicit {
-            return Ok(());
-        }
-        let omega2 = bending.omega_squared_bound(&model.mass, &model.pinned);
-        let limit = 4.0 / (params.dt * params.dt);
-        if omega2 < limit {
-            return Ok(());
-        }
         Err(invalid(
             "material.bending",
             format!(
@@ -167,7 +197,7 @@ impl Material {
                  stiffest bending vibration must satisfy dt ω < 2); give a smaller bending, a \
                  smaller dt, or the implicit or semi-implicit integrator, which are stable at \
                  any bending",
-                format_number(self.bending * limit / omega2),
+                format_number(self.bending * headroom),
                 format_number(params.dt)
             ),
             format_number(self.bending),

@@ -252,22 +252,3 @@ fn bending_refusals_name_the_key_and_what_is_allowed() {
         "{e}"
     );
 }
-
-#[test]
-fn gpu_solvers_refuse_the_linear_bending_model_rather_than_leave_it_out() {
-    let ctx = match wgcloth::GpuContext::new(None) {
-        Ok(c) => c,
-        Err(e) => panic!("this test needs an adapter (lavapipe works): {e}"),
-    };
-    let scene = load("[cloth]\nresolution = [9, 9]\n[material]\nbending = 1e-4\n").expect("loads");
-    let model = scene.model().expect("builds");
-    let e = match wgcloth::GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &model, &scene.params)
-    {
-        Ok(_) => panic!("a GPU solver left the linear bending model out"),
-        Err(e) => e,
-    };
-    assert!(e.to_string().contains("material.bending"), "{e}");
-    // The CPU solver runs it.
-    let mut cpu = CpuSolver::<f32>::new(&model, &scene.params).expect("CPU solver");
-    cpu.step_n(10).expect("steps");
-}

@@ -1129,15 +1129,55 @@ fn semi_integrate_matches_its_twin() {
     check_prediction(&mut t, i, |wk| wk.dv = dv, cpu::semi_implicit::integrate);
 }
 
-#[test]
-fn semi_cg_prepare_matches_its_twin() {
-    // The GPU solves a banded filter by CG, the CPU exactly: the two
-    // differ by the CG's tolerance, so the state is not compared.
+/// Bending stiffness \[N·m\] and damping \[s\] of the test cloth's linear
+/// bending model: enough to change its CG matrix's diagonal and products
+/// well beyond rounding.
+const BENDING: (f64, f64) = (1e-3, 0.005);
+
+/// The busy semi-implicit scene on the general kernels with its filter
+/// solved by CG on the device ([`FilterMethod::Banded`]), and with the
+/// linear bending model (`Bending::grid`) where `bending`. The CPU solves
+/// the filter exactly: the two differ by the CG's tolerance, so the state
+/// is not compared.
+fn semi_cg(bending: bool) -> Twins {
     let mut p = params(Integrator::SemiImplicit);
     p.semi_implicit.filter = FilterMethod::Banded;
-    let model = without_grid(&grid(NX, NY, corners(), &p));
-    let mut t = Twins::unchecked(&model, &p, false, WARM_STEPS);
+    let mut model = without_grid(&grid(NX, NY, corners(), &p));
+    if bending {
+        let (hx, hy) = (1.0 / (NX - 1) as f64, 1.0 / (NY - 1) as f64);
+        let b = wgcloth::bending::Bending::grid(NX, NY, hx, hy, BENDING.0, BENDING.1);
+        model.bending = Some(b.unwrap_or_else(|e| panic!("bending: {e}")));
+    }
+    Twins::unchecked(&model, &p, false, WARM_STEPS)
+}
+
+#[test]
+fn semi_cg_prepare_matches_its_twin() {
+    let mut t = semi_cg(false);
     let i = t.run_to(Kernel::SemiCgPrepare, 0);
+    check_semi_cg_prepare(&mut t, i);
+}
+
+/// The semi-implicit filter solved by CG on a cloth with the linear
+/// bending model: its set-up (the preconditioner's diagonal carries
+/// `(dt² + dt β) Q_pp`) and its product (`(dt² + dt β) Q c`) as their
+/// twins'. (Every other path is compared whole step against the mirror in
+/// `tests/gpu_bending.rs`.)
+#[test]
+fn the_cg_filter_carries_the_bending_operator_as_its_twins() {
+    let check: fn(&mut Twins, usize) = check_semi_cg_prepare;
+    for (kernel, nth, check) in [
+        (Kernel::SemiCgPrepare, 0, check),
+        (Kernel::CgApply, 1, check_cg_apply),
+    ] {
+        let mut t = semi_cg(true);
+        let i = t.run_to(kernel, nth);
+        check(&mut t, i);
+    }
+}
+
+/// semi_cg_prepare's outputs against its twin's, in `t` at dispatch `i`.
+fn check_semi_cg_prepare(t: &mut Twins, i: usize) {
     let spring_words = t.read(DebugBuffer::SpringWork);
     let before = t.read(DebugBuffer::Work);
     t.run_alone(i);

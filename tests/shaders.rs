@@ -232,7 +232,9 @@ fn pod_twins_match_their_wgsl_structs() {
             spheres,
             capsules,
             mesh,
-            meshes
+            meshes,
+            bending,
+            bending_rows
         }),
         std::mem::size_of::<GpuParams>(),
     );

@@ -44,5 +44,8 @@ fn block_term(acc: vec3<f32>, own: BlockData, other: BlockData, inc: Incident, b
 }
 
 fn block_end(p: u32, own: BlockData, acc: vec3<f32>) {
-    apply_end(p, own.a, acc);
+    // The bending operator's neighbours are not the stencil's: its part
+    // reads the section itself (the coarse correction of apply_value is
+    // never on with it).
+    apply_end(p, own.a, add_bending_product(acc, APPLY_SEC, p));
 }

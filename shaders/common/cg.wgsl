@@ -252,7 +252,8 @@ fn grid_apply_with(
 // (A a)_p, unfiltered, for the vector in work section `sec`: m a_p, then
 // ±B_s (a_i − a_j) over the incident springs in adjacency order — the order
 // in which the CPU's scatter reaches particle p. B_s = a I + m mᵀ from the
-// block (m, a) (twin: SpringBlock::apply). Four loads per spring.
+// block (m, a) (twin: SpringBlock::apply). Four loads per spring. Then the
+// linear bending operator's (dt² + dt β) (Q a)_p (add_bending_product).
 fn apply_a(sec: u32, p: u32) -> vec3<f32> {
     let own = work[wi(sec, p)].xyz;
     var acc = own * v[p].w;
@@ -278,7 +279,7 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
         acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(0, -2, 4, 1));
         acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(0, 2, 4, 0));
         acc = grid_apply_term(acc, sec, p, rc, own, xp, vec4<i32>(2, 0, 5, 0));
-        return acc;
+        return add_bending_product(acc, sec, p);
     }
     let begin = spring_adj(p);
     let end = spring_adj(p + 1u);
@@ -293,7 +294,7 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
         // `a − y` is `a + (−y)` exactly.
         acc += select(y, -y, at_j);
     }
-    return acc;
+    return add_bending_product(acc, sec, p);
 }
 
 // The CG set-up of particle p, whose Δv (with its filter kind in w) is

@@ -76,7 +76,7 @@ fn implicit_prepare_item(p: u32, coarse: bool) {
     let x0 = x[p];
     let v0 = v[p];
     var kv = vec3<f32>(0.0);
-    var pre = Sym3(vec3<f32>(v0.w), vec3<f32>(0.0));
+    var pre = pre_start(p, v0.w);
     var levels = levels_start(p, v0.w, coarse);
     let begin = spring_adj(p);
     let end = spring_adj(p + 1u);
@@ -94,16 +94,28 @@ fn implicit_prepare_item(p: u32, coarse: bool) {
     prepare_particle(p, x0, v0, f, kv, pre, levels, coarse);
 }
 
+// The start of particle p's block-Jacobi block: its mass `m` [kg] times
+// I, plus the linear bending operator's (dt² + dt β) Q_pp I (twin: the
+// start of the particle loop of cpu::implicit::prepare).
+fn pre_start(p: u32, m: f32) -> Sym3 {
+    var d = m;
+    if (has_bending()) {
+        d += bending_scaled_diagonal(p);
+    }
+    return Sym3(vec3<f32>(d), vec3<f32>(0.0));
+}
+
 // The rest of particle p's set-up from its state `x0`, `v0`, the total
-// force `f` on it [N], the sum `kv` of its springs' K v, the matrix
-// `pre` = m I plus its springs' blocks, and its coarse contributions
-// (stored when `coarse`).
+// force `f` on it [N], the sum `kv_springs` of its springs' K v (the
+// bending operator's −Q v is added here), the matrix `pre` = pre_start
+// plus its springs' blocks, and its coarse contributions (stored when
+// `coarse`).
 fn prepare_particle(
     p: u32,
     x0: vec4<f32>,
     v0: vec4<f32>,
     f: vec3<f32>,
-    kv: vec3<f32>,
+    kv_springs: vec3<f32>,
     pre_in: Sym3,
     levels: Levels,
     coarse: bool,
@@ -129,6 +141,10 @@ fn prepare_particle(
             let vc = contact_velocity(x0.xyz, clock);
             z = normal * (-min(dot3(vp - vc, normal), 0.0));
         }
+    }
+    var kv = kv_springs;
+    if (has_bending()) {
+        kv -= bending_product(p, BENDING_V);
     }
     let rhs = (f + kv * params.dt) * params.dt;
     // Twin: Sym3::inverse, with its fallback to 1/m I.

@@ -27,6 +27,8 @@ override HAS_MESH_COLLIDERS: bool = true;
 override HAS_FILTER: bool = true;
 // Some spring has damping.
 override HAS_DAMPING: bool = true;
+// The linear bending model (common/bending.wgsl).
+override HAS_BENDING: bool = true;
 // The springs are in grid layout (src/gpu/grid.rs) and the kernels find
 // them by row and column instead of through the adjacency lists.
 override GRID: bool = false;
@@ -59,6 +61,9 @@ fn has_filter() -> bool {
 }
 fn has_damping() -> bool {
     return HAS_DAMPING && (params.features & FEATURE_DAMPING) != 0u;
+}
+fn has_bending() -> bool {
+    return HAS_BENDING && (params.features & FEATURE_BENDING) != 0u;
 }
 // Self-collision has no HAS_ constant: only the workgroup kernels ask
 // (the multi-dispatch path records its kernels or not), so a kernel's code
@@ -181,6 +186,12 @@ struct Params {
     // Mesh colliders in use, the step count at which they were set, unused.
     mesh: vec4<u32>,
     meshes: array<MeshCollider, MAX_MESH_COLLIDERS>,
+    // The linear bending model (common/bending.wgsl): its Rayleigh damping
+    // β [s], the scale dt² + dt β [s²] of its operator in the CG matrices,
+    // two unused; the word indices in `model` of its row offsets, columns
+    // and coefficients, unused.
+    bending: vec4<f32>,
+    bending_rows: vec4<u32>,
 }
 
 // Twin: layout::GpuSpring.
@@ -207,8 +218,9 @@ struct Spring {
 // params.spring_base; the spring adjacency offsets (N + 1) at word
 // params.topo_base, then its entries (spring << 1 | end), then each
 // entry's other particle; triangle adjacency offsets and entries;
-// triangles (see spring_adj, tri_adj, topo); the dense semi-implicit
-// filter from word params.dense_base (see dense).
+// triangles (see spring_adj, tri_adj, topo); the linear bending
+// operator's rows (see bending_row); the dense semi-implicit filter from
+// word params.dense_base (see dense).
 @group(0) @binding(1) var<storage, read> model: array<vec4<u32>>;
 // Positions [m]; w = inverse mass (0 = pinned). Also the vertex buffer.
 @group(0) @binding(2) var<storage, read_write> x: array<vec4<f32>>;
@@ -309,4 +321,38 @@ fn tri_adj(p: u32) -> u32 {
 // Where the other-particle column of the spring adjacency starts.
 fn spring_adj_others() -> u32 {
     return params.spring_adj_entries + topo(params.topo_base + params.particle_count);
+}
+
+// Where a kernel reads the particles' state: the x and v buffers, or the
+// pair of `work` sections that single-pass explicit steps alternate with
+// them (explicit_integrate with SNAP_IN).
+const STATE_BUFFERS: u32 = 0xffffffffu;
+
+fn state_x(i: u32, sec: u32) -> vec3<f32> {
+    if (sec == STATE_BUFFERS) {
+        return x[i].xyz;
+    }
+    return work[wi(sec, i)].xyz;
+}
+
+fn state_v(i: u32, sec: u32) -> vec3<f32> {
+    if (sec == STATE_BUFFERS) {
+        return v[i].xyz;
+    }
+    return work[wi(sec + 1u, i)].xyz;
+}
+
+// `a` itself, through an xor with the uniform's opaque zero
+// (`params.kind_k[3]`, as `unseen4` in common/cg.wgsl): a product passed
+// through here is rounded before the sum it feeds, as the CPU rounds it,
+// instead of being fused into a multiply-add.
+fn unseen3(a: vec3<f32>) -> vec3<f32> {
+    return bitcast<vec3<f32>>(bitcast<vec3<u32>>(a) ^ vec3<u32>(bitcast<u32>(params.kind_k[3])));
+}
+
+// `a` itself, as unseen3: a term that is a product, added to a running
+// sum where it is computed, is rounded before the addition instead of
+// being fused into a multiply-add.
+fn unseen1(a: f32) -> f32 {
+    return bitcast<f32>(bitcast<u32>(a) ^ bitcast<u32>(params.kind_k[3]));
 }

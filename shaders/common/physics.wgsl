@@ -5,6 +5,7 @@
 // and the GPU round the same way wherever the hardware lets them.
 
 #include "common/bindings.wgsl"
+#include "common/bending.wgsl"
 
 fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
@@ -165,25 +166,6 @@ fn grid_spring(me: GridPoint, other: GridPoint, dir: u32, at_j: bool) -> Inciden
     return Incident(ok, other.index, dir * params.particle_count + owner, kind, at_j, rest, max_len);
 }
 
-// Where a kernel reads the particles' state: the x and v buffers, or the
-// pair of `work` sections that single-pass explicit steps alternate with
-// them (explicit_integrate with SNAP_IN).
-const STATE_BUFFERS: u32 = 0xffffffffu;
-
-fn state_x(i: u32, sec: u32) -> vec3<f32> {
-    if (sec == STATE_BUFFERS) {
-        return x[i].xyz;
-    }
-    return work[wi(sec, i)].xyz;
-}
-
-fn state_v(i: u32, sec: u32) -> vec3<f32> {
-    if (sec == STATE_BUFFERS) {
-        return v[i].xyz;
-    }
-    return work[wi(sec + 1u, i)].xyz;
-}
-
 // `sum` plus the force of grid spring `t` on particle p, evaluated from
 // i − j as every kernel does, so both ends agree bit for bit. The
 // neighbour's state comes from `sec` (see state_x).
@@ -267,19 +249,23 @@ fn spring_sum(p: u32, xp: vec3<f32>, vp: vec3<f32>, sec: u32) -> vec3<f32> {
 }
 
 // Total force on particle p (twin: cpu::forces::total_force): gravity,
-// then the spring forces (spring_sum), then wind triangles in adjacency
-// order. `xp` and `vp` are the particle's state, which the caller has
+// then the spring forces (spring_sum), then the linear bending force
+// (common/bending.wgsl), then wind triangles in adjacency order. `xp` and `vp` are the particle's state, which the caller has
 // loaded (on lavapipe every load counts, the same one twice included);
 // the neighbours' comes from `sec` (see state_x).
 fn total_force(p: u32, xp: vec4<f32>, vp: vec4<f32>, sec: u32) -> vec3<f32> {
     return force_with_springs(p, spring_sum(p, xp.xyz, vp.xyz, sec), vp.w, sec);
 }
 
-// Gravity on mass `m`, plus the spring forces `springs_sum`, plus wind:
-// the total force on particle p in the order of total_force.
+// Gravity on mass `m`, plus the spring forces `springs_sum`, plus the
+// linear bending force, plus wind: the total force on particle p in the
+// order of total_force.
 fn force_with_springs(p: u32, springs_sum: vec3<f32>, m: f32, sec: u32) -> vec3<f32> {
     var f = params.gravity * m;
     f += springs_sum;
+    if (has_bending()) {
+        f += bending_force(p, sec);
+    }
     return add_wind(p, f, sec);
 }
 
@@ -476,21 +462,6 @@ fn mesh_contact(xp: vec3<f32>, m: MeshCollider, t: f32) -> Contact {
         m.friction,
         m.velocity + cross3(m.angular_velocity, r),
     );
-}
-
-// `a` itself, through an xor with the uniform's opaque zero
-// (`params.kind_k[3]`, as `unseen4` in common/cg.wgsl): a product passed
-// through here is rounded before the sum it feeds, as the CPU rounds it,
-// instead of being fused into a multiply-add.
-fn unseen3(a: vec3<f32>) -> vec3<f32> {
-    return bitcast<vec3<f32>>(bitcast<vec3<u32>>(a) ^ vec3<u32>(bitcast<u32>(params.kind_k[3])));
-}
-
-// `a` itself, as unseen3: a term that is a product, added to a running
-// sum where it is computed, is rounded before the addition instead of
-// being fused into a multiply-add.
-fn unseen1(a: f32) -> f32 {
-    return bitcast<f32>(bitcast<u32>(a) ^ bitcast<u32>(params.kind_k[3]));
 }
 
 // Twin: cpu::collide::after_contact.

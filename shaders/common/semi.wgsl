@@ -16,7 +16,8 @@ fn touching(xp: vec3<f32>, clock: u32) -> bool {
 }
 
 // Particle p's right-hand side dt (f + dt K v) into W_RHS, K the springs'
-// stiffness as the filter sees it; with `zero_dv` its Δv starts at zero
+// stiffness as the filter sees it (and the linear bending operator's
+// −Q); with `zero_dv` its Δv starts at zero
 // (the dense filter: pinned particles keep it), else Δv keeps the last
 // step's value as the CG filter's warm start.
 fn semi_rhs_particle(p: u32, zero_dv: bool) {
@@ -46,7 +47,10 @@ fn semi_rhs_particle(p: u32, zero_dv: bool) {
             acc -= term;
         }
     }
-    let kv = acc;
+    var kv = acc;
+    if (has_bending()) {
+        kv -= bending_product(p, BENDING_V);
+    }
     work[wi(W_RHS, p)] = vec4<f32>((f + kv * params.dt) * params.dt, 0.0);
     if (zero_dv) {
         work[wi(W_DV, p)] = vec4<f32>(0.0);

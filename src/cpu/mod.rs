@@ -619,6 +619,7 @@ impl<R: Real> CpuSolver<R> {
     /// [`crate::budget`]), before anything runs.
     pub fn new(model: &Model, params: &Params) -> Result<Self> {
         params.validate()?;
+        crate::material::check_explicit_bending(model, params)?;
         self_collision::thickness(model, params)?;
         let counts = Counts::of_model(model);
         let semi = params.integrator == Integrator::SemiImplicit;
@@ -687,6 +688,11 @@ impl<R: Real> CpuSolver<R> {
             springs: self.sys.springs.len() as u64,
             triangles: self.sys.triangles.len() as u64,
             free: fs.len() as u64,
+            bending: self
+                .sys
+                .bending
+                .as_ref()
+                .map_or(0, |b| b.columns.len() as u64),
         };
         budget::check_host(
             budget::filter_bytes::<R>(counts, fs.bandwidth() as u64, dense),

@@ -150,6 +150,43 @@ struct Shape<'a> {
     grids: Vec<u32>,
 }
 
+/// The linear bending operator's rows as `model` holds them (see
+/// `shaders/common/bending.wgsl`): the row offsets (`N + 1`), the columns,
+/// then each coefficient as the bits of the `f32` the CPU mirror holds
+/// ([`crate::cpu::BendingR`]); empty without one.
+fn bending_words(model: &Model) -> Result<Vec<u32>> {
+    let Some(b) = &model.bending else {
+        return Ok(Vec::new());
+    };
+    let len = b.offsets.len() + b.columns.len() + b.coefficients.len();
+    let mut words: Vec<u32> = try_with_capacity(len, UPLOAD)?;
+    words.extend(&b.offsets);
+    words.extend(&b.columns);
+    words.extend(b.coefficients.iter().map(|&q| (q as f32).to_bits()));
+    Ok(words)
+}
+
+/// The bending model's uniform words: `β` and `dt² + dt β` as the CPU
+/// mirror rounds them ([`crate::cpu::BendingR`]), and the word indices of
+/// its rows relative to its first word (`ClothArrays::place` makes them
+/// absolute); zero without one.
+fn bending_uniform(model: &Model, dt: f64) -> ([f32; 4], [u32; 4]) {
+    let Some(b) = &model.bending else {
+        return ([0.0; 4], [0; 4]);
+    };
+    let columns = b.offsets.len() as u32;
+    let coefficients = columns + b.columns.len() as u32;
+    (
+        [
+            b.damping as f32,
+            (dt * dt + dt * b.damping) as f32,
+            0.0,
+            0.0,
+        ],
+        [0, columns, coefficients, 0],
+    )
+}
+
 /// The integrator as the kernels know it (`params.integrator`).
 pub(crate) fn integrator_code(i: Integrator) -> u32 {
     match i {
@@ -187,6 +224,7 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
     let wind = params.wind.unwrap_or(NO_WIND);
     let ground = params.ground.unwrap_or(NO_GROUND);
     let dt2 = (params.dt * params.dt) as f32;
+    let (bending, bending_rows) = bending_uniform(model, params.dt);
     GpuParams {
         gravity: params.gravity.as_vec3().to_array(),
         dt: params.dt as f32,
@@ -251,6 +289,9 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
         mesh: [params.mesh_colliders.len() as u32, 0, 0, 0],
         // The grids' places are made absolute by `ClothArrays::place`.
         meshes: gpu_mesh_colliders(&params.mesh_colliders, &shape.grids),
+        // The rows' places are made absolute by `ClothArrays::place`.
+        bending,
+        bending_rows,
     }
 }
 
@@ -317,6 +358,9 @@ pub(crate) struct ClothArrays {
     pub rest: Vec<[f32; 4]>,
     /// The mesh colliders' grids ([`mesh_grids`]; empty without them).
     pub grids: Vec<u32>,
+    /// The linear bending operator's rows ([`bending_words`]; empty
+    /// without one).
+    pub bending: Vec<u32>,
 }
 
 /// `u32` words of a spring record in `model` (two `vec4<u32>`).
@@ -346,7 +390,8 @@ impl ClothArrays {
         let words = SPRING_WORDS * self.spring_count()
             + self.rest_words()
             + self.grids.len() as u64
-            + self.topo.len() as u64;
+            + self.topo.len() as u64
+            + self.bending.len() as u64;
         (words + self.dense_capacity()).div_ceil(4)
     }
 
@@ -379,18 +424,25 @@ impl ClothArrays {
     }
 
     /// The cloth's part of `model` as uploaded: the spring records,
-    /// self-collision's rest positions, the mesh colliders' grids, `topo`, the dense filter's bits (its unused capacity is left out:
-    /// a new buffer is zeroed, and no kernel reads past the filter).
+    /// self-collision's rest positions, the mesh colliders' grids, `topo`,
+    /// the bending operator's rows, the dense filter's bits (its unused
+    /// capacity is left out: a new buffer is zeroed, and no kernel reads
+    /// past the filter).
     pub(crate) fn model_words(&self) -> Result<Vec<u32>> {
         let springs: &[u32] = bytemuck::cast_slice(&self.springs);
         let rest: &[u32] = bytemuck::cast_slice(&self.rest);
-        let len =
-            springs.len() + rest.len() + self.grids.len() + self.topo.len() + self.dense.len();
+        let len = springs.len()
+            + rest.len()
+            + self.grids.len()
+            + self.topo.len()
+            + self.bending.len()
+            + self.dense.len();
         let mut words: Vec<u32> = try_with_capacity(len, UPLOAD)?;
         words.extend_from_slice(springs);
         words.extend_from_slice(rest);
         words.extend_from_slice(&self.grids);
         words.extend_from_slice(&self.topo);
+        words.extend_from_slice(&self.bending);
         words.extend(self.dense.iter().map(|w| w.to_bits()));
         Ok(words)
     }
@@ -417,7 +469,13 @@ impl ClothArrays {
         p.tri_adj_offsets += topo_at;
         p.tri_adj_entries += topo_at;
         p.triangles += topo_at;
-        p.dense_base = topo_at + self.topo.len() as u32;
+        let bending_at = topo_at + self.topo.len() as u32;
+        if !self.bending.is_empty() {
+            for w in &mut p.bending_rows[..3] {
+                *w += bending_at;
+            }
+        }
+        p.dense_base = bending_at + self.bending.len() as u32;
         let spring_work_at = work_at + u64::from(work::COUNT) * n;
         p.work_base = work_at as u32;
         p.spring_work_base = spring_work_at as u32;
@@ -481,6 +539,7 @@ pub(super) fn cloth_arrays(
         dense: filter.map_or_else(Vec::new, |f| f.words),
         rest,
         grids,
+        bending: bending_words(model)?,
     })
 }
 

@@ -38,6 +38,8 @@ pub struct Features {
     pub filter: bool,
     /// Some spring is damped.
     pub damping: bool,
+    /// The linear bending model ([`crate::bending`]).
+    pub bending: bool,
     /// The springs are in grid layout (see `gpu/grid.rs`): gather by row
     /// and column.
     pub grid: bool,
@@ -68,6 +70,7 @@ impl Features {
             (self.mesh_colliders, feature::MESH_COLLIDERS),
             (self.filter, feature::FILTER),
             (self.damping, feature::DAMPING),
+            (self.bending, feature::BENDING),
             (self.self_collision, feature::SELF_COLLISION),
         ]
         .iter()
@@ -76,7 +79,7 @@ impl Features {
     }
 
     /// These features with every scene feature compiled in (wind, ground,
-    /// round colliders, filter, damping): the kernels then skip, by
+    /// round colliders, filter, damping, bending): the kernels then skip, by
     /// `params.features`, what a cloth lacks. The workgroup kernels are
     /// compiled so — one pipeline per integrator serves every cloth and
     /// every change of its scene, where a variant per feature set would
@@ -90,6 +93,7 @@ impl Features {
             mesh_colliders: true,
             filter: true,
             damping: true,
+            bending: true,
             ..self
         }
     }
@@ -439,6 +443,7 @@ impl GpuKernels {
             ("HAS_MESH_COLLIDERS", flag(features.mesh_colliders)),
             ("HAS_FILTER", flag(features.filter)),
             ("HAS_DAMPING", flag(features.damping)),
+            ("HAS_BENDING", flag(features.bending)),
             ("GRID", flag(features.grid)),
             ("CONSTANT_BLOCKS", flag(features.constant_blocks)),
             ("COARSE", flag(features.coarse)),

@@ -181,10 +181,17 @@ pub struct GpuParams {
     pub mesh: [u32; 4],
     /// Mesh colliders; the first `mesh[0]` are used.
     pub meshes: [GpuMeshCollider; MAX_MESH_COLLIDERS],
+    /// The linear bending model ([`crate::bending`]): its Rayleigh damping
+    /// `β` \[s\], the scale `dt² + dt β` \[s²\] of its operator in the CG
+    /// matrices, two unused; zero without it.
+    pub bending: [f32; 4],
+    /// The `u32` word indices in `model` of the bending operator's row
+    /// offsets, columns and coefficients, one unused; zero without it.
+    pub bending_rows: [u32; 4],
 }
 const _: () = assert!(
     std::mem::size_of::<GpuParams>()
-        == 352 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES + 64 * MAX_MESH_COLLIDERS
+        == 384 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES + 64 * MAX_MESH_COLLIDERS
 );
 // A workgroup kernel's copy of its cloth's parameters, its staging,
 // self-collision scan and reduction words and its shared words fit the memory it is chosen for.

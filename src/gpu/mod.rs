@@ -71,19 +71,3 @@ pub use profile::{Profile, ProfileRow, Profiler, Timestamps};
 #[doc(hidden)]
 pub use traffic::{Term, Unit, UnitCounts};
 pub use tuning::{GpuTuning, GpuTuningMut};
-
-/// Refuses a cloth with the linear bending model (`[material] bending`):
-/// so far only the CPU solver runs it ([`crate::bending`]), and a GPU
-/// solver that left it out would be a different cloth.
-pub(crate) fn refuse_linear_bending(model: &crate::Model) -> crate::Result<()> {
-    match &model.bending {
-        None => Ok(()),
-        Some(_) => Err(crate::Error::InvalidParameter {
-            key: "material.bending".to_string(),
-            allowed: "0 on the GPU solvers, which do not run the linear bending model yet \
-                      (the CPU solver does: --backend cpu, or wgcloth::CpuSolver)"
-                .to_string(),
-            got: "a bending stiffness".to_string(),
-        }),
-    }
-}

@@ -8,7 +8,7 @@
 //! where they gather it); without fix-up an explicit step on a grid is one
 //! pass (a single-pass step, below), and the general kernels fuse
 //! integration and step end after their spring pass when there is no wind
-//! either; wind, ground, spheres, pins and damping are compiled out of the
+//! or linear bending either; wind, ground, spheres, pins and damping are compiled out of the
 //! kernels when absent (see [`super::kernels`]); CG records the budget of
 //! iterations (see [`super::budget`]) and stops on the device, after which
 //! its per-particle passes are dispatched with zero workgroups. The
@@ -300,7 +300,8 @@ fn step(i: &PlanInputs) -> Vec<Part<Dispatch>> {
         }
         Integrator::Explicit => {
             plan.push(once(Kernel::SpringForces, s));
-            if i.fixup_iterations == 0 && !f.wind && !f.self_collision {
+            // Wind and bending read the neighbours' state: not in place.
+            if i.fixup_iterations == 0 && !f.wind && !f.bending && !f.self_collision {
                 let fused = Dispatch::direct(Kernel::ExplicitIntegrate, n).of(Variant::Fused);
                 plan.push(Part::Once(fused));
                 return plan;

@@ -51,6 +51,7 @@ pub const COMMON: &[(&str, &str)] = &[
     wgsl!("common/cloth_step"),
     wgsl!("common/semi"),
     wgsl!("common/physics"),
+    wgsl!("common/bending"),
     wgsl!("common/cg"),
     wgsl!("common/coarse"),
     wgsl!("common/implicit"),

@@ -243,6 +243,7 @@ pub(super) fn scene_features(model: &Model, params: &Params, grid: Option<GridBl
             .springs
             .iter()
             .any(|k| k.stiffness > 0.0 && k.damping > 0.0),
+        bending: model.bending.is_some(),
         grid: grid.is_some(),
         block: grid.unwrap_or(GridBlock::ONE),
         coarse: Aggregation::for_scene(model, params).is_some(),
@@ -473,7 +474,7 @@ impl GpuSolver {
     ) -> Result<GpuSolver> {
         let device = kernels.device();
         params.validate()?;
-        super::refuse_linear_bending(model)?;
+        crate::material::check_explicit_bending(model, params)?;
         crate::cpu::self_collision::thickness(model, params)?;
         let counts = Counts::of_model(model);
         let limits = device.limits();

@@ -146,7 +146,7 @@ impl GpuBatch {
     /// device's verdict on the new cloth's buffers and pipelines is
     /// awaited.
     pub async fn add_async(&mut self, model: &Model, params: &Params) -> Result<ClothId> {
-        super::refuse_linear_bending(model)?;
+        crate::material::check_explicit_bending(model, params)?;
         let free = self.slots.iter().position(|s| s.member.is_none());
         let slot = free.unwrap_or(self.slots.len());
         let slot32 = u32::try_from(slot).map_err(|_| Error::InvalidParameter {
