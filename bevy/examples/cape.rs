@@ -9,7 +9,8 @@
 //! `cargo run --release -p wgcloth-bevy --example cape [-- --frames N
 //! --screenshot FILE.png]`: with `--frames` it renders `N` frames at a
 //! fixed 1/60 s of simulated time each (whatever the frame took) and
-//! writes the last with Bevy's screenshot API, then exits.
+//! writes the last with Bevy's screenshot API, then exits; `--headless`
+//! does it with no window or display (rendered offscreen).
 //! `--check-pins` reads the cape back every frame and prints, for each
 //! read-back, how far its pinned particles are from where the character's
 //! pose at the cloth's simulated time puts them (`pins: steps S error E
