@@ -222,56 +222,54 @@ fn pushed(pusher: Pusher) -> anyhow::Result<(Vec<Vec3>, Vec3)> {
     Ok((state.positions, centre))
 }
 
-#[test]
-fn a_collider_moved_by_a_system_pushes_the_cloth() -> anyhow::Result<()> {
+/// Asserts that the rising `pusher` lifts the cloth's middle by more than
+/// [`MIN_PUSH`] and leaves no particle deeper than `tolerance` inside it,
+/// `depth` giving a point's depth inside the pusher from its centre \[m\]:
+/// its velocity reached the solver, so it is where the frames put it.
+fn assert_pushes(
+    pusher: Pusher,
+    depth: impl Fn(Vec3) -> f32,
+    tolerance: f32,
+) -> anyhow::Result<()> {
     let _one = ONE_APP.lock().unwrap_or_else(PoisonError::into_inner);
     let (free, _) = pushed(Pusher::Nothing)?;
-    let (pushed, centre) = pushed(Pusher::Sphere)?;
+    let (pushed, centre) = pushed(pusher)?;
     // The cloth's middle particle (33 × 33 grid).
     let middle = free.len() / 2;
     let lift = pushed[middle].y - free[middle].y;
     assert!(
         lift > MIN_PUSH,
-        "the sphere lifted the cloth's middle by {lift} m (at least {MIN_PUSH} m expected)"
+        "the {pusher:?} lifted the cloth's middle by {lift} m (at least {MIN_PUSH} m expected)"
     );
-    // The sphere's velocity reached the solver: it is where the frames
-    // put it, and the cloth lies outside it.
-    let (p, depth) = pushed
+    let (p, deepest) = pushed
         .iter()
-        .map(|x| SPHERE_RADIUS - x.distance(centre))
+        .map(|x| depth(*x - centre))
         .enumerate()
         .fold((0, f32::MIN), |a, b| if b.1 > a.1 { b } else { a });
     assert!(
-        depth < CONTACT_TOLERANCE,
-        "particle {p} is {depth} m inside the sphere at {centre}"
+        deepest < tolerance,
+        "particle {p} is {deepest} m inside the {pusher:?} at {centre}"
     );
     Ok(())
 }
 
 #[test]
+fn a_collider_moved_by_a_system_pushes_the_cloth() -> anyhow::Result<()> {
+    assert_pushes(
+        Pusher::Sphere,
+        |r| SPHERE_RADIUS - r.length(),
+        CONTACT_TOLERANCE,
+    )
+}
+
+#[test]
 fn a_mesh_collider_moved_by_a_system_pushes_the_cloth() -> anyhow::Result<()> {
-    let _one = ONE_APP.lock().unwrap_or_else(PoisonError::into_inner);
-    let (free, _) = pushed(Pusher::Nothing)?;
-    let (pushed, centre) = pushed(Pusher::Cube)?;
-    let middle = free.len() / 2;
-    let lift = pushed[middle].y - free[middle].y;
-    assert!(
-        lift > MIN_PUSH,
-        "the cube lifted the cloth's middle by {lift} m (at least {MIN_PUSH} m expected)"
-    );
-    // The cube's velocity reached the solver: it is where the frames put
-    // it, and the cloth lies outside it (the depth inside a cube is the
-    // least distance to a face).
-    let (p, depth) = pushed
-        .iter()
-        .map(|x| SPHERE_RADIUS - (*x - centre).abs().max_element())
-        .enumerate()
-        .fold((0, f32::MIN), |a, b| if b.1 > a.1 { b } else { a });
-    assert!(
-        depth < MESH_CONTACT_TOLERANCE,
-        "particle {p} is {depth} m inside the cube at {centre}"
-    );
-    Ok(())
+    // The depth inside a cube is the least distance to a face.
+    assert_pushes(
+        Pusher::Cube,
+        |r| SPHERE_RADIUS - r.abs().max_element(),
+        MESH_CONTACT_TOLERANCE,
+    )
 }
 
 #[test]
