@@ -115,7 +115,10 @@ impl Plugin for ClothPlugin {
             .insert_resource(reports)
             .init_resource::<render::Extracted>()
             .init_resource::<render::ClothWorld>()
-            .add_systems(ExtractSchedule, render::extract)
+            .add_systems(
+                ExtractSchedule,
+                (render::extract, render::extract_colliders),
+            )
             .add_systems(
                 Render,
                 (

@@ -83,8 +83,8 @@ pub(crate) struct Extracted {
     wind: Option<ClothWind>,
 }
 
-/// Copies this frame's cloths, colliders, clocks, gravity and wind.
-#[expect(clippy::type_complexity, reason = "one query per kind of entity")]
+/// Copies this frame's cloths, clocks, gravity and wind.
+#[expect(clippy::type_complexity, reason = "a cloth's components")]
 pub(crate) fn extract(
     mut extracted: ResMut<Extracted>,
     cloths: Extract<
@@ -94,16 +94,6 @@ pub(crate) fn extract(
             &Mesh3d,
             Option<&PinTargets>,
             Has<ClothReadback>,
-        )>,
-    >,
-    spheres: Extract<Query<(Entity, &SphereCollider, &GlobalTransform)>>,
-    capsules: Extract<Query<(Entity, &CapsuleCollider, &GlobalTransform)>>,
-    meshes: Extract<
-        Query<(
-            Entity,
-            &ClothMeshCollider,
-            Option<&BakedMesh>,
-            &GlobalTransform,
         )>,
     >,
     clock: Extract<Res<ClothClock>>,
@@ -125,6 +115,27 @@ pub(crate) fn extract(
                     readback,
                 }),
         );
+    extracted.steps.clone_from(&clock.steps);
+    extracted.gravity = gravity.as_ref().map(|g| g.0);
+    extracted.wind = wind.as_deref().copied();
+}
+
+/// Copies this frame's collider poses (and mesh colliders' grids).
+#[expect(clippy::type_complexity, reason = "one query per kind of collider")]
+pub(crate) fn extract_colliders(
+    mut extracted: ResMut<Extracted>,
+    spheres: Extract<Query<(Entity, &SphereCollider, &GlobalTransform)>>,
+    capsules: Extract<Query<(Entity, &CapsuleCollider, &GlobalTransform)>>,
+    meshes: Extract<
+        Query<(
+            Entity,
+            &ClothMeshCollider,
+            Option<&BakedMesh>,
+            &GlobalTransform,
+        )>,
+    >,
+) {
+    let extracted = &mut *extracted;
     extracted.spheres.clear();
     extracted
         .spheres
@@ -171,9 +182,6 @@ pub(crate) fn extract(
             }
         }
     }
-    extracted.steps.clone_from(&clock.steps);
-    extracted.gravity = gravity.as_ref().map(|g| g.0);
-    extracted.wind = wind.as_deref().copied();
 }
 
 /// The cloths of one time step: their batch and fixed-step clock.
