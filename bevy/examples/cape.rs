@@ -9,7 +9,12 @@
 //! `cargo run --release -p wgcloth-bevy --example cape [-- --frames N
 //! --screenshot FILE.png]`: with `--frames` it renders `N` frames at a
 //! fixed 1/60 s of simulated time each (whatever the frame took) and
-//! writes the last with Bevy's screenshot API, then exits.
+//! writes the last with Bevy's screenshot API, then exits; `--headless`
+//! does it with no window or display (rendered offscreen).
+//! `--check-pins` reads the cape back every frame and prints, for each
+//! read-back, how far its pinned particles are from where the character's
+//! pose at the cloth's simulated time puts them (`pins: steps S error E
+//! m`): the cape test's proof that the pins follow the character.
 
 mod common;
 
@@ -18,14 +23,22 @@ use bevy::prelude::*;
 use common::{Capture, Frames, Orbit};
 use wgcloth::scene::animation::Character;
 use wgcloth::Scene;
-use wgcloth_bevy::{CapsuleCollider, Cloth, ClothPins, ClothPlugin, ClothStepping};
+use wgcloth_bevy::{
+    CapsuleCollider, Cloth, ClothPins, ClothPlugin, ClothReadback, ClothState, ClothStepping,
+};
 
 /// Simulated time per frame with `--frames` \[s\]: the cape scene's 60
 /// frames a second (four of its 1/240 s steps).
 const FRAME_SECONDS: f64 = 1.0 / 60.0;
 
 fn main() -> anyhow::Result<()> {
-    let capture = Capture::parse(std::env::args().skip(1), |_, _| Ok(false))?;
+    let mut check_pins = false;
+    let capture = Capture::parse(std::env::args().skip(1), |arg, _| {
+        Ok(arg == "--check-pins" && {
+            check_pins = true;
+            true
+        })
+    })?;
     let mut scene = Scene::builtin("cape")?;
     let character = Context::context(scene.character.clone(), "the cape scene has a character")?;
     // The scene's parameters hold the character's capsules where it
@@ -48,9 +61,16 @@ fn main() -> anyhow::Result<()> {
             character,
             fixed: capture.frames.is_some(),
         })
-        .insert_resource(Setup { cloth, scene })
+        .insert_resource(Setup {
+            cloth,
+            scene,
+            check_pins,
+        })
         .add_systems(Startup, setup)
         .add_systems(Update, (walk, common::orbit_with_mouse));
+    if check_pins {
+        app.add_systems(Update, report_pins);
+    }
     common::add_capture(&mut app, capture);
     match app.run() {
         AppExit::Success => Ok(()),
@@ -71,6 +91,8 @@ struct Walk {
 struct Setup {
     cloth: Cloth,
     scene: Scene,
+    /// `--check-pins`: the cape is read back every frame.
+    check_pins: bool,
 }
 
 /// The character's root entity (its pose is the script's).
@@ -114,17 +136,22 @@ fn setup(
         commands.entity(body).add_child(limb);
     }
     // The cape, pinned to the body where it rests at the start.
-    commands.spawn((
-        setup.cloth.clone(),
-        MeshMaterial3d(materials.add(StandardMaterial {
-            base_color: Color::srgb(0.75, 0.08, 0.06),
-            perceptual_roughness: 0.85,
-            double_sided: true,
-            cull_mode: None,
-            ..default()
-        })),
-        ClothPins::all_to(body),
-    ));
+    let cape = commands
+        .spawn((
+            setup.cloth.clone(),
+            MeshMaterial3d(materials.add(StandardMaterial {
+                base_color: Color::srgb(0.75, 0.08, 0.06),
+                perceptual_roughness: 0.85,
+                double_sided: true,
+                cull_mode: None,
+                ..default()
+            })),
+            ClothPins::all_to(body),
+        ))
+        .id();
+    if setup.check_pins {
+        commands.entity(cape).insert(ClothReadback);
+    }
     // The ground at the scene's height.
     let ground = setup.scene.params.ground.map_or(0.0, |g| g.height) as f32;
     commands.spawn((
@@ -167,8 +194,11 @@ fn pose(character: &Character, t: f64) -> Transform {
     Transform::from_translation(p.position.as_vec3()).with_rotation(p.rotation.as_quat())
 }
 
-/// Poses the character: at the frame's fixed time with `--frames`, else at
-/// Bevy's virtual time (which the cloth's fixed-step clock follows).
+/// Poses the character where it is at the end of this frame's cloth
+/// steps, which is where the plugin takes the cape's pins: at the frame's
+/// fixed end time with `--frames` (frame `k`, counted from 0, runs the
+/// steps up to `(k + 1)` frames of simulated time), else at Bevy's virtual
+/// time (which the cloth's fixed-step clock follows).
 fn walk(
     walk: Res<Walk>,
     time: Res<Time>,
@@ -176,11 +206,42 @@ fn walk(
     mut body: Query<&mut Transform, With<Body>>,
 ) {
     let t = if walk.fixed {
-        f64::from(frames.count) * FRAME_SECONDS
+        f64::from(frames.count + 1) * FRAME_SECONDS
     } else {
         time.elapsed_secs_f64()
     };
     for mut transform in &mut body {
         *transform = pose(&walk.character, t);
+    }
+}
+
+/// `--check-pins`: for each read-back of the cape, the largest distance of
+/// a pinned particle from its place on the character posed at the cloth's
+/// simulated time (its place in the character's frame is where it rests
+/// at the start, as the plugin fixes it) \[m\]. The pins land on the
+/// anchor's pose at the end of each frame's steps, so this is f32 rounding
+/// unless the pins fall behind the character (or a frame's steps are
+/// lost).
+fn report_pins(walk: Res<Walk>, cloths: Query<(&Cloth, Ref<ClothState>)>) {
+    let start = pose(&walk.character, 0.0).compute_affine().inverse();
+    for (cloth, state) in &cloths {
+        if !state.is_changed() {
+            continue;
+        }
+        let model = cloth.model();
+        let t = state.steps as f64 * cloth.params().dt;
+        let now = pose(&walk.character, t).compute_affine();
+        let error = (0..model.particle_count())
+            .filter(|&p| model.pinned[p])
+            .map(|p| {
+                let local = start.transform_point3(model.rest_positions[p].as_vec3());
+                let at = now.transform_point3(local);
+                state
+                    .positions
+                    .get(p)
+                    .map_or(f32::INFINITY, |x| x.distance(at))
+            })
+            .fold(0.0f32, f32::max);
+        println!("pins: steps {} error {error} m", state.steps);
     }
 }

@@ -4,9 +4,11 @@
 //! drag with the left button, scroll to zoom.
 //!
 //! `cargo run --release -p wgcloth-bevy --example flags [-- --count N
-//! --frames F --screenshot FILE.png]`. With `--frames` it prints the median
-//! frame time of the frames after the first ten (for the speed table in
-//! docs/bevy.md); `--paused` draws without stepping; `--standalone` steps
+//! --frames F --screenshot FILE.png --headless]`. With `--frames` it prints
+//! the median frame time of the frames after the first ten (for the speed
+//! table in docs/performance.md); `--headless` renders offscreen with no
+//! window or display (see examples/common), each frame waiting for the
+//! device; `--paused` draws without stepping; `--standalone` steps
 //! the same cloths for the same frames with wgcloth's own `GpuBatch` on a
 //! device of its own (no Bevy, no drawing: one submit and wait a frame)
 //! and prints its median frame time the same way.
@@ -76,7 +78,12 @@ fn main() -> anyhow::Result<()> {
         .insert_resource(Flags(flags))
         .insert_resource(Label(format!(
             "bevy{}: {count} flags, {steps} steps a frame",
-            if paused { " (paused)" } else { "" }
+            match (capture.headless, paused) {
+                (true, true) => " (headless, paused)",
+                (true, false) => " (headless)",
+                (false, true) => " (paused)",
+                (false, false) => "",
+            }
         )))
         .init_resource::<FrameTimes>()
         .add_systems(Startup, setup)

@@ -2,6 +2,7 @@
 //! colliders and pins that drive it, the world's gravity and wind, how the
 //! simulation clock advances, and the opt-in read-back.
 
+use std::collections::HashMap;
 use std::sync::Arc;
 
 use bevy::asset::RenderAssetUsages;
@@ -68,39 +69,7 @@ impl Cloth {
         pins: &[Pin],
         params: Params,
     ) -> wgcloth::Result<Cloth> {
-        const WHAT: &str = "the Bevy mesh";
-        let fail = |message: String| wgcloth::Error::Mesh {
-            path: WHAT.into(),
-            message,
-        };
-        if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
-            return Err(fail(format!(
-                "topology {:?}: a cloth is a triangle list",
-                mesh.primitive_topology()
-            )));
-        }
-        let positions: Vec<DVec3> = match mesh.attribute(Mesh::ATTRIBUTE_POSITION) {
-            Some(VertexAttributeValues::Float32x3(p)) => {
-                p.iter().map(|&p| Vec3::from(p).as_dvec3()).collect()
-            }
-            _ => return Err(fail("no Float32x3 positions".into())),
-        };
-        let indices: Vec<u32> = match mesh.indices() {
-            Some(Indices::U32(i)) => i.clone(),
-            Some(Indices::U16(i)) => i.iter().map(|&i| u32::from(i)).collect(),
-            None => (0..positions.len() as u32).collect(),
-        };
-        if !indices.len().is_multiple_of(3) {
-            return Err(fail(format!(
-                "{} indices is not a whole number of triangles",
-                indices.len()
-            )));
-        }
-        let triangles: Vec<[u32; 3]> = indices
-            .chunks_exact(3)
-            .map(|t| [t[0], t[1], t[2]])
-            .collect();
-        let mesh = wgcloth::mesh::Mesh::from_triangles(WHAT, positions, &triangles)?;
+        let mesh = triangle_mesh(mesh, false)?;
         let placement = Placement {
             scale: 1.0,
             origin: DVec3::ZERO,
@@ -140,6 +109,66 @@ impl Cloth {
     }
 }
 
+/// The triangles of a Bevy `mesh` (a triangle list) as wgcloth's mesh,
+/// checked as a mesh file is (an error names the triangle). `weld` merges
+/// vertices at the same position (a collider's shape is its surface: Bevy's
+/// primitives repeat a corner once per face for its normals and UVs); a
+/// cloth's vertices are its particles, kept as they are.
+pub(crate) fn triangle_mesh(mesh: &Mesh, weld: bool) -> wgcloth::Result<wgcloth::mesh::Mesh> {
+    const WHAT: &str = "the Bevy mesh";
+    let fail = |message: String| wgcloth::Error::Mesh {
+        path: WHAT.into(),
+        message,
+    };
+    if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
+        return Err(fail(format!(
+            "topology {:?}: a triangle list is needed",
+            mesh.primitive_topology()
+        )));
+    }
+    let mut positions: Vec<DVec3> = match mesh.attribute(Mesh::ATTRIBUTE_POSITION) {
+        Some(VertexAttributeValues::Float32x3(p)) => {
+            p.iter().map(|&p| Vec3::from(p).as_dvec3()).collect()
+        }
+        _ => return Err(fail("no Float32x3 positions".into())),
+    };
+    let mut indices: Vec<u32> = match mesh.indices() {
+        Some(Indices::U32(i)) => i.clone(),
+        Some(Indices::U16(i)) => i.iter().map(|&i| u32::from(i)).collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    if !indices.len().is_multiple_of(3) {
+        return Err(fail(format!(
+            "{} indices is not a whole number of triangles",
+            indices.len()
+        )));
+    }
+    if weld {
+        let mut first: HashMap<[u64; 3], u32> = HashMap::new();
+        let mut welded = Vec::new();
+        let renumber: Vec<u32> = positions
+            .iter()
+            .map(|p| {
+                *first
+                    .entry(p.to_array().map(f64::to_bits))
+                    .or_insert_with(|| {
+                        welded.push(*p);
+                        welded.len() as u32 - 1
+                    })
+            })
+            .collect();
+        for i in &mut indices {
+            *i = renumber.get(*i as usize).copied().unwrap_or(u32::MAX);
+        }
+        positions = welded;
+    }
+    let triangles: Vec<[u32; 3]> = indices
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
+        .collect();
+    wgcloth::mesh::Mesh::from_triangles(WHAT, positions, &triangles)
+}
+
 /// A sphere collider: centred on its entity's [`GlobalTransform`]
 /// translation. It pushes every cloth; its velocity is derived from how
 /// the entity moved between the cloth's stepping frames.
@@ -166,6 +195,50 @@ pub struct CapsuleCollider {
     pub half_length: f32,
     /// Coulomb friction coefficient (dimensionless, `≥ 0`).
     pub friction: f32,
+}
+
+/// A mesh collider: the closed surface of a Bevy [`Mesh`] (a triangle
+/// list; vertices at the same position are welded) in its entity's frame,
+/// placed and turned by the entity's [`GlobalTransform`] (its scale is not
+/// applied: the mesh is in metres). The plugin bakes the mesh once into
+/// wgcloth's signed-distance grid (`wgcloth::sdf`, on the CPU, in the main
+/// world: a fraction of a second at the default resolution), shared by
+/// every collider of the same mesh, resolution and thickness. Its velocity
+/// and angular velocity come from how the entity moved and turned between
+/// the cloth's stepping frames; within a frame it moves without turning
+/// (wgcloth's `set_mesh_colliders`).
+///
+/// A mesh collider acts on the cloths built after it was baked (a cloth
+/// holds its mesh colliders' grids; the plugin holds back new cloths while
+/// a mesh collider waits for its mesh asset); despawned, it stops acting.
+/// A cloth takes at most 4 mesh colliders, its scene's included (more is a
+/// [`ClothFailed`] for the cloth). A mesh that is not closed, or is wound
+/// inconsistently, is a [`ClothFailed`] for the collider's entity.
+#[derive(Component, Clone, Debug, PartialEq)]
+#[require(Transform)]
+pub struct ClothMeshCollider {
+    /// The body's surface \[m\], in the entity's frame.
+    pub mesh: Handle<Mesh>,
+    /// Grid cells along the mesh's longest side (wgcloth's
+    /// `[[collider]] resolution`, 4 to 512).
+    pub resolution: u32,
+    /// Coulomb friction coefficient (dimensionless, `≥ 0`).
+    pub friction: f32,
+    /// The distance the cloth keeps from the surface \[m\], `≥ 0`.
+    pub thickness: f32,
+}
+
+impl ClothMeshCollider {
+    /// A frictionless collider of `mesh` at wgcloth's default resolution
+    /// (`wgcloth::sdf::DEFAULT_RESOLUTION` cells along its longest side).
+    pub fn new(mesh: Handle<Mesh>) -> ClothMeshCollider {
+        ClothMeshCollider {
+            mesh,
+            resolution: wgcloth::sdf::DEFAULT_RESOLUTION,
+            friction: 0.0,
+            thickness: 0.0,
+        }
+    }
 }
 
 /// Pins of a cloth that follow an entity (a bone, a flagpole): each
@@ -271,10 +344,11 @@ pub struct ClothSlot {
 
 /// A cloth the plugin could not build or step: the device refused it
 /// (limits, memory), a setting was invalid (more than 16 colliders), or
-/// its state stopped being finite. The message is wgcloth's, for a user.
+/// its state stopped being finite; or a [`ClothMeshCollider`] whose mesh
+/// could not be baked. The message is wgcloth's, for a user.
 #[derive(Message, Clone, Debug)]
 pub struct ClothFailed {
-    /// The cloth's entity.
+    /// The cloth's entity (or the mesh collider's).
     pub entity: Entity,
     /// What went wrong.
     pub message: String,

@@ -29,14 +29,14 @@
 //! What runs where (docs/bevy.md has the whole story):
 //! - the **main world** (`PostUpdate`, after transforms propagate) gives a
 //!   new [`Cloth`] its mesh, advances the fixed-step clocks
-//!   ([`ClothStepping`]) and resolves moving pins ([`ClothPins`]) against
-//!   their anchors' [`GlobalTransform`]; in `PreUpdate` it receives what
+//!   ([`ClothStepping`]), resolves moving pins ([`ClothPins`]) against
+//!   their anchors' [`GlobalTransform`] and bakes mesh colliders' grids; in `PreUpdate` it receives what
 //!   the render world reports ([`ClothSlot`], [`ClothState`],
 //!   [`ClothFailed`]);
 //! - the **render world** builds the cloths on Bevy's own `RenderDevice`
 //!   and `RenderQueue` (one [`wgcloth::gpu::GpuBatch`] per time step),
-//!   sets gravity, wind, colliders ([`SphereCollider`], [`CapsuleCollider`])
-//!   and pins, and records the steps, the normals and a pass that writes
+//!   sets gravity, wind, colliders ([`SphereCollider`], [`CapsuleCollider`],
+//!   [`ClothMeshCollider`]) and pins, and records the steps, the normals and a pass that writes
 //!   them into each cloth's mesh into Bevy's command encoder at the start
 //!   of its render graph; Bevy's pipelines then draw the mesh as any other.
 //!   Nothing is read back unless a cloth asks ([`ClothReadback`]).
@@ -54,8 +54,8 @@ use bevy::render::{ExtractSchedule, Render, RenderApp, RenderSystems};
 use bevy::transform::TransformSystems;
 
 pub use components::{
-    CapsuleCollider, Cloth, ClothFailed, ClothGravity, ClothPins, ClothReadback, ClothSlot,
-    ClothState, ClothStepping, ClothWind, SphereCollider,
+    CapsuleCollider, Cloth, ClothFailed, ClothGravity, ClothMeshCollider, ClothPins, ClothReadback,
+    ClothSlot, ClothState, ClothStepping, ClothWind, SphereCollider,
 };
 
 /// The WGSL of the pass that writes a cloth's vertices into its mesh (for
@@ -74,7 +74,8 @@ pub struct ClothPlugin;
 pub enum ClothSystems {
     /// `PreUpdate`: the render world's reports arrive.
     Receive,
-    /// `PostUpdate`, after transform propagation: meshes, clocks, pins.
+    /// `PostUpdate`, after transform propagation: meshes, clocks, pins,
+    /// mesh colliders' grids.
     Prepare,
 }
 
@@ -83,6 +84,7 @@ impl Plugin for ClothPlugin {
         let reports = main_world::Reports::default();
         app.init_resource::<ClothStepping>()
             .init_resource::<main_world::ClothClock>()
+            .init_resource::<main_world::MeshGrids>()
             .insert_resource(reports.clone())
             .add_message::<ClothFailed>()
             .add_systems(
@@ -95,6 +97,7 @@ impl Plugin for ClothPlugin {
                     main_world::attach_meshes,
                     main_world::advance_clock,
                     main_world::resolve_pins,
+                    main_world::bake_mesh_colliders,
                 )
                     .in_set(ClothSystems::Prepare)
                     .after(TransformSystems::Propagate),
@@ -112,7 +115,10 @@ impl Plugin for ClothPlugin {
             .insert_resource(reports)
             .init_resource::<render::Extracted>()
             .init_resource::<render::ClothWorld>()
-            .add_systems(ExtractSchedule, render::extract)
+            .add_systems(
+                ExtractSchedule,
+                (render::extract, render::extract_colliders),
+            )
             .add_systems(
                 Render,
                 (

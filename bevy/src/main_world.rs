@@ -1,14 +1,19 @@
-//! The main world's part, all on the CPU and cheap: meshes for new cloths,
-//! the fixed-step clocks, where each moving pin is to be, and the reports
-//! the render world sends back (slots, read-backs, failures).
+//! The main world's part, all on the CPU: meshes for new cloths, the
+//! fixed-step clocks, where each moving pin is to be, the mesh colliders'
+//! grids (baked once per mesh), and the reports the render world sends
+//! back (slots, read-backs, failures).
 
 use std::collections::{HashMap, HashSet};
 use std::sync::{Arc, Mutex, PoisonError};
 
 use bevy::prelude::*;
+use wgcloth::sdf::DistanceGrid;
 use wgcloth::PinTarget;
 
-use crate::components::{Cloth, ClothFailed, ClothPins, ClothSlot, ClothState, ClothStepping};
+use crate::components::{
+    triangle_mesh, Cloth, ClothFailed, ClothMeshCollider, ClothPins, ClothSlot, ClothState,
+    ClothStepping,
+};
 
 /// The fixed-step clocks: one per time step `dt` (keyed by its bits), as
 /// the cloths of one time step share a batch and step together.
@@ -214,4 +219,86 @@ pub(crate) fn receive_reports(
             }
         }
     }
+}
+
+/// What a mesh collider's grid was baked from: the mesh asset, the
+/// resolution and the thickness (its bits).
+pub(crate) type BakeKey = (AssetId<Mesh>, u32, u32);
+
+fn bake_key(c: &ClothMeshCollider) -> BakeKey {
+    (c.mesh.id(), c.resolution, c.thickness.to_bits())
+}
+
+/// A mesh collider's baked grid (`None`: the bake failed, reported once).
+#[derive(Component, Clone, Debug)]
+pub(crate) struct BakedMesh {
+    pub(crate) key: BakeKey,
+    pub(crate) grid: Option<Arc<DistanceGrid>>,
+}
+
+impl BakedMesh {
+    /// Whether this is the bake of `collider` as it is now.
+    pub(crate) fn is_of(&self, collider: &ClothMeshCollider) -> bool {
+        self.key == bake_key(collider)
+    }
+}
+
+/// The grids baked so far, by what they were baked from: colliders of one
+/// mesh share one.
+#[derive(Resource, Default, Debug)]
+pub(crate) struct MeshGrids(HashMap<BakeKey, Arc<DistanceGrid>>);
+
+/// Bakes each mesh collider whose grid is missing or stale once its mesh
+/// asset is loaded (a cached grid when there is one); forgets grids no
+/// collider uses.
+pub(crate) fn bake_mesh_colliders(
+    mut commands: Commands,
+    meshes: Res<Assets<Mesh>>,
+    mut grids: ResMut<MeshGrids>,
+    colliders: Query<(Entity, &ClothMeshCollider, Option<&BakedMesh>)>,
+    mut failed: MessageWriter<ClothFailed>,
+) {
+    let used: HashSet<BakeKey> = colliders.iter().map(|(_, c, _)| bake_key(c)).collect();
+    grids.0.retain(|k, _| used.contains(k));
+    for (entity, collider, baked) in &colliders {
+        if baked.is_some_and(|b| b.is_of(collider)) {
+            continue;
+        }
+        let key = bake_key(collider);
+        let grid = match grids.0.get(&key) {
+            Some(grid) => Some(grid.clone()),
+            None => {
+                let Some(mesh) = meshes.get(&collider.mesh) else {
+                    continue; // not loaded yet
+                };
+                match bake(mesh, collider) {
+                    Ok(grid) => {
+                        let grid = Arc::new(grid);
+                        grids.0.insert(key, grid.clone());
+                        Some(grid)
+                    }
+                    Err(e) => {
+                        let message = format!("ClothMeshCollider: {e}");
+                        error!("mesh collider {entity}: {message}");
+                        failed.write(ClothFailed { entity, message });
+                        None
+                    }
+                }
+            }
+        };
+        commands.entity(entity).insert(BakedMesh { key, grid });
+    }
+}
+
+/// The signed-distance grid of `collider`'s `mesh`.
+fn bake(mesh: &Mesh, collider: &ClothMeshCollider) -> wgcloth::Result<DistanceGrid> {
+    let surface = triangle_mesh(mesh, true)?;
+    wgcloth::sdf::bake(
+        &surface,
+        std::path::Path::new("the Bevy mesh"),
+        "ClothMeshCollider",
+        1.0,
+        collider.resolution,
+        f64::from(collider.thickness),
+    )
 }

@@ -1,7 +1,9 @@
 //! The `cape` example on an X server of the test's own (Xvfb) with the
 //! test adapter (lavapipe in CI): its screenshots at two frame counts show
 //! the cape, and the cape moved between them (the character runs off
-//! with it). Xvfb missing is a failure naming the package, never a skip.
+//! with it); read back every frame, the cape's pinned particles stay on
+//! the character's shoulders as it jogs and turns. Xvfb missing is a
+//! failure naming the package, never a skip.
 
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
@@ -33,6 +35,17 @@ const LATE: u32 = 100;
 /// at rest (its mesh never written) moves 16, as the character in front
 /// of it changes what shows.
 const MIN_SHIFT: f32 = 50.0;
+/// How far a pinned particle may be from its place on the character \[m\]
+/// (`--check-pins`): the pins land on the character's pose at the end of
+/// each frame's steps, so the only error is f32 rounding of positions a
+/// few metres from the origin (about a micrometre); a pin one frame behind
+/// the jogging character is 33 mm off, and the cape once seen left behind
+/// was a metre off.
+const PIN_TOLERANCE: f32 = 0.001;
+/// Frames of a run without a read-back: the cloth is built in the first
+/// frame's render, a read-back reaches the main world a frame after its
+/// steps, and the last frames' may come after the exit.
+const READBACK_SLACK: usize = 3;
 
 /// An X server of the test's own, on a display it chose; killed when
 /// dropped.
@@ -86,18 +99,19 @@ impl Drop for Xvfb {
 }
 
 /// The cape example, built in this test's profile (`cargo test` builds
-/// examples only when it runs every target).
+/// examples only when it runs every target), at the path cargo names for
+/// this build: `target/<profile>/examples/cape` is also the name of the
+/// core crate's `cape` example, so a workspace build can leave the other
+/// one (or an older build) there.
 fn cape_example() -> anyhow::Result<PathBuf> {
     let exe = std::env::current_exe()?;
     // target/<profile>/deps/cape-<hash>
-    let profile_dir = exe
+    let profile = exe
         .parent()
         .and_then(Path::parent)
-        .context("the test runs from target/<profile>/deps")?;
-    let profile = profile_dir
-        .file_name()
+        .and_then(Path::file_name)
         .and_then(|n| n.to_str())
-        .context("a profile directory")?;
+        .context("the test runs from target/<profile>/deps")?;
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut build = Command::new(cargo);
     build.args([
@@ -107,6 +121,7 @@ fn cape_example() -> anyhow::Result<PathBuf> {
         "--example",
         "cape",
         "--ignore-rust-version",
+        "--message-format=json-render-diagnostics",
     ]);
     match profile {
         "debug" => {}
@@ -117,27 +132,63 @@ fn cape_example() -> anyhow::Result<PathBuf> {
             build.args(["--profile", other]);
         }
     }
-    let status = build.status().context("running cargo")?;
-    if !status.success() {
+    let out = build
+        .stderr(Stdio::inherit())
+        .output()
+        .context("running cargo")?;
+    if !out.status.success() {
         bail!("building the cape example failed");
     }
-    Ok(profile_dir.join("examples").join("cape"))
+    let executable = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|line| serde_json::from_str::<serde_json::Value>(line).ok())
+        .filter(|m| m["reason"] == "compiler-artifact" && m["target"]["name"] == "cape")
+        .find_map(|m| m["executable"].as_str().map(PathBuf::from));
+    executable.context("cargo named no cape executable")
 }
 
-/// Runs the example for `frames` frames on `x` and returns its screenshot
-/// as RGBA rows.
-fn screenshot(example: &Path, x: &Xvfb, frames: u32, dir: &Path) -> anyhow::Result<Vec<u8>> {
+/// One run of the example: its last frame (RGBA rows) and, for each
+/// read-back, the steps the cape had run and its pins' error \[m\].
+struct Run {
+    rgba: Vec<u8>,
+    pins: Vec<(u64, f32)>,
+}
+
+/// Runs the example for `frames` frames on `x` with `--check-pins`.
+fn run(example: &Path, x: &Xvfb, frames: u32, dir: &Path) -> anyhow::Result<Run> {
     let out = dir.join(format!("cape-{frames}.png"));
-    let status = Command::new(example)
-        .args(["--frames", &frames.to_string(), "--screenshot"])
+    let output = Command::new(example)
+        .args([
+            "--frames",
+            &frames.to_string(),
+            "--check-pins",
+            "--screenshot",
+        ])
         .arg(&out)
         .env("DISPLAY", &x.display)
         .env_remove("WAYLAND_DISPLAY")
-        .status()
+        .stderr(Stdio::inherit())
+        .output()
         .context("running the cape example")?;
-    if !status.success() {
-        bail!("the cape example failed ({status}) for {frames} frames");
+    if !output.status.success() {
+        bail!(
+            "the cape example failed ({}) for {frames} frames",
+            output.status
+        );
     }
+    let pins = String::from_utf8_lossy(&output.stdout)
+        .lines()
+        .filter_map(|line| {
+            // pins: steps S error E m
+            let words: Vec<&str> = line.split_whitespace().collect();
+            match words[..] {
+                ["pins:", "steps", steps, "error", error, "m"] => {
+                    Some((steps.parse().ok()?, error.parse().ok()?))
+                }
+                _ => None,
+            }
+        })
+        .collect();
     let decoder = png::Decoder::new(BufReader::new(
         std::fs::File::open(&out).with_context(|| format!("reading {}", out.display()))?,
     ));
@@ -146,7 +197,7 @@ fn screenshot(example: &Path, x: &Xvfb, frames: u32, dir: &Path) -> anyhow::Resu
     let info = reader.next_frame(&mut rgba)?;
     assert_eq!((info.width, info.height), WINDOW, "{}", out.display());
     assert_eq!(info.color_type, png::ColorType::Rgba);
-    Ok(rgba)
+    Ok(Run { rgba, pins })
 }
 
 /// The cape's pixels: their count and mean position \[pixels\].
@@ -170,8 +221,22 @@ fn cape_screenshots_show_the_cape_moving() -> anyhow::Result<()> {
     let x = Xvfb::start()?;
     let dir = std::env::temp_dir().join(format!("wgcloth-bevy-cape-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
-    let early = cape(&screenshot(&example, &x, EARLY, &dir)?);
-    let late = cape(&screenshot(&example, &x, LATE, &dir)?);
+    let early = run(&example, &x, EARLY, &dir)?;
+    let late = run(&example, &x, LATE, &dir)?;
+    // The pins follow the character through the whole jog and turn.
+    assert!(
+        late.pins.len() + READBACK_SLACK >= LATE as usize,
+        "{} read-backs of the cape in {LATE} frames",
+        late.pins.len()
+    );
+    for &(steps, error) in &late.pins {
+        assert!(
+            error <= PIN_TOLERANCE,
+            "after {steps} steps the cape's pins are {error} m from the character's shoulders \
+             (at most {PIN_TOLERANCE} m)"
+        );
+    }
+    let (early, late) = (cape(&early.rgba), cape(&late.rgba));
     for ((n, _), frames) in [(early, EARLY), (late, LATE)] {
         assert!(
             n >= MIN_CAPE_PIXELS,

@@ -1,8 +1,9 @@
 //! The plugin in a headless Bevy app (no window: Bevy's render device on
 //! the test adapter, lavapipe in CI), driven frame by frame with a fixed
 //! number of steps a frame: the cloth it steps is the standalone solver's
-//! bit for bit, a collider moved by a system pushes the cloth, and a
-//! despawned cloth's slot is reused.
+//! bit for bit, a collider moved by a system pushes the cloth (a sphere,
+//! and a mesh collider baked from a Bevy mesh), and a despawned cloth's
+//! slot is reused.
 
 use std::sync::{Mutex, PoisonError};
 
@@ -14,7 +15,8 @@ use bevy::window::ExitCondition;
 use bevy::winit::WinitPlugin;
 use wgcloth::{GpuContext, GpuSolver, Scene};
 use wgcloth_bevy::{
-    Cloth, ClothPlugin, ClothReadback, ClothSlot, ClothState, ClothStepping, SphereCollider,
+    Cloth, ClothMeshCollider, ClothPlugin, ClothReadback, ClothSlot, ClothState, ClothStepping,
+    SphereCollider,
 };
 
 /// One Bevy app at a time: each opens its own device, and lavapipe's
@@ -150,10 +152,29 @@ const MIN_PUSH: f32 = 0.2;
 /// How deep a particle may be inside the sphere \[m\]: contact acts at the
 /// end of each step, and the sphere rises 1 mm a step.
 const CONTACT_TOLERANCE: f32 = 0.005;
+/// How deep a particle may be inside the mesh collider's cube \[m\]: the
+/// sphere's allowance plus one cell of its grid (the cube's 0.4 m side at
+/// the default 64 cells is 6.25 mm a cell), within which the trilinear
+/// field rounds the cube's edges.
+const MESH_CONTACT_TOLERANCE: f32 = CONTACT_TOLERANCE + 0.00625;
 
-/// Raises every sphere collider at [`SPHERE_RISE`] for the frame's
+/// A collider that rises under the cloth.
+#[derive(Component)]
+struct Rising;
+
+/// What pushes the cloth from below in [`pushed`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Pusher {
+    Nothing,
+    /// A [`SphereCollider`] of radius [`SPHERE_RADIUS`].
+    Sphere,
+    /// A [`ClothMeshCollider`] of a Bevy cube of half-side [`SPHERE_RADIUS`].
+    Cube,
+}
+
+/// Raises every [`Rising`] collider at [`SPHERE_RISE`] for the frame's
 /// simulated time (none once the cloth is paused).
-fn rise(stepping: Res<ClothStepping>, mut spheres: Query<&mut Transform, With<SphereCollider>>) {
+fn rise(stepping: Res<ClothStepping>, mut spheres: Query<&mut Transform, With<Rising>>) {
     let ClothStepping::StepsPerFrame(steps) = *stepping else {
         return;
     };
@@ -163,23 +184,29 @@ fn rise(stepping: Res<ClothStepping>, mut spheres: Query<&mut Transform, With<Sp
     }
 }
 
-/// The cloth's particles after [`PUSH_FRAMES`] frames, with or without the
-/// rising sphere, and the sphere's centre at the end.
-fn pushed(with_sphere: bool) -> anyhow::Result<(Vec<Vec3>, Vec3)> {
+/// The cloth's particles after [`PUSH_FRAMES`] frames, with the rising
+/// `pusher`, and the pusher's centre at the end.
+fn pushed(pusher: Pusher) -> anyhow::Result<(Vec<Vec3>, Vec3)> {
     let scene = Scene::builtin("hanging")?;
     let mut app = app(PUSH_STEPS_PER_FRAME);
     app.add_systems(Update, rise);
-    let sphere = with_sphere.then(|| {
-        app.world_mut()
-            .spawn((
-                SphereCollider {
-                    radius: SPHERE_RADIUS,
-                    friction: 0.0,
-                },
-                Transform::from_translation(SPHERE_START),
-            ))
-            .id()
-    });
+    let start = (Rising, Transform::from_translation(SPHERE_START));
+    let sphere = match pusher {
+        Pusher::Nothing => None,
+        Pusher::Sphere => {
+            let collider = SphereCollider {
+                radius: SPHERE_RADIUS,
+                friction: 0.0,
+            };
+            Some(app.world_mut().spawn((collider, start)).id())
+        }
+        Pusher::Cube => {
+            let cube = Cuboid::from_length(2.0 * SPHERE_RADIUS).mesh().build();
+            let mesh = app.world_mut().resource_mut::<Assets<Mesh>>().add(cube);
+            let collider = ClothMeshCollider::new(mesh);
+            Some(app.world_mut().spawn((collider, start)).id())
+        }
+    };
     let cloth = app
         .world_mut()
         .spawn((Cloth::from_scene(&scene)?, ClothReadback))
@@ -195,30 +222,54 @@ fn pushed(with_sphere: bool) -> anyhow::Result<(Vec<Vec3>, Vec3)> {
     Ok((state.positions, centre))
 }
 
-#[test]
-fn a_collider_moved_by_a_system_pushes_the_cloth() -> anyhow::Result<()> {
+/// Asserts that the rising `pusher` lifts the cloth's middle by more than
+/// [`MIN_PUSH`] and leaves no particle deeper than `tolerance` inside it,
+/// `depth` giving a point's depth inside the pusher from its centre \[m\]:
+/// its velocity reached the solver, so it is where the frames put it.
+fn assert_pushes(
+    pusher: Pusher,
+    depth: impl Fn(Vec3) -> f32,
+    tolerance: f32,
+) -> anyhow::Result<()> {
     let _one = ONE_APP.lock().unwrap_or_else(PoisonError::into_inner);
-    let (free, _) = pushed(false)?;
-    let (pushed, centre) = pushed(true)?;
+    let (free, _) = pushed(Pusher::Nothing)?;
+    let (pushed, centre) = pushed(pusher)?;
     // The cloth's middle particle (33 × 33 grid).
     let middle = free.len() / 2;
     let lift = pushed[middle].y - free[middle].y;
     assert!(
         lift > MIN_PUSH,
-        "the sphere lifted the cloth's middle by {lift} m (at least {MIN_PUSH} m expected)"
+        "the {pusher:?} lifted the cloth's middle by {lift} m (at least {MIN_PUSH} m expected)"
     );
-    // The sphere's velocity reached the solver: it is where the frames
-    // put it, and the cloth lies outside it.
-    let (p, depth) = pushed
+    let (p, deepest) = pushed
         .iter()
-        .map(|x| SPHERE_RADIUS - x.distance(centre))
+        .map(|x| depth(*x - centre))
         .enumerate()
         .fold((0, f32::MIN), |a, b| if b.1 > a.1 { b } else { a });
     assert!(
-        depth < CONTACT_TOLERANCE,
-        "particle {p} is {depth} m inside the sphere at {centre}"
+        deepest < tolerance,
+        "particle {p} is {deepest} m inside the {pusher:?} at {centre}"
     );
     Ok(())
+}
+
+#[test]
+fn a_collider_moved_by_a_system_pushes_the_cloth() -> anyhow::Result<()> {
+    assert_pushes(
+        Pusher::Sphere,
+        |r| SPHERE_RADIUS - r.length(),
+        CONTACT_TOLERANCE,
+    )
+}
+
+#[test]
+fn a_mesh_collider_moved_by_a_system_pushes_the_cloth() -> anyhow::Result<()> {
+    // The depth inside a cube is the least distance to a face.
+    assert_pushes(
+        Pusher::Cube,
+        |r| SPHERE_RADIUS - r.abs().max_element(),
+        MESH_CONTACT_TOLERANCE,
+    )
 }
 
 #[test]

@@ -1,15 +1,27 @@
 //! What the examples share: their command line (`--frames N`,
-//! `--screenshot FILE.png`), the capture that writes the last frame with
-//! Bevy's screenshot API and exits, and an orbit camera.
+//! `--screenshot FILE.png`, `--headless`), the capture that writes the
+//! last frame with Bevy's screenshot API and exits, and an orbit camera.
+//!
+//! `--headless` runs with no window and no display (no winit: Bevy's
+//! schedule runner drives the frames): each camera renders into an
+//! offscreen image of the window's size, the screenshot is taken of it,
+//! and each frame waits for the device to finish it, so a frame's time is
+//! its whole work (with a window, the swap chain's presents pace it).
 
 use std::path::PathBuf;
+use std::time::Duration;
 
 use anyhow::{bail, Context};
+use bevy::app::ScheduleRunnerPlugin;
+use bevy::camera::RenderTarget;
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll};
 use bevy::prelude::*;
+use bevy::render::renderer::RenderDevice;
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
-use bevy::window::{PresentMode, WindowResolution};
+use bevy::render::{Render, RenderApp, RenderSystems};
+use bevy::window::{ExitCondition, PresentMode, WindowResolution};
+use bevy::winit::WinitPlugin;
 
 /// The window's size \[pixels\] (the screenshot's).
 pub const WINDOW: (u32, u32) = (640, 480);
@@ -21,6 +33,8 @@ pub struct Capture {
     pub frames: Option<u32>,
     /// Where the last frame goes.
     pub screenshot: Option<PathBuf>,
+    /// No window (`--headless`): the cameras render offscreen.
+    pub headless: bool,
 }
 
 impl Capture {
@@ -52,6 +66,7 @@ impl Capture {
                     }
                     capture.screenshot = Some(PathBuf::from(path));
                 }
+                "--headless" => capture.headless = true,
                 _ => {
                     if !other(&arg, &mut args)? {
                         bail!("unknown argument {arg:?}");
@@ -62,12 +77,26 @@ impl Capture {
         if capture.screenshot.is_some() && capture.frames.is_none() {
             bail!("--screenshot needs --frames N (the frame to capture)");
         }
+        if capture.headless && capture.frames.is_none() {
+            bail!("--headless needs --frames N (a run with no window ends by itself)");
+        }
         Ok(capture)
     }
 
     /// Bevy's default plugins with the examples' window: a fixed size, and
-    /// no vsync when capturing (frames as fast as they render).
+    /// no vsync when capturing (frames as fast as they render); headless,
+    /// no window and Bevy's schedule runner in a loop with no wait.
     pub fn default_plugins(&self, title: &str) -> bevy::app::PluginGroupBuilder {
+        if self.headless {
+            return DefaultPlugins
+                .set(WindowPlugin {
+                    primary_window: None,
+                    exit_condition: ExitCondition::DontExit,
+                    ..default()
+                })
+                .disable::<WinitPlugin>()
+                .add(ScheduleRunnerPlugin::run_loop(Duration::ZERO));
+        }
         DefaultPlugins.set(WindowPlugin {
             primary_window: Some(Window {
                 title: title.into(),
@@ -96,17 +125,61 @@ pub struct Frames {
     written: Option<bool>,
 }
 
+/// The offscreen image the cameras render into with `--headless`.
+#[derive(Resource, Clone, Debug)]
+struct Offscreen(Handle<Image>);
+
 /// Adds the capture: counting frames, asking for the screenshot at the
-/// last one, and exiting once it is written (or at once without one).
+/// last one, and exiting once it is written (or at once without one);
+/// headless, the offscreen target and the wait for each frame.
 pub fn add_capture(app: &mut App, capture: Capture) {
+    if capture.headless {
+        let image = Image::new_target_texture(
+            WINDOW.0,
+            WINDOW.1,
+            bevy::render::render_resource::TextureFormat::Rgba8UnormSrgb,
+            None,
+        );
+        let handle = app.world_mut().resource_mut::<Assets<Image>>().add(image);
+        app.insert_resource(Offscreen(handle))
+            .add_systems(PostStartup, target_offscreen);
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app.add_systems(Render, wait_for_frame.in_set(RenderSystems::Cleanup));
+        }
+    }
     app.insert_resource(capture)
         .init_resource::<Frames>()
         .add_systems(Last, finish_capture);
 }
 
+/// Points every camera at the offscreen image.
+fn target_offscreen(
+    mut commands: Commands,
+    offscreen: Res<Offscreen>,
+    cameras: Query<Entity, With<Camera>>,
+) {
+    for camera in &cameras {
+        commands
+            .entity(camera)
+            .insert(RenderTarget::from(offscreen.0.clone()));
+    }
+}
+
+/// Waits for the device to finish the frame just submitted: with no swap
+/// chain, nothing else keeps the frames from running ahead of the device.
+fn wait_for_frame(device: Res<RenderDevice>) {
+    if let Err(e) = device
+        .wgpu_device()
+        .poll(bevy::render::render_resource::PollType::wait_indefinitely())
+    {
+        error!("waiting for the frame: {e}");
+    }
+}
+
 fn finish_capture(
     mut commands: Commands,
     capture: Res<Capture>,
+    offscreen: Option<Res<Offscreen>>,
     mut frames: ResMut<Frames>,
     mut exit: MessageWriter<AppExit>,
 ) {
@@ -131,7 +204,11 @@ fn finish_capture(
     };
     if !frames.asked {
         frames.asked = true;
-        commands.spawn(Screenshot::primary_window()).observe(
+        let screenshot = match &offscreen {
+            Some(image) => Screenshot::image(image.0.clone()),
+            None => Screenshot::primary_window(),
+        };
+        commands.spawn(screenshot).observe(
             move |captured: On<ScreenshotCaptured>, mut frames: ResMut<Frames>| {
                 let written = save(&captured.image, &path);
                 if let Err(e) = &written {

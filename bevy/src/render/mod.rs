@@ -8,7 +8,7 @@
 mod write;
 
 use std::collections::{HashMap, HashSet};
-use std::sync::{Mutex, PoisonError};
+use std::sync::{Arc, Mutex, PoisonError};
 
 use bevy::prelude::*;
 use bevy::render::mesh::allocator::MeshAllocator;
@@ -18,13 +18,14 @@ use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue};
 use bevy::render::Extract;
 use wgcloth::gpu::{ClothId, GpuBatch, GpuKernels};
 use wgcloth::params::{Capsule, Sphere};
+use wgcloth::sdf::{DistanceGrid, MeshCollider, MeshPose};
 use wgcloth::PinTarget;
 
 use crate::components::{
-    CapsuleCollider, Cloth, ClothGravity, ClothReadback, ClothSlot, ClothState, ClothWind,
-    SphereCollider,
+    CapsuleCollider, Cloth, ClothGravity, ClothMeshCollider, ClothReadback, ClothSlot, ClothState,
+    ClothWind, SphereCollider,
 };
-use crate::main_world::{ClothClock, PinTargets, Report, Reports};
+use crate::main_world::{BakedMesh, ClothClock, PinTargets, Report, Reports};
 pub(crate) use write::SOURCE as WRITE_VERTICES_WGSL;
 use write::{vertex_words, WriteBinding, WritePipeline};
 
@@ -47,19 +48,43 @@ struct ColliderPose {
     friction: f32,
 }
 
+/// A mesh collider's grid and pose this frame.
+#[derive(Clone, Debug)]
+struct MeshBody {
+    grid: Arc<DistanceGrid>,
+    /// Its frame's origin \[m\] and orientation.
+    at: Place,
+    friction: f32,
+    thickness: f32,
+}
+
+/// A mesh collider's position \[m\] and orientation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Place {
+    position: Vec3,
+    rotation: Quat,
+}
+
+/// Where a mesh collider no longer there is parked \[m\]: far from any
+/// cloth (a cloth keeps the grids it was built with).
+const PARKED: wgcloth::glam::DVec3 = wgcloth::glam::DVec3::new(0.0, -1.0e5, 0.0);
+
 /// What the render world takes from the main world each frame.
 #[derive(Resource, Default, Debug)]
 pub(crate) struct Extracted {
     cloths: Vec<ExtractedCloth>,
     spheres: Vec<(Entity, ColliderPose)>,
     capsules: Vec<(Entity, ColliderPose)>,
+    meshes: Vec<(Entity, MeshBody)>,
+    /// A mesh collider waits for its grid (new cloths wait for it).
+    meshes_pending: bool,
     steps: HashMap<u64, u32>,
     gravity: Option<Vec3>,
     wind: Option<ClothWind>,
 }
 
-/// Copies this frame's cloths, colliders, clocks, gravity and wind.
-#[expect(clippy::type_complexity, reason = "one query per kind of entity")]
+/// Copies this frame's cloths, clocks, gravity and wind.
+#[expect(clippy::type_complexity, reason = "a cloth's components")]
 pub(crate) fn extract(
     mut extracted: ResMut<Extracted>,
     cloths: Extract<
@@ -71,8 +96,6 @@ pub(crate) fn extract(
             Has<ClothReadback>,
         )>,
     >,
-    spheres: Extract<Query<(Entity, &SphereCollider, &GlobalTransform)>>,
-    capsules: Extract<Query<(Entity, &CapsuleCollider, &GlobalTransform)>>,
     clock: Extract<Res<ClothClock>>,
     gravity: Extract<Option<Res<ClothGravity>>>,
     wind: Extract<Option<Res<ClothWind>>>,
@@ -92,6 +115,27 @@ pub(crate) fn extract(
                     readback,
                 }),
         );
+    extracted.steps.clone_from(&clock.steps);
+    extracted.gravity = gravity.as_ref().map(|g| g.0);
+    extracted.wind = wind.as_deref().copied();
+}
+
+/// Copies this frame's collider poses (and mesh colliders' grids).
+#[expect(clippy::type_complexity, reason = "one query per kind of collider")]
+pub(crate) fn extract_colliders(
+    mut extracted: ResMut<Extracted>,
+    spheres: Extract<Query<(Entity, &SphereCollider, &GlobalTransform)>>,
+    capsules: Extract<Query<(Entity, &CapsuleCollider, &GlobalTransform)>>,
+    meshes: Extract<
+        Query<(
+            Entity,
+            &ClothMeshCollider,
+            Option<&BakedMesh>,
+            &GlobalTransform,
+        )>,
+    >,
+) {
+    let extracted = &mut *extracted;
     extracted.spheres.clear();
     extracted
         .spheres
@@ -116,9 +160,28 @@ pub(crate) fn extract(
             };
             (entity, pose)
         }));
-    extracted.steps.clone_from(&clock.steps);
-    extracted.gravity = gravity.as_ref().map(|g| g.0);
-    extracted.wind = wind.as_deref().copied();
+    extracted.meshes.clear();
+    extracted.meshes_pending = false;
+    for (entity, c, baked, at) in &meshes {
+        match baked.filter(|b| b.is_of(c)) {
+            None => extracted.meshes_pending = true,
+            Some(BakedMesh { grid: None, .. }) => {} // failed, reported
+            Some(BakedMesh {
+                grid: Some(grid), ..
+            }) => {
+                let (_, rotation, position) = at.to_scale_rotation_translation();
+                extracted.meshes.push((
+                    entity,
+                    MeshBody {
+                        grid: grid.clone(),
+                        at: Place { position, rotation },
+                        friction: c.friction,
+                        thickness: c.thickness,
+                    },
+                ));
+            }
+        }
+    }
 }
 
 /// The cloths of one time step: their batch and fixed-step clock.
@@ -131,6 +194,8 @@ struct Group {
     steps: u32,
     /// Where each collider entity was when this group last stepped.
     last_poses: HashMap<Entity, ColliderPose>,
+    /// Where each mesh collider entity was when this group last stepped.
+    last_places: HashMap<Entity, Place>,
     /// Collider entities were set on the cloths (so their absence must be
     /// set too).
     had_colliders: bool,
@@ -145,6 +210,9 @@ struct RenderCloth {
     particles: u32,
     /// Particles the plugin pinned (the model left them free).
     pinned: HashSet<usize>,
+    /// The mesh collider entities the cloth was built with, in order after
+    /// its scene's own.
+    mesh_entities: Vec<Entity>,
     /// Gravity and wind as last set (`None`: the cloth's own).
     gravity: Option<Vec3>,
     wind: Option<ClothWind>,
@@ -227,7 +295,10 @@ pub(crate) fn prepare(
     inner.groups.retain(|k, _| used.contains(k));
 
     for c in &extracted.cloths {
-        if inner.cloths.contains_key(&c.entity) || inner.failed.contains(&c.entity) {
+        if inner.cloths.contains_key(&c.entity)
+            || inner.failed.contains(&c.entity)
+            || extracted.meshes_pending
+        {
             continue;
         }
         let params = c.cloth.params();
@@ -237,9 +308,24 @@ pub(crate) fn prepare(
             dt: params.dt,
             steps: 0,
             last_poses: HashMap::new(),
+            last_places: HashMap::new(),
             had_colliders: false,
         });
-        match group.batch.add(c.cloth.model(), params) {
+        // The mesh collider entities join the scene's own.
+        let mut params = params.clone();
+        params
+            .mesh_colliders
+            .extend(extracted.meshes.iter().map(|(entity, body)| MeshCollider {
+                path: format!("ClothMeshCollider {entity}").into(),
+                grid: body.grid.clone(),
+                position: body.at.position.as_dvec3(),
+                rotation: unit(body.at.rotation),
+                velocity: wgcloth::glam::DVec3::ZERO,
+                angular_velocity: wgcloth::glam::DVec3::ZERO,
+                friction: f64::from(body.friction),
+                thickness: f64::from(body.thickness),
+            }));
+        match group.batch.add(c.cloth.model(), &params) {
             Ok(id) => {
                 reports.post(Report::Slot(c.entity, ClothSlot { index: id.index() }));
                 inner.cloths.insert(
@@ -250,6 +336,7 @@ pub(crate) fn prepare(
                         mesh: c.mesh,
                         particles: c.cloth.model().particle_count() as u32,
                         pinned: HashSet::new(),
+                        mesh_entities: extracted.meshes.iter().map(|(e, _)| *e).collect(),
                         gravity: None,
                         wind: None,
                         readback: false,
@@ -292,6 +379,11 @@ pub(crate) fn prepare(
                 .copied()
                 .collect();
             group.had_colliders = !group.last_poses.is_empty();
+            group.last_places = extracted
+                .meshes
+                .iter()
+                .map(|(entity, body)| (*entity, body.at))
+                .collect();
         }
     }
 
@@ -423,12 +515,58 @@ fn set_scene(
         batch.set_spheres(id, &spheres).map_err(error)?;
         batch.set_capsules(id, &capsules).map_err(error)?;
     }
+    if !cloth.mesh_entities.is_empty() {
+        // The scene's own mesh colliders where they are now, then the
+        // entities' from where they were when the group last stepped,
+        // moving and turning to where they are now by the frame's end.
+        let now = batch.time(id).map_err(error)?;
+        let bodies: HashMap<Entity, Place> = extracted
+            .meshes
+            .iter()
+            .map(|(entity, body)| (*entity, body.at))
+            .collect();
+        let poses: Vec<MeshPose> = params
+            .mesh_colliders
+            .iter()
+            .map(|m| MeshPose {
+                position: m.position + m.velocity * now,
+                ..m.pose()
+            })
+            .chain(cloth.mesh_entities.iter().map(|entity| {
+                let Some(to) = bodies.get(entity) else {
+                    return MeshPose {
+                        position: PARKED,
+                        rotation: wgcloth::glam::DQuat::IDENTITY,
+                        velocity: wgcloth::glam::DVec3::ZERO,
+                        angular_velocity: wgcloth::glam::DVec3::ZERO,
+                    };
+                };
+                let from = group.last_places.get(entity).unwrap_or(to);
+                let turn = unit(to.rotation) * unit(from.rotation).inverse();
+                // The shorter way round.
+                let turn = if turn.w < 0.0 { -turn } else { turn };
+                MeshPose {
+                    position: from.position.as_dvec3(),
+                    rotation: unit(from.rotation),
+                    velocity: (to.position - from.position).as_dvec3() / frame_seconds,
+                    angular_velocity: turn.to_scaled_axis() / frame_seconds,
+                }
+            }))
+            .collect();
+        batch.set_mesh_colliders(id, &poses).map_err(error)?;
+    }
     if !c.pins.is_empty() {
         batch
             .set_pin_targets(id, &c.pins, frame_seconds)
             .map_err(error)?;
     }
     Ok(())
+}
+
+/// `rotation` in `f64`, normalised (an `f32` rotation's length is 1 only
+/// to `f32` precision; wgcloth wants 1 to 1e-6).
+fn unit(rotation: Quat) -> wgcloth::glam::DQuat {
+    rotation.as_dquat().normalize()
 }
 
 /// Records every group's steps and normals and the vertex-writing pass

@@ -145,12 +145,25 @@ fn whole(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     }
 }
 
+/// What a bind group binds: the solver's positions and normals, the slab
+/// and its bound range \[bytes\], and the uniform block's contents.
+type Bound = (
+    wgpu::Buffer,
+    wgpu::Buffer,
+    wgpu::Buffer,
+    u64,
+    u64,
+    WriteLayout,
+);
+
 /// One cloth's binding for the pass: its uniform block and bind group.
 #[derive(Debug)]
 pub(crate) struct WriteBinding {
     uniform: wgpu::Buffer,
     bind_group: Option<wgpu::BindGroup>,
     workgroups: u32,
+    /// What `bind_group` binds (rebuilt only when it changes).
+    bound: Option<Bound>,
 }
 
 impl WriteBinding {
@@ -165,14 +178,16 @@ impl WriteBinding {
             }),
             bind_group: None,
             workgroups: 0,
+            bound: None,
         }
     }
 
     /// Binds this frame's buffers: the cloth's `range` in the solver's
     /// buffers and its mesh's `slice` of the vertex slab (a slab can move
-    /// when meshes are added, a batch's buffers when cloths are). `words`
-    /// is [`vertex_words`]'s answer for the mesh. A mesh whose vertex count
-    /// is not the cloth's particle count is refused.
+    /// when meshes are added, a batch's buffers when cloths are); the bind
+    /// group and uniform block are remade only when one of them moved.
+    /// `words` is [`vertex_words`]'s answer for the mesh. A mesh whose
+    /// vertex count is not the cloth's particle count is refused.
     #[expect(
         clippy::too_many_arguments,
         reason = "each is one piece of the binding"
@@ -210,6 +225,18 @@ impl WriteBinding {
             count: particles,
             pad: [0; 2],
         };
+        let bound = (
+            range.positions.clone(),
+            range.normals.clone(),
+            wgpu::Buffer::clone(slice.buffer),
+            offset,
+            size,
+            layout,
+        );
+        if self.bind_group.is_some() && self.bound.as_ref() == Some(&bound) {
+            return Ok(());
+        }
+        self.bound = None;
         queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&layout));
         let entries = [
             whole(0, range.positions),
@@ -233,12 +260,14 @@ impl WriteBinding {
         let most = device.limits().max_compute_workgroups_per_dimension;
         if self.workgroups > most {
             self.bind_group = None;
+            self.bound = None;
             return Err(format!(
                 "the cloth's {particles} particles need {} workgroups to write its mesh; \
                  the device allows {most}",
                 self.workgroups
             ));
         }
+        self.bound = Some(bound);
         Ok(())
     }
 
