@@ -278,13 +278,13 @@ fn damped_step(
     let mut a = crate::budget::try_vec(stiffness.len(), 0.0f64, "the equilibrium's factor")?;
     a.copy_from_slice(stiffness);
     let mut rhs = vec![0.0f64; 3 * n];
-    for p in 0..n {
+    for (p, force) in f.iter().enumerate() {
         for d in 0..3 {
             let i = 3 * p + d;
             let diagonal = &mut a[i * (bw + 1) + bw];
             if sys.inv_mass[p] > 0.0 {
                 *diagonal += mu * sys.mass[p];
-                rhs[i] = f[p].get(d);
+                rhs[i] = force.get(d);
             } else {
                 *diagonal = 1.0;
             }
