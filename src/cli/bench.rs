@@ -59,11 +59,24 @@ fn check_out_dir(dir: &Path) -> Result<(), UsageError> {
 fn write_files(dir: &Path, files: &[(&str, String)]) -> anyhow::Result<()> {
     check_out_dir(dir)?;
     fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let mut written = Vec::new();
+    let mut outputs = Vec::new();
     for (name, text) in files {
-        let mut file = AtomicFile::create(&dir.join(name))?;
-        file.write_with(|out| out.write_all(text.as_bytes()))?;
-        written.push(file);
+        outputs.push((Some(AtomicFile::create(&dir.join(name))?), text.as_str()));
+    }
+    write_outputs(outputs)
+}
+
+/// Writes each text into its file, where one was asked for, all or none
+/// ([`commit_all`]), then says which files were written.
+fn write_outputs<'a>(
+    outputs: impl IntoIterator<Item = (Option<AtomicFile>, &'a str)>,
+) -> anyhow::Result<()> {
+    let mut written = Vec::new();
+    for (file, text) in outputs {
+        if let Some(mut f) = file {
+            f.write_with(|out| out.write_all(text.as_bytes()))?;
+            written.push(f);
+        }
     }
     let paths: Vec<String> = written
         .iter()
@@ -324,22 +337,10 @@ pub fn cantilever(args: &BenchCantileverArgs) -> anyhow::Result<()> {
     let csv = args.csv.as_deref().map(AtomicFile::create).transpose()?;
     let svg = args.chart.as_deref().map(AtomicFile::create).transpose()?;
     let report = evidence::cantilever(&options)?;
-    let mut files = Vec::new();
-    for (file, text) in [
-        (csv, cantilever_csv(&report)),
-        (svg, chart::cantilever_svg(&report)),
-    ] {
-        if let Some(mut f) = file {
-            f.write_with(|out| out.write_all(text.as_bytes()))?;
-            files.push(f);
-        }
-    }
-    let paths: Vec<String> = files
-        .iter()
-        .map(|f| f.path().display().to_string())
-        .collect();
-    commit_all(files)?;
-    say_written(&paths)?;
+    write_outputs([
+        (csv, cantilever_csv(&report).as_str()),
+        (svg, chart::cantilever_svg(&report).as_str()),
+    ])?;
     out!("{}", cantilever_table(&report))
 }
 
@@ -349,19 +350,10 @@ pub fn drape(args: &BenchDrapeArgs) -> anyhow::Result<()> {
     let csv = args.csv.as_deref().map(AtomicFile::create).transpose()?;
     let svg = args.chart.as_deref().map(AtomicFile::create).transpose()?;
     let rows = evidence::cantilever::drape(&args.sizes)?;
-    let mut files = Vec::new();
-    for (file, text) in [(csv, drape_csv(&rows)), (svg, chart::drape_svg(&rows))] {
-        if let Some(mut f) = file {
-            f.write_with(|out| out.write_all(text.as_bytes()))?;
-            files.push(f);
-        }
-    }
-    let paths: Vec<String> = files
-        .iter()
-        .map(|f| f.path().display().to_string())
-        .collect();
-    commit_all(files)?;
-    say_written(&paths)?;
+    write_outputs([
+        (csv, drape_csv(&rows).as_str()),
+        (svg, chart::drape_svg(&rows).as_str()),
+    ])?;
     out!("{}", drape_table(&rows))
 }
 
