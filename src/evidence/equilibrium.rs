@@ -26,7 +26,7 @@
 
 use super::Points;
 use crate::band::{cholesky_in_place, solve_in_place};
-use crate::cpu::forces::{spring_forces, spring_frame, total_force, wind_forces};
+use crate::cpu::forces::{spring_forces, spring_frame, total_force};
 use crate::cpu::System;
 use crate::error::{Error, Result};
 use crate::model::Model;
@@ -143,28 +143,22 @@ pub fn equilibrium(model: &Model, params: &Params) -> Result<Equilibrium> {
 }
 
 /// The largest index distance between two particles that act on each
-/// other (a spring, a bending entry or a shared triangle).
+/// other: a spring or a bending entry (wind, which couples a triangle's
+/// corners, is refused).
 fn particle_bandwidth(sys: &System<f64>) -> usize {
     let gap = |a: u32, b: u32| a.abs_diff(b) as usize;
     let springs = sys.springs.iter().map(|s| gap(s.i, s.j));
-    let triangles = sys
-        .triangles
-        .iter()
-        .map(|t| gap(t[0], t[1]).max(gap(t[1], t[2])).max(gap(t[0], t[2])));
     let bending = sys.bending.iter().flat_map(|b| {
-        (0..b.offsets.len().saturating_sub(1)).flat_map(move |p| {
-            let row = b.offsets[p] as usize..b.offsets[p + 1] as usize;
-            b.columns[row].iter().map(move |&c| gap(p as u32, c))
-        })
+        (0..sys.mass.len()).flat_map(move |p| b.row(p).0.iter().map(move |&c| gap(p as u32, c)))
     });
-    springs.chain(triangles).chain(bending).max().unwrap_or(0)
+    springs.chain(bending).max().unwrap_or(0)
 }
 
-/// The force on each particle at rest (`v = 0`) and the scratch it needs.
+/// The force on each particle at rest (`v = 0`) and the scratch it needs
+/// (no wind: no per-triangle shares).
 struct Forces {
     still: Points,
     per_spring: Points,
-    per_triangle: Points,
     out: Points,
 }
 
@@ -174,7 +168,6 @@ impl Forces {
         Forces {
             still: vec![Vec3::ZERO; n],
             per_spring: vec![Vec3::ZERO; sys.springs.len()],
-            per_triangle: vec![Vec3::ZERO; sys.triangles.len()],
             out: vec![Vec3::ZERO; n],
         }
     }
@@ -182,9 +175,8 @@ impl Forces {
     /// Every particle's total force \[N\] at positions `x`, at rest.
     fn of(&mut self, sys: &System<f64>, x: &[Vec3<f64>]) -> &[Vec3<f64>] {
         spring_forces(sys, x, &self.still, &mut self.per_spring);
-        wind_forces(sys, x, &self.still, &mut self.per_triangle);
         for (p, out) in self.out.iter_mut().enumerate() {
-            *out = total_force(sys, &self.per_spring, &self.per_triangle, x, &self.still, p);
+            *out = total_force(sys, &self.per_spring, &[], x, &self.still, p);
         }
         &self.out
     }
