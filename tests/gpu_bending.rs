@@ -9,7 +9,7 @@
 
 mod gpu_common;
 
-use gpu_common::{busy_params, corners, gpu, grid};
+use gpu_common::{busy_params, corners, gpu, grid, without_grid};
 use wgcloth::bending::Bending;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::Vec3;
@@ -41,18 +41,7 @@ const BENDING_DAMPING: f64 = 0.005;
 /// Bergou's on its triangles where `mesh` (the general kernels then run
 /// it: a mesh has no grid layout), else the grid's Hessian operator.
 fn with_bending(model: Model, mesh: bool) -> Model {
-    let mut model = if mesh {
-        Model::from_parts(
-            model.rest_positions.clone(),
-            model.mass.clone(),
-            model.pinned.clone(),
-            model.springs.clone(),
-            model.triangles.clone(),
-        )
-        .expect("parts")
-    } else {
-        model
-    };
+    let mut model = if mesh { without_grid(&model) } else { model };
     model.bending = Some(if mesh {
         Bending::new(
             &model.rest_positions,

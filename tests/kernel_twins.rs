@@ -18,7 +18,7 @@ mod gpu_common;
 #[path = "gpu_common/twins.rs"]
 mod twins;
 
-use gpu_common::{busy_params, corners, folded_model, folded_positions, grid};
+use gpu_common::{busy_params, corners, folded_model, folded_positions, grid, without_grid};
 use twins::{
     assert_same, bits, blocks, filters, kind, pack, pack_sym3s, section, sym3s, vectors, w, xyz,
     Twins,
@@ -29,7 +29,7 @@ use wgcloth::gpu::{DebugBuffer, Dispatch, Kernel, StepPath, Variant};
 use wgcloth::kernel_config::{partials, spring_work, status, work};
 use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
 use wgcloth::real::Vec3;
-use wgcloth::{Model, Params};
+use wgcloth::Params;
 
 /// Columns and rows of the test cloths: 132 particles, three reduction
 /// blocks of 64, so the sums cross block boundaries and end in a partial
@@ -41,19 +41,6 @@ const NY: usize = 11;
 /// busy scene's cloth to sag, swing in the wind and, implicitly, start
 /// reaching the sphere (so CG's filters include planes).
 const WARM_STEPS: u32 = 24;
-
-/// The parts of `model` without its grid: the GPU runs the general
-/// kernels on it, with the springs in the model's order.
-fn without_grid(model: &Model) -> Model {
-    Model::from_parts(
-        model.rest_positions.clone(),
-        model.mass.clone(),
-        model.pinned.clone(),
-        model.springs.clone(),
-        model.triangles.clone(),
-    )
-    .unwrap_or_else(|e| panic!("parts: {e}"))
-}
 
 /// Busy parameters (wind, ground, sphere, Jacobi fix-up) for
 /// `integrator`, stretch springs limited to their rest length so that the

@@ -178,14 +178,7 @@ fn irregular_cloths_match_bit_for_bit() {
     // particles, three reduction blocks, the last one partial.
     let params = busy();
     let g = grid(12, 11, corners(), &params);
-    let parts = Model::from_parts(
-        g.rest_positions.clone(),
-        g.mass.clone(),
-        g.pinned.clone(),
-        g.springs.clone(),
-        g.triangles.clone(),
-    )
-    .expect("parts");
+    let parts = without_grid(&g);
     check_case("from_parts 12 × 11", &parts, &params, LONG_STEPS, |_, _| {});
     // A mesh cloth (the built-in glTF banner).
     let mut scene = Scene::builtin("banner").expect("built in");

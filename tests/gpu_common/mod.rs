@@ -136,6 +136,19 @@ pub fn grid(nx: usize, ny: usize, pins: Vec<Pin>, params: &Params) -> Model {
     Model::new(&spec, &params.springs).expect("valid grid")
 }
 
+/// The parts of `model` without its grid: the GPU runs the general
+/// kernels on it, with the springs in the model's order.
+pub fn without_grid(model: &Model) -> Model {
+    Model::from_parts(
+        model.rest_positions.clone(),
+        model.mass.clone(),
+        model.pinned.clone(),
+        model.springs.clone(),
+        model.triangles.clone(),
+    )
+    .unwrap_or_else(|e| panic!("parts: {e}"))
+}
+
 /// A device on the test adapter whose storage buffer bindings are limited
 /// to 1 MiB, so a 129² cloth is beyond it.
 pub fn small_device() -> (wgpu::Device, wgpu::Queue) {
