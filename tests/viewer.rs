@@ -6,19 +6,19 @@
 //! package, never a skip.
 
 mod gpu_common;
+#[path = "common/xvfb.rs"]
+mod xvfb;
 
-use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::sync::OnceLock;
 
 use wgcloth::render;
+use xvfb::Xvfb;
 
 /// The viewer's window size \[pixels\] (`WINDOW` in `examples/viewer`):
 /// the screenshot is the swap chain, so it has the window's size.
 const WINDOW: (u32, u32) = (800, 600);
-/// The X server's screen: larger than the window, so nothing clips it.
-const SCREEN: &str = "1024x768x24";
 /// A pixel counts as cloth when its red channel exceeds green and blue by
 /// more than this: the cloth is red (front) or orange (back), whose
 /// palest shades lead by about 30 levels; the grey ground and the
@@ -46,61 +46,6 @@ const MIN_CLOTH_AT_CURSOR: usize = 160;
 /// Where the drag ends, from where it starts \[pixels\]: up and to the
 /// right, into the sky above the cloth's swing.
 const DRAG_BY: (f32, f32) = (220.0, -110.0);
-
-/// An X server of the test's own, on a display it chose free; killed when
-/// dropped.
-struct Xvfb {
-    child: Child,
-    display: String,
-}
-
-impl Xvfb {
-    fn start() -> Xvfb {
-        // `-displayfd 1`: the server picks a free display and writes its
-        // number to our pipe once it accepts connections.
-        let mut child = Command::new("Xvfb")
-            .args([
-                "-displayfd",
-                "1",
-                "-screen",
-                "0",
-                SCREEN,
-                "-nolisten",
-                "tcp",
-            ])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .unwrap_or_else(|e| {
-                panic!(
-                    "cannot start Xvfb ({e}): the viewer test needs an X server; \
-                     install the `xvfb` package (apt-get install xvfb)"
-                )
-            });
-        let mut line = String::new();
-        let read = child
-            .stdout
-            .take()
-            .map(|out| BufReader::new(out).read_line(&mut line));
-        let number = line.trim();
-        if !matches!(read, Some(Ok(n)) if n > 0) || number.parse::<u32>().is_err() {
-            let _ = child.kill();
-            let _ = child.wait();
-            panic!("Xvfb started but reported no display number (read {read:?}: `{number}`)");
-        }
-        Xvfb {
-            display: format!(":{number}"),
-            child,
-        }
-    }
-}
-
-impl Drop for Xvfb {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
 
 /// The viewer example, built (once per test run) in this test's profile:
 /// `cargo test` builds examples only when it runs them all.
@@ -149,7 +94,7 @@ fn viewer() -> &'static Path {
 /// and decodes its screenshot (kept in the temp directory until the test
 /// passes).
 fn screenshot(test: &str, frames: u32, args: &[&str]) -> Picture {
-    let x = Xvfb::start();
+    let x = Xvfb::start("viewer").unwrap_or_else(|e| panic!("{e}"));
     let dir = std::env::temp_dir().join(format!("wgcloth-viewer-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("a temporary directory");
     let path = dir.join(format!("{test}.png"));

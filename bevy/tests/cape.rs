@@ -5,16 +5,19 @@
 //! the character's shoulders as it jogs and turns. Xvfb missing is a
 //! failure naming the package, never a skip.
 
-use std::io::{BufRead, BufReader};
+// Shared with the core's viewer test.
+#[path = "../../tests/common/xvfb.rs"]
+mod xvfb;
+
+use std::io::BufReader;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 
 use anyhow::{bail, Context as _};
+use xvfb::Xvfb;
 
 /// The example's window \[pixels\] (`WINDOW` in examples/common).
 const WINDOW: (u32, u32) = (640, 480);
-/// The X server's screen: larger than the window, so nothing clips it.
-const SCREEN: &str = "1024x768x24";
 /// A pixel is the cape's when its red channel exceeds green and blue by
 /// more than this: the cape is deep red (sRGB 0.75, 0.08, 0.06, lit and
 /// shaded it stays far redder than anything else); the ground is grey-green
@@ -46,57 +49,6 @@ const PIN_TOLERANCE: f32 = 0.001;
 /// frame's render, a read-back reaches the main world a frame after its
 /// steps, and the last frames' may come after the exit.
 const READBACK_SLACK: usize = 3;
-
-/// An X server of the test's own, on a display it chose; killed when
-/// dropped.
-struct Xvfb {
-    child: Child,
-    display: String,
-}
-
-impl Xvfb {
-    fn start() -> anyhow::Result<Xvfb> {
-        let mut child = Command::new("Xvfb")
-            .args([
-                "-displayfd",
-                "1",
-                "-screen",
-                "0",
-                SCREEN,
-                "-nolisten",
-                "tcp",
-            ])
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .context(
-                "cannot start Xvfb: the cape test needs an X server; \
-                 install the `xvfb` package (apt-get install xvfb)",
-            )?;
-        let mut line = String::new();
-        let read = child
-            .stdout
-            .take()
-            .map(|out| BufReader::new(out).read_line(&mut line));
-        let number = line.trim().to_owned();
-        if !matches!(read, Some(Ok(n)) if n > 0) || number.parse::<u32>().is_err() {
-            let _ = child.kill();
-            let _ = child.wait();
-            bail!("Xvfb started but reported no display number (`{number}`)");
-        }
-        Ok(Xvfb {
-            display: format!(":{number}"),
-            child,
-        })
-    }
-}
-
-impl Drop for Xvfb {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
 
 /// The cape example, built in this test's profile (`cargo test` builds
 /// examples only when it runs every target), at the path cargo names for
@@ -218,7 +170,7 @@ fn cape(rgba: &[u8]) -> (usize, [f32; 2]) {
 #[test]
 fn cape_screenshots_show_the_cape_moving() -> anyhow::Result<()> {
     let example = cape_example()?;
-    let x = Xvfb::start()?;
+    let x = Xvfb::start("cape").map_err(anyhow::Error::msg)?;
     let dir = std::env::temp_dir().join(format!("wgcloth-bevy-cape-{}", std::process::id()));
     std::fs::create_dir_all(&dir)?;
     let early = run(&example, &x, EARLY, &dir)?;
