@@ -86,8 +86,8 @@ fn integrate_particle(p: u32, x0: vec4<f32>, v0: vec4<f32>, f: vec3<f32>) {
         // A state that is not finite is not stored: the last finite one
         // is (see store_state).
         let ok = finite_or_reported(p, xn, vn);
-        let x_out = select(x0, vec4<f32>(xn, w), ok);
-        let v_out = select(v0, vec4<f32>(vn, v0.w), ok);
+        let x_out = select(x0, vec4<f32>(unsigned_zero3(xn), w), ok);
+        let v_out = select(v0, vec4<f32>(unsigned_zero3(vn), v0.w), ok);
         if (SNAP_OUT == STATE_BUFFERS) {
             x[p] = x_out;
             v[p] = v_out;

@@ -534,9 +534,20 @@ fn store_state(p: u32, xp: vec3<f32>, vp: vec3<f32>, inv_mass: f32, mass: f32) -
     if (!finite_or_reported(p, xp, vp)) {
         return false;
     }
-    x[p] = vec4<f32>(xp, inv_mass);
-    v[p] = vec4<f32>(vp, mass);
+    x[p] = vec4<f32>(unsigned_zero3(xp), inv_mass);
+    v[p] = vec4<f32>(unsigned_zero3(vp), mass);
     return true;
+}
+
+// `a` with a zero's sign made + (−0 + 0 = +0; every other value as it
+// is), through a zero the compiler cannot see (unseen3), so it cannot
+// drop the addition. A compiler may drop an addition of a zero it can
+// see or fold a product by a constant, which leaves −0 where IEEE
+// arithmetic gives +0 (a particle stopped on the ground by a specialised
+// kernel); the stored state carries no signed zero on any path (twin:
+// cpu::unsigned_zeros).
+fn unsigned_zero3(a: vec3<f32>) -> vec3<f32> {
+    return a + unseen3(vec3<f32>(0.0));
 }
 
 // Whether particle p's new state is finite; if not, records the step (the

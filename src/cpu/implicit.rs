@@ -294,6 +294,7 @@ pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>)
     // Particles that were not touching at the start of the step can still
     // end it inside a collider.
     collide(sys, &mut st.x, &mut st.v, w.clock);
+    super::unsigned_zeros(st);
     w.clock = w.clock.wrapping_add(1);
 }
 

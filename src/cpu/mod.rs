@@ -562,7 +562,20 @@ pub fn finish_step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspac
     }
     motion::move_pins(sys, &mut st.x, &mut st.v, w);
     collide::collide(sys, &mut st.x, &mut st.v, w.clock);
+    unsigned_zeros(st);
     w.clock = w.clock.wrapping_add(1);
+}
+
+/// The state with every zero made +0 (`−0 + 0 = +0`; every other value
+/// unchanged), as the GPU stores it (twin: `unsigned_zero3` in
+/// `store_state`, `shaders/common/physics.wgsl`). A GPU compiler may drop
+/// an addition of a zero it can see, or fold a product by a constant,
+/// which leaves −0 where IEEE arithmetic gives +0; a state stored without
+/// signed zeros is the same bits on every path and on the CPU.
+pub(crate) fn unsigned_zeros<R: Real>(st: &mut State<R>) {
+    for a in st.x.iter_mut().chain(st.v.iter_mut()) {
+        *a += Vec3::ZERO;
+    }
 }
 
 /// The shared tail of the explicit and semi-implicit steps, after their
