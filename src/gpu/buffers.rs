@@ -117,6 +117,13 @@ fn zeroed(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
 }
 
 impl ClothBuffers {
+    /// The buffers a step writes and later steps read: positions,
+    /// velocities, the scratch (warm start, pin goals, snapshots) and the
+    /// status words.
+    pub fn stepped(&self) -> [&wgpu::Buffer; 4] {
+        [&self.x, &self.v, &self.work, &self.status]
+    }
+
     /// The buffers of `up` on `device`, bound for the kernels of `kernels`.
     pub fn new(
         device: &wgpu::Device,

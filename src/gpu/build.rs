@@ -623,6 +623,7 @@ impl GpuSolver {
             specialised: true,
             host_params: params.clone(),
             path,
+            rewind: None,
             motion: Motion::new(model, params),
         })
     }

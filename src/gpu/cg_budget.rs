@@ -42,6 +42,11 @@ impl CgBudget {
         self.current
     }
 
+    /// The configured maximum.
+    pub fn max(&self) -> u32 {
+        self.max
+    }
+
     /// Check windows in which a step used the whole, reduced budget.
     pub fn hits(&self) -> u64 {
         self.hits

@@ -153,6 +153,58 @@ pub struct GpuSolver {
     pub(super) path: PathChoice,
     /// The moving bodies, for [`GpuSolver::check_divergence`].
     pub(super) motion: Motion,
+    /// Copies of the buffers a step changes, made before a
+    /// [`GpuSolver::step`] that the CG budget may cut short (see
+    /// [`Rewind`]); made when first needed.
+    pub(super) rewind: Option<Rewind>,
+}
+
+/// Copies of the buffers a step writes (positions, velocities, the
+/// scratch with its warm start and pin goals, the status words): taken
+/// before the steps of a [`GpuSolver::step`] whose CG budget is below its
+/// maximum, and put back if one of those steps used the whole budget, so
+/// that the steps run again with the maximum. A step the budget cut short
+/// stopped above the CG tolerance; run again, it is the step the `f32`
+/// mirror takes, so `step` never depends on the budget.
+#[derive(Debug)]
+pub(super) struct Rewind {
+    /// `(copy, size in bytes)` of `x`, `v`, `work` and `status`, in order.
+    copies: Vec<(wgpu::Buffer, u64)>,
+}
+
+impl Rewind {
+    /// Copies the size of `buffers`' state buffers.
+    fn new(device: &wgpu::Device, buffers: &ClothBuffers) -> Rewind {
+        let copies = buffers
+            .stepped()
+            .iter()
+            .map(|b| {
+                let size = b.size();
+                let copy = device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("wgcloth.rewind"),
+                    size,
+                    usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                });
+                (copy, size)
+            })
+            .collect();
+        Rewind { copies }
+    }
+
+    /// Records copies of `buffers`' state into the rewind's.
+    fn save(&self, encoder: &mut wgpu::CommandEncoder, buffers: &ClothBuffers) {
+        for (b, (copy, size)) in buffers.stepped().iter().zip(&self.copies) {
+            encoder.copy_buffer_to_buffer(b, 0, copy, 0, *size);
+        }
+    }
+
+    /// Records copies of the rewind's buffers back into `buffers`.
+    fn restore(&self, encoder: &mut wgpu::CommandEncoder, buffers: &ClothBuffers) {
+        for (b, (copy, size)) in buffers.stepped().iter().zip(&self.copies) {
+            encoder.copy_buffer_to_buffer(copy, 0, b, 0, *size);
+        }
+    }
 }
 
 /// What the step plan depends on (`params`: as uploaded).
@@ -687,14 +739,48 @@ impl GpuSolver {
     /// [`GpuSolver::step`] as a future, for a browser's event loop.
     pub async fn step_async(&mut self, n: u32) -> Result<StepStats> {
         let device = self.device.clone();
+        // Below its maximum, the CG budget may cut a step short: keep what
+        // the steps change, to run them again with the maximum if it did.
+        let rewind = self.cg.current() < self.cg.max();
         guarded_async(&device, "stepping", None, || {
             let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("wgcloth.step"),
             });
+            if rewind {
+                let copies = self
+                    .rewind
+                    .get_or_insert_with(|| Rewind::new(&device, &self.buffers));
+                copies.save(&mut encoder, &self.buffers);
+            }
             self.encode_steps(&mut encoder, n);
             self.queue.submit([encoder.finish()]);
             Ok(())
         })
+        .await?;
+        let hits = self.cg.hits();
+        let stats = self.check_async().await?;
+        if !rewind || self.cg.hits() == hits {
+            return Ok(stats);
+        }
+        // A step stopped at the budget: the check has restored the
+        // maximum; run the steps again from where they started.
+        guarded_async(
+            &device,
+            "stepping again with the full CG budget",
+            None,
+            || {
+                let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("wgcloth.step.again"),
+                });
+                if let Some(copies) = &self.rewind {
+                    copies.restore(&mut encoder, &self.buffers);
+                }
+                self.steps_recorded -= u64::from(n);
+                self.encode_steps(&mut encoder, n);
+                self.queue.submit([encoder.finish()]);
+                Ok(())
+            },
+        )
         .await?;
         self.check_async().await
     }

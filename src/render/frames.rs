@@ -306,6 +306,11 @@ pub fn render_scene_on_path(
         Some(path) => GpuSolver::with_step_path(kernels, queue, &model, &scene.params, path)?,
         None => GpuSolver::with_kernels(kernels, queue, &model, &scene.params)?,
     };
+    // Frames are recorded ahead of the checks that would adapt the CG
+    // budget, and a step the budget cut short would differ from the one
+    // the other step path and the CPU take: every step gets the full
+    // budget (past convergence an iteration's dispatches are empty).
+    solver.tuning_mut().set_adaptive_cg_budget(false);
     let aspect = options.width as f32 / options.height as f32;
     let camera = Camera::for_scene(scene, &model, aspect);
     let renderer = guarded(device, "building the renderer", None, || {
