@@ -9,10 +9,11 @@
 
 mod gpu_common;
 
+use gpu_common::agreement;
+
 use gpu_common::{busy_params, corners, gpu, grid, without_grid};
 use wgcloth::bending::Bending;
 use wgcloth::cpu::CpuSolver;
-use wgcloth::glam::Vec3;
 use wgcloth::gpu::{GpuBatch, GpuSolver, StepPath};
 use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
@@ -95,16 +96,6 @@ fn cloths(integrator: Integrator) -> Vec<(&'static str, Model, Params)> {
     out
 }
 
-/// The GPU's and the `f32` mirror's vectors are the same bits.
-fn assert_bits(what: &str, gpu: &[Vec3], cpu: &[Vec3]) {
-    for (p, (g, c)) in gpu.iter().zip(cpu).enumerate() {
-        assert!(
-            g.to_array().map(f32::to_bits) == c.to_array().map(f32::to_bits),
-            "{what}: particle {p}: GPU {g} vs CPU {c}"
-        );
-    }
-}
-
 /// The mirror after [`STEPS`].
 fn mirror(model: &Model, params: &Params) -> CpuSolver<f32> {
     let mut c = CpuSolver::<f32>::new(model, params).expect("CPU solver");
@@ -133,7 +124,7 @@ fn every_gpu_path_steps_the_linear_bending_model_as_the_f32_mirror_bit_for_bit()
     for integrator in Integrator::ALL {
         for (cloth, model, params) in cloths(integrator) {
             let want = mirror(&model, &params);
-            let (x, v) = (want.positions(), want.velocities());
+            let x = want.positions();
             // The bending model shapes the result: without it the same
             // cloth ends elsewhere (so a GPU that left it out would fail).
             let mut plain = model.try_clone().expect("clone");
@@ -158,24 +149,21 @@ fn every_gpu_path_steps_the_linear_bending_model_as_the_f32_mirror_bit_for_bit()
                     solver(&model, &params, StepPath::MultiDispatch, false),
                 ),
             ];
+            let bound = agreement::step_bound(&params);
+            let fresh = |m: &Model| CpuSolver::<f32>::new(m, &params).expect("CPU solver");
             for (path, g) in &mut solvers {
-                g.step(STEPS)
-                    .unwrap_or_else(|e| panic!("{integrator} {cloth} {path}: {e}"));
-                let gs = g.read_state().expect("read-back");
                 let what = format!("{integrator} {cloth} {path}");
-                assert_bits(&what, &gs.x, &x);
-                assert_bits(&format!("{what} (v)"), &gs.v, &v);
+                agreement::assert_steps(&what, g, &mut fresh(&model), STEPS, &bound);
             }
             // A batch steps a cloth with the model beside one without.
-            let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
-            let bent = batch.add(&model, &params).expect("add the bending cloth");
-            let limp = batch.add(&plain, &params).expect("add the plain cloth");
-            batch.step(STEPS).expect("batch steps");
-            for (id, want, which) in [(bent, &want, "with"), (limp, &without, "without")] {
-                let gs = batch.read_state(id).expect("batch read-back");
+            for (which, m) in [("with", &model), ("without", &plain)] {
+                let mut batch = GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+                let bent = batch.add(&model, &params).expect("add the bending cloth");
+                let limp = batch.add(&plain, &params).expect("add the plain cloth");
+                let id = if which == "with" { bent } else { limp };
                 let what = format!("{integrator} {cloth} batch, {which} bending");
-                assert_bits(&what, &gs.x, &want.positions());
-                assert_bits(&format!("{what} (v)"), &gs.v, &want.velocities());
+                let mut copy = agreement::BatchCloth { batch, id };
+                agreement::assert_steps(&what, &mut copy, &mut fresh(m), STEPS, &bound);
             }
         }
     }

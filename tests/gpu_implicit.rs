@@ -3,7 +3,9 @@
 
 mod gpu_common;
 
+use gpu_common::agreement::{self, Policy};
 use gpu_common::*;
+use wgcloth::cpu::CpuSolver;
 use wgcloth::gpu::{GpuSolver, StepPath};
 use wgcloth::params::Integrator;
 use wgcloth::{Model, Params};
@@ -15,46 +17,57 @@ fn scene() -> (Model, Params) {
     (grid(17, 13, corners(), &params), params)
 }
 
-/// The GPU sums every dot product in the CPU's (block) order, so the CG
-/// iterates agree as closely as the explicit step: ulps from fused
-/// multiply-adds or lavapipe's rounding, amplified by CG's sensitivity to
-/// its inputs. One step: 1e-6 m.
-const ONE_STEP_TOL: f64 = 1e-6;
-/// After 100 steps a rounding difference can flip one CG iteration's
-/// convergence test, moving that step's answer by up to the tolerance times
-/// the velocity change (~1e-4 × 1 cm per step); 1e-3 m bounds that.
-const HUNDRED_STEP_TOL: f64 = 1e-3;
+/// Steps of the long comparison: long enough for the busy scene's cloth to
+/// reach its sphere and the ground, where contacts switch on and off.
+const LONG: u32 = 100;
 
+/// The GPU sums every dot product in the CPU's (block) order, so under
+/// the bits policy its CG iterates are the mirror's, iteration counts
+/// included, after 1 and after [`LONG`] steps; under the bounded policy
+/// each step, from the mirror re-seeded with the device's state, lies
+/// within what CG's tolerance allows (`agreement::implicit_step`).
 #[test]
 fn implicit_matches_the_cpu_mirror() {
     let (model, params) = scene();
-    for (steps, tol) in [(1, ONE_STEP_TOL), (100, HUNDRED_STEP_TOL)] {
-        let (d, p, g, c) = compare(&model, &params, steps);
-        eprintln!("{steps} steps: worst {d:e} m at particle {p}");
-        assert!(
-            d < tol,
-            "{steps} steps: particle {p} GPU {g:?} CPU {c:?} differ by {d:e} m"
-        );
+    let bound = agreement::implicit_step(params.implicit.tolerance);
+    for steps in [1, LONG] {
+        let mut g = exact_gpu(&model, &params);
+        let mut c = CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
+        agreement::assert_steps("implicit", &mut g, &mut c, steps, &bound);
     }
 }
+
+/// CG iterations a step of the device may take more or fewer than the
+/// mirror's from the same state, under the bounded policy: CG's residual
+/// falls by a roughly constant factor per iteration, so rounding that
+/// moves it by a few ulps moves the crossing of the tolerance by at most
+/// one iteration, unless two crossings are that close, which a second
+/// allows.
+const CG_ITERATION_MARGIN: u32 = 2;
 
 #[test]
 fn gpu_cg_iterations_match_the_cpu() {
     let (model, params) = scene();
-    let ctx = gpu();
-    let mut g = GpuSolver::new(&ctx.device, &ctx.queue, &model, &params).expect("GPU solver");
-    g.tuning_mut().set_adaptive_cg_budget(false);
-    let mut c = wgcloth::cpu::CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
+    let mut g = exact_gpu(&model, &params);
+    let mut c = CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
+    let bounded = agreement::policy() == Policy::Bounded;
     for step in 1..=20 {
+        if bounded {
+            let s = g.read_state().expect("GPU read-back");
+            agreement::reseed(&mut c, &(s.x, s.v));
+        }
         let status = g.step(1).expect("GPU step");
         let stats = c.step().expect("CPU step");
         assert!(
             status.cg_iterations > 0,
             "step {step}: the GPU did no CG iteration"
         );
-        assert_eq!(
-            status.cg_iterations, stats.cg_iterations,
-            "step {step}: CG iterations"
+        let margin = if bounded { CG_ITERATION_MARGIN } else { 0 };
+        assert!(
+            status.cg_iterations.abs_diff(stats.cg_iterations) <= margin,
+            "step {step}: CG iterations {} on the GPU, {} on the mirror (margin {margin})",
+            status.cg_iterations,
+            stats.cg_iterations
         );
     }
 }
@@ -74,10 +87,19 @@ fn both_backends_report_the_same_step_stats() {
         let cpu = c.step_n(u64::from(batch)).expect("CPU steps");
         let what = format!("after {} steps", cpu.steps);
         assert_eq!(gpu.steps, cpu.steps, "{what}: steps");
-        assert_eq!(gpu.cg_iterations, cpu.cg_iterations, "{what}: last CG");
-        assert_eq!(
-            gpu.cg_max_iterations, cpu.cg_max_iterations,
-            "{what}: most CG iterations of the batch"
+        // Under the bounded policy the runs part within rounding, and
+        // their CG counts within the margin of one step's.
+        let margin = match agreement::policy() {
+            Policy::Bits => 0,
+            Policy::Bounded => CG_ITERATION_MARGIN,
+        };
+        assert!(
+            gpu.cg_iterations.abs_diff(cpu.cg_iterations) <= margin,
+            "{what}: last CG {gpu:?} {cpu:?}"
+        );
+        assert!(
+            gpu.cg_max_iterations.abs_diff(cpu.cg_max_iterations) <= margin,
+            "{what}: most CG iterations of the batch {gpu:?} {cpu:?}"
         );
         assert!(
             cpu.cg_max_iterations >= cpu.cg_iterations,

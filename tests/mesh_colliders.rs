@@ -9,13 +9,15 @@
 mod closed_meshes;
 mod gpu_common;
 
+use gpu_common::agreement::{self, Stepper};
+
 use std::path::Path;
 use std::sync::Arc;
 
 use closed_meshes::{uv_sphere, voxels};
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
-use wgcloth::glam::{DQuat, DVec3, Vec3};
+use wgcloth::glam::{DQuat, DVec3};
 use wgcloth::gpu::{GpuBatch, GpuSolver, StepPath};
 use wgcloth::mesh::Mesh;
 use wgcloth::model::ClothSpec;
@@ -236,17 +238,16 @@ fn no_particle_sinks_into_a_box_or_a_non_convex_body_on_any_backend() {
             let mut g = exact_gpu(&model, &params);
             let mut worst = (0.0f64, "", 0, 0);
             let mut touched = false;
+            let bound = agreement::step_bound(&params);
             for step in 0..steps {
+                let before = agreement::before_step(&g, &mut f32s);
                 f64s.step().expect("stable");
                 f32s.step().expect("stable");
                 g.step(1).expect("GPU step");
                 let gs = g.read_state().expect("read-back");
-                assert_bits(
-                    &format!("{name} {integrator}"),
-                    step,
-                    &gs.x,
-                    &f32s.positions(),
-                );
+                let what = format!("{name} {integrator}, step {step}");
+                agreement::check_after_step(&what, &before, &(gs.x.clone(), gs.v), &f32s, &bound)
+                    .unwrap_or_else(|e| panic!("{e}"));
                 let f64x: Vec<DVec3> = f64s
                     .positions()
                     .iter()
@@ -280,16 +281,6 @@ fn no_particle_sinks_into_a_box_or_a_non_convex_body_on_any_backend() {
                 worst.0
             );
         }
-    }
-}
-
-/// The GPU's and the `f32` mirror's vectors are the same bits.
-fn assert_bits(what: &str, step: usize, gpu: &[Vec3], cpu: &[Vec3]) {
-    for (p, (g, c)) in gpu.iter().zip(cpu).enumerate() {
-        assert!(
-            g.to_array().map(f32::to_bits) == c.to_array().map(f32::to_bits),
-            "{what}: step {step} particle {p}: GPU {g} vs CPU {c}"
-        );
     }
 }
 
@@ -389,8 +380,8 @@ fn pose(k: u32, position: DVec3) -> MeshPose {
 }
 
 /// A host moving and turning a mesh collider frame by frame drives the GPU
-/// on both step paths, a batch of two cloths and the `f32` mirror
-/// identically, bit for bit.
+/// on both step paths, a batch of two cloths and the `f32` mirror alike:
+/// every step under the agreement policy (bit for bit on lavapipe).
 #[test]
 fn poses_set_every_frame_move_the_gpu_paths_a_batch_and_the_mirror_alike() {
     let ctx = gpu();
@@ -411,42 +402,60 @@ fn poses_set_every_frame_move_the_gpu_paths_a_batch_and_the_mirror_alike() {
             batch.add(&model, &params).expect("a"),
             batch.add(&model, &params).expect("b"),
         ];
+        // A mirror per solver and one for the batch's first cloth, each
+        // compared after every step under the agreement policy.
+        let mut mirrors: Vec<CpuSolver<f32>> = (0..=paths.len()).map(|_| f32s.clone()).collect();
+        let bound = agreement::step_bound(&params);
         let frame = params.dt * f64::from(FRAME_STEPS);
         let mut position = start;
+        let mut batch = agreement::BatchCloth { batch, id: ids[0] };
         for k in 0..FRAMES {
             let p = pose(k, position);
+            for m in &mut mirrors {
+                m.set_mesh_colliders(&[p]).expect("valid pose");
+            }
             f32s.set_mesh_colliders(&[p]).expect("valid pose");
             for (_, g) in &mut paths {
                 g.set_mesh_colliders(&[p]).expect("valid pose");
             }
             for id in ids {
-                batch.set_mesh_colliders(id, &[p]).expect("valid pose");
+                batch
+                    .batch
+                    .set_mesh_colliders(id, &[p])
+                    .expect("valid pose");
             }
             f32s.step_n(u64::from(FRAME_STEPS)).expect("stable");
-            for (_, g) in &mut paths {
-                g.step(FRAME_STEPS).expect("GPU steps");
+            for step in 0..FRAME_STEPS {
+                let at = k * FRAME_STEPS + step;
+                let units = paths
+                    .iter_mut()
+                    .map(|(name, g)| (name.clone(), g as &mut dyn Stepper))
+                    .chain([("batch".to_string(), &mut batch as &mut dyn Stepper)]);
+                for ((name, unit), mirror) in units.zip(&mut mirrors) {
+                    let before = agreement::before_step(unit, mirror);
+                    unit.advance(1).expect("GPU step");
+                    mirror.step().expect("stable");
+                    let what = format!("{integrator} {name}, step {at}");
+                    agreement::check_after_step(&what, &before, &unit.state(), mirror, &bound)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                }
             }
-            batch.step(FRAME_STEPS).expect("batch steps");
             position += p.velocity * frame;
         }
-        let want = f32s.positions();
-        let moved = mean_x(&want) - mean_x(&model.rest_positions);
+        let moved = mean_x(&f32s.positions()) - mean_x(&model.rest_positions);
         assert!(moved.abs() > 1e-3, "{integrator}: the body moved the cloth");
-        let steps = (FRAMES * FRAME_STEPS) as usize;
-        for (path, g) in &paths {
-            let gs = g.read_state().expect("read-back");
-            assert_bits(&format!("{integrator} {path}"), steps, &gs.x, &want);
-            assert_bits(
-                &format!("{integrator} {path} (v)"),
-                steps,
-                &gs.v,
-                &f32s.velocities(),
-            );
-        }
-        for id in ids {
-            let gs = batch.read_state(id).expect("batch read-back");
-            assert_bits(&format!("{integrator} batch"), steps, &gs.x, &want);
-        }
+        // The batch's two copies are the same kernels on the same inputs:
+        // the same bits on every adapter.
+        let (a, b) = (
+            batch.batch.read_state(ids[0]).expect("batch read-back"),
+            batch.batch.read_state(ids[1]).expect("batch read-back"),
+        );
+        assert!(
+            a.x.iter()
+                .zip(&b.x)
+                .all(|(p, q)| p.to_array().map(f32::to_bits) == q.to_array().map(f32::to_bits)),
+            "{integrator}: the batch's two copies differ"
+        );
     }
 }
 

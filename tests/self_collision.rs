@@ -9,6 +9,7 @@ mod common;
 mod gpu_common;
 
 use common::differing;
+use gpu_common::agreement;
 use gpu_common::{folded_model, folded_positions, FOLD_SPACING as SPACING};
 use wgcloth::cpu::self_collision::{self, EXCLUDE_REST, STEP_CAP};
 use wgcloth::cpu::{CpuSolver, State};
@@ -424,8 +425,9 @@ fn gpu_drop_params(integrator: Integrator) -> Params {
 }
 
 /// The folded drop on the GPU, on both step paths and every integrator:
-/// the `f32` mirror's positions bit for bit after every layer has landed,
-/// and a second run's bytes the same (the grid's order does not depend on
+/// the `f32` mirror's state under the agreement policy (bit for bit after
+/// every layer has landed, or each step within its bound), and a second
+/// run's bytes the same (the grid's order does not depend on
 /// scheduling).
 #[test]
 fn the_gpu_drop_is_the_f32_mirrors_bit_for_bit() {
@@ -435,11 +437,8 @@ fn the_gpu_drop_is_the_f32_mirrors_bit_for_bit() {
     let start = folded_positions(0.05);
     for integrator in Integrator::ALL {
         let params = gpu_drop_params(integrator);
-        let mut cpu = folded_solver::<f32>(&model, &params);
-        cpu.step_n(u64::from(GPU_STEPS)).expect("CPU run");
-        let mirror = cpu.positions();
         for path in [StepPath::MultiDispatch, StepPath::Workgroup] {
-            let run = || {
+            let start_on_gpu = || {
                 let mut g =
                     GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, &model, &params, path)
                         .unwrap_or_else(|e| panic!("{integrator} on {path}: {e}"));
@@ -447,18 +446,22 @@ fn the_gpu_drop_is_the_f32_mirrors_bit_for_bit() {
                 for (p, x) in start.iter().enumerate() {
                     g.set_position(p, x.as_vec3()).expect("position");
                 }
-                g.step(GPU_STEPS).expect("GPU run");
-                g.read_state().expect("read-back").x
+                g
             };
-            let first = run();
-            let (n, p) = differing(&first, &mirror);
+            let mut g = start_on_gpu();
+            let mut mirror = folded_solver::<f32>(&model, &params);
+            let bound = agreement::step_bound(&params);
+            let what = format!("{integrator} on {path}");
+            agreement::assert_steps(&what, &mut g, &mut mirror, GPU_STEPS, &bound);
+            // The same device runs the same kernels the same way: bits on
+            // every adapter.
+            let first = g.read_state().expect("read-back").x;
+            let mut again = start_on_gpu();
+            for _ in 0..GPU_STEPS / agreement::SUBMIT_STEPS {
+                again.step(agreement::SUBMIT_STEPS).expect("GPU run");
+            }
             assert_eq!(
-                n, 0,
-                "{integrator} on {path}: {n} positions differ from the f32 mirror's, the first \
-                 particle {p:?}"
-            );
-            assert_eq!(
-                differing(&first, &run()).0,
+                differing(&first, &again.read_state().expect("read-back").x).0,
                 0,
                 "{integrator} on {path}: two runs differ"
             );
@@ -524,7 +527,8 @@ const MESH_STEPS: u32 = 60;
 
 /// The `tablecloth` scene (an irregular triangle mesh falling onto a ball
 /// on the ground) with self-collision, on the GPU on both step paths: the
-/// `f32` mirror's positions bit for bit.
+/// `f32` mirror's state under the agreement policy (bit for bit on
+/// lavapipe).
 #[test]
 fn a_mesh_with_colliders_is_the_f32_mirrors_bit_for_bit() {
     use wgcloth::gpu::{GpuSolver, StepPath};
@@ -533,19 +537,19 @@ fn a_mesh_with_colliders_is_the_f32_mirrors_bit_for_bit() {
     scene.params.self_collision = Some(SelfCollision::default());
     scene.params.implicit.max_iterations = GPU_CG_MAX_ITERATIONS;
     let model = scene.model().expect("mesh model");
-    let mut cpu = CpuSolver::<f32>::new(&model, &scene.params).expect("CPU solver");
-    cpu.step_n(u64::from(MESH_STEPS)).expect("CPU run");
-    let mirror = cpu.positions();
     for path in [StepPath::MultiDispatch, StepPath::Workgroup] {
         let mut g =
             GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, &model, &scene.params, path)
                 .unwrap_or_else(|e| panic!("{path}: {e}"));
         g.tuning_mut().set_adaptive_cg_budget(false);
-        g.step(MESH_STEPS).expect("GPU run");
-        let (n, p) = differing(&g.read_state().expect("read-back").x, &mirror);
-        assert_eq!(
-            n, 0,
-            "tablecloth on {path}: {n} positions differ, the first {p:?}"
+        let mut mirror = CpuSolver::<f32>::new(&model, &scene.params).expect("CPU solver");
+        let bound = agreement::step_bound(&scene.params);
+        agreement::assert_steps(
+            &format!("tablecloth on {path}"),
+            &mut g,
+            &mut mirror,
+            MESH_STEPS,
+            &bound,
         );
     }
 }

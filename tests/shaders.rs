@@ -25,6 +25,20 @@ fn validate(name: &str, source: &str) -> naga::Module {
     module
 }
 
+/// The agreement probe the GPU tests run (`tests/gpu_common/probe.wgsl`)
+/// validates too, so a machine without a GPU checks it.
+#[test]
+fn the_agreement_probe_parses_and_validates() {
+    let module = validate(
+        "tests/gpu_common/probe.wgsl",
+        include_str!("gpu_common/probe.wgsl"),
+    );
+    assert!(
+        module.entry_points.iter().any(|e| e.name == "probe"),
+        "the probe's entry point"
+    );
+}
+
 #[test]
 fn every_kernel_parses_and_validates() {
     for kernel in Kernel::ALL {

@@ -150,7 +150,24 @@ struct Inner {
     args_layouts: [wgpu::PipelineLayout; 3],
     /// wgpu's pipeline cache, on devices with the feature.
     cache: Option<wgpu::PipelineCache>,
+    /// A change to one kernel's source (see [`SourcePatch`]).
+    patch: Option<SourcePatch>,
     built: Mutex<Built>,
+}
+
+/// A change to one kernel's composed source: every `find` replaced by
+/// `replace`. For the tests that prove the agreement bounds can fail
+/// (`tests/agreement.rs`: a spring term dropped, `dt` one ulp off): a
+/// library with a patch compiles that kernel so and every other as it is.
+#[doc(hidden)]
+#[derive(Clone, Debug)]
+pub struct SourcePatch {
+    /// The kernel changed.
+    pub kernel: Kernel,
+    /// The text replaced: it must occur in the kernel's composed source.
+    pub find: String,
+    /// What replaces it.
+    pub replace: String,
 }
 
 #[derive(Debug, Default)]
@@ -192,6 +209,17 @@ impl GpuKernels {
     /// solvers ask for them.
     pub fn new(device: &wgpu::Device) -> GpuKernels {
         GpuKernels::with_cache(device, None)
+    }
+
+    /// A library for `device` whose kernel `patch.kernel` is compiled with
+    /// `patch` applied (see [`SourcePatch`]); for tests only.
+    #[doc(hidden)]
+    pub fn with_patch(device: &wgpu::Device, patch: SourcePatch) -> GpuKernels {
+        let mut kernels = GpuKernels::with_cache(device, None);
+        if let Some(inner) = Arc::get_mut(&mut kernels.inner) {
+            inner.patch = Some(patch);
+        }
+        kernels
     }
 
     /// What the pipeline cache holds, to seed a later run's; `None` on a
@@ -267,6 +295,7 @@ impl GpuKernels {
                 layout,
                 args_layouts,
                 cache: super::pipeline_cache::create(device, cache_data),
+                patch: None,
                 built: Mutex::new(Built::default()),
             }),
         }
@@ -415,7 +444,16 @@ impl GpuKernels {
 
     /// The shader module of `kernel` with its grid gather for `block`.
     fn module(&self, kernel: Kernel, block: GridBlock) -> Result<wgpu::ShaderModule> {
-        let source = shaders::kernel_source(kernel, block).map_err(Error::Gpu)?;
+        let mut source = shaders::kernel_source(kernel, block).map_err(Error::Gpu)?;
+        if let Some(patch) = self.inner.patch.as_ref().filter(|p| p.kernel == kernel) {
+            if !source.contains(&patch.find) {
+                return Err(Error::Gpu(format!(
+                    "the patch of {kernel} finds no {:?} in its source",
+                    patch.find
+                )));
+            }
+            source = source.replace(&patch.find, &patch.replace);
+        }
         let device = &self.inner.device;
         guarded(
             device,

@@ -63,6 +63,8 @@ pub use debug::{DebugBuffer, DebugLayout};
 #[doc(hidden)]
 pub use kernel::{ArgsGroup, Dispatch, FixupPhase, Kernel, Launch, Variant};
 pub use kernels::GpuKernels;
+#[doc(hidden)]
+pub use kernels::SourcePatch;
 // The profiler behind `wgcloth run --profile` and its traffic table.
 #[doc(hidden)]
 pub use kernels::{sum_group, Features};

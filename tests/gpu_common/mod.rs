@@ -2,6 +2,8 @@
 //! decoding the pictures the renderer writes.
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
+pub mod agreement;
+
 use std::sync::OnceLock;
 
 use wgcloth::cpu::CpuSolver;

@@ -1,6 +1,8 @@
 //! Shared by `tests/kernel_twins.rs`: a GPU solver and its `f32` CPU
 //! mirror side by side, the device's buffers as CPU values, and
-//! bit-for-bit comparison of output words.
+//! comparison of output words under the agreement policy
+//! (`gpu_common::agreement`): bit for bit where the adapter rounds like
+//! the mirror, within [`agreement::KERNEL`] elsewhere.
 
 use wgcloth::cpu::twins::{self, CpuSolver, Filter, SpringBlock, State, Sym3, System, Workspace};
 use wgcloth::gpu::{DebugBuffer, Dispatch, GpuSolver, Kernel, StepPath};
@@ -8,6 +10,7 @@ use wgcloth::kernel_config::filter_kind::{FIXED, FREE, PLANE};
 use wgcloth::real::Vec3;
 use wgcloth::{Model, Params};
 
+use crate::gpu_common::agreement::{self, Policy};
 use crate::gpu_common::gpu;
 
 /// A GPU solver and the `f32` CPU mirror of the same cloth, in the same
@@ -28,8 +31,10 @@ pub struct Twins {
 impl Twins {
     /// Both solvers for `model` under `params`, the GPU's with its general
     /// kernels unless `specialised`, stepped `warm` steps; panics unless
-    /// they then agree bit for bit. The GPU records every CG iteration
-    /// (no adaptive budget), as the CPU runs them.
+    /// they then agree bit for bit (under the bounded policy: unless each
+    /// step, the mirror re-seeded before it, lies within its bound). The
+    /// GPU records every CG iteration (no adaptive budget), as the CPU
+    /// runs them.
     pub fn new(model: &Model, params: &Params, specialised: bool, warm: u32) -> Self {
         let t = Self::unchecked(model, params, specialised, warm);
         t.assert_states_agree("after the warm-up");
@@ -38,17 +43,22 @@ impl Twins {
 
     /// Panics unless the device's positions and velocities (with the
     /// masses in w) equal the mirror's bit for bit; `when` names the
-    /// moment in the message.
+    /// moment in the message. Under the bounded policy the steps that
+    /// led here were each compared as they ran (see [`Twins::on_path`]),
+    /// and this checks nothing more.
     pub fn assert_states_agree(&self, when: &str) {
+        if agreement::policy() == Policy::Bounded {
+            return;
+        }
         let x = self.read(DebugBuffer::X);
         let v = self.read(DebugBuffer::V);
         let st = self.cpu.state();
-        assert_same(
+        assert_exact(
             &format!("x {when}"),
             &x,
             &pack(&st.x, |p| inv_mass(&self.cpu, p)),
         );
-        assert_same(
+        assert_exact(
             &format!("v {when}"),
             &v,
             &pack(&st.v, |p| mass(&self.cpu, p)),
@@ -60,7 +70,14 @@ impl Twins {
     /// solved by CG on the device, exactly on the CPU): the tests load
     /// every input from the device anyway.
     pub fn unchecked(model: &Model, params: &Params, specialised: bool, warm: u32) -> Self {
-        Self::on_path(model, params, specialised, warm, StepPath::MultiDispatch)
+        Self::build(
+            model,
+            params,
+            specialised,
+            warm,
+            StepPath::MultiDispatch,
+            false,
+        )
     }
 
     /// As [`Twins::unchecked`], the GPU stepping on `path`.
@@ -71,6 +88,19 @@ impl Twins {
         warm: u32,
         path: StepPath,
     ) -> Self {
+        Self::build(model, params, specialised, warm, path, false)
+    }
+
+    /// The twins after `warm` steps; under the bounded policy the mirror
+    /// is re-seeded before each, and each is compared if `check`.
+    fn build(
+        model: &Model,
+        params: &Params,
+        specialised: bool,
+        warm: u32,
+        path: StepPath,
+        check: bool,
+    ) -> Self {
         let ctx = gpu();
         let mut g = GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, model, params, path)
             .unwrap_or_else(|e| panic!("GPU solver on the {path} path: {e}"));
@@ -80,10 +110,27 @@ impl Twins {
             .unwrap_or_else(|e| panic!("kernels: {e}"));
         tuning.set_adaptive_cg_budget(false);
         let mut c = CpuSolver::<f32>::new(model, params).unwrap_or_else(|e| panic!("CPU: {e}"));
-        if warm > 0 {
-            g.step(warm).unwrap_or_else(|e| panic!("GPU steps: {e}"));
-            c.step_n(u64::from(warm))
-                .unwrap_or_else(|e| panic!("CPU steps: {e}"));
+        match agreement::policy() {
+            Policy::Bits if warm > 0 => {
+                g.step(warm).unwrap_or_else(|e| panic!("GPU steps: {e}"));
+                c.step_n(u64::from(warm))
+                    .unwrap_or_else(|e| panic!("CPU steps: {e}"));
+            }
+            Policy::Bits => {}
+            Policy::Bounded => {
+                let bound = agreement::step_bound(params);
+                for step in 0..warm {
+                    let before = agreement::before_step(&g, &mut c);
+                    g.step(1).unwrap_or_else(|e| panic!("GPU step: {e}"));
+                    c.step().unwrap_or_else(|e| panic!("CPU step: {e}"));
+                    if check {
+                        let after = agreement::Stepper::state(&g);
+                        let what = format!("warm-up step {step} on the {path} path");
+                        agreement::check_after_step(&what, &before, &after, &c, &bound)
+                            .unwrap_or_else(|e| panic!("{e}"));
+                    }
+                }
+            }
         }
         Twins {
             n: model.particle_count(),
@@ -216,22 +263,18 @@ pub fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|f| f.to_bits()).collect()
 }
 
-/// Panics unless the device's words equal the twin's bit for bit, naming
-/// the first that differs (`vec4` entry and component) and both values.
+/// Panics unless the device's `f32` words agree with the twin's under the
+/// policy (bit for bit, or within [`agreement::KERNEL`]), naming the word
+/// (`vec4` entry and component) and both values.
 pub fn assert_same(what: &str, gpu: &[u32], cpu: &[u32]) {
-    assert_eq!(gpu.len(), cpu.len(), "{what}: word counts differ");
-    if let Some(k) = (0..gpu.len()).find(|&k| gpu[k] != cpu[k]) {
-        let differ = (0..gpu.len()).filter(|&k| gpu[k] != cpu[k]).count();
-        panic!(
-            "{what}: {differ} words differ; first: word {k} (entry {}, component {}): GPU {:e} ({:#010x}), twin {:e} ({:#010x})",
-            k / 4,
-            k % 4,
-            f32::from_bits(gpu[k]),
-            gpu[k],
-            f32::from_bits(cpu[k]),
-            cpu[k],
-        );
-    }
+    agreement::check_words(what, gpu, cpu, &agreement::KERNEL).unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// Panics unless the device's words equal the twin's bit for bit on every
+/// adapter: integers (cells, counts, indices) and flags, which no
+/// rounding may change once the inputs are the same words.
+pub fn assert_exact(what: &str, gpu: &[u32], cpu: &[u32]) {
+    agreement::check_bits(what, gpu, cpu).unwrap_or_else(|e| panic!("{e}"));
 }
 
 /// The filter kind the GPU stores for `f`.
