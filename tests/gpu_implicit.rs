@@ -37,14 +37,6 @@ fn implicit_matches_the_cpu_mirror() {
     }
 }
 
-/// CG iterations a step of the device may take more or fewer than the
-/// mirror's from the same state, under the bounded policy: CG's residual
-/// falls by a roughly constant factor per iteration, so rounding that
-/// moves it by a few ulps moves the crossing of the tolerance by at most
-/// one iteration, unless two crossings are that close, which a second
-/// allows.
-const CG_ITERATION_MARGIN: u32 = 2;
-
 #[test]
 fn gpu_cg_iterations_match_the_cpu() {
     let (model, params) = scene();
@@ -62,7 +54,7 @@ fn gpu_cg_iterations_match_the_cpu() {
             status.cg_iterations > 0,
             "step {step}: the GPU did no CG iteration"
         );
-        let margin = if bounded { CG_ITERATION_MARGIN } else { 0 };
+        let margin = agreement::cg_iteration_margin();
         assert!(
             status.cg_iterations.abs_diff(stats.cg_iterations) <= margin,
             "step {step}: CG iterations {} on the GPU, {} on the mirror (margin {margin})",
@@ -89,10 +81,7 @@ fn both_backends_report_the_same_step_stats() {
         assert_eq!(gpu.steps, cpu.steps, "{what}: steps");
         // Under the bounded policy the runs part within rounding, and
         // their CG counts within the margin of one step's.
-        let margin = match agreement::policy() {
-            Policy::Bits => 0,
-            Policy::Bounded => CG_ITERATION_MARGIN,
-        };
+        let margin = agreement::cg_iteration_margin();
         assert!(
             gpu.cg_iterations.abs_diff(cpu.cg_iterations) <= margin,
             "{what}: last CG {gpu:?} {cpu:?}"

@@ -98,6 +98,39 @@ const GROUND: Under = Under {
     height: 0.05,
 };
 
+/// How far below the ground \[m\] a particle may end a step: collisions
+/// put it on the plane (`y = 0`), to the rounding of its position.
+const BELOW_GROUND: f64 = 1e-6;
+
+/// What holds of the device's own run on any adapter (the bounded tier
+/// re-seeds the mirror, never the device): every position and velocity
+/// finite, the pinned particle exactly where it was put, no particle
+/// below the ground.
+fn invariants(what: &str, model: &Model, state: &agreement::States) -> Result<(), String> {
+    let (x, v) = state;
+    if let Some(p) = (0..x.len()).find(|&p| !x[p].is_finite() || !v[p].is_finite()) {
+        return Err(format!("{what}: particle {p} is not finite"));
+    }
+    for (p, _) in model
+        .pinned
+        .iter()
+        .enumerate()
+        .filter(|(_, &pinned)| pinned)
+    {
+        let rest = model.rest_positions[p].as_vec3();
+        if x[p].to_array().map(f32::to_bits) != rest.to_array().map(f32::to_bits) {
+            return Err(format!(
+                "{what}: pinned particle {p} at {}, not {rest}",
+                x[p]
+            ));
+        }
+    }
+    if let Some(p) = (0..x.len()).find(|&p| f64::from(x[p].y) < -BELOW_GROUND) {
+        return Err(format!("{what}: particle {p} below the ground at {}", x[p]));
+    }
+    Ok(())
+}
+
 /// The GPU on each step path, and copy 0 of a batch of two, against the
 /// mirror for every integrator; `what` names the scene.
 fn check_every_path(what: &str, under: &Under, cloth: &str) {
@@ -115,7 +148,9 @@ fn check_every_path(what: &str, under: &Under, cloth: &str) {
             let mut g = GpuSolver::with_step_path(ctx.kernels(), &ctx.queue, &model, &params, path)
                 .unwrap_or_else(|e| panic!("{what}, {integrator}, {path}: {e}"));
             let label = format!("{what}, {integrator}, {path}");
-            if let Err(e) = agreement::check_steps(&label, &mut g, &mut mirror(), STEPS, &bound) {
+            if let Err(e) = agreement::check_steps(&label, &mut g, &mut mirror(), STEPS, &bound)
+                .and_then(|()| invariants(&label, &model, &agreement::Stepper::state(&g)))
+            {
                 failures.push(e);
             }
         }
@@ -124,7 +159,9 @@ fn check_every_path(what: &str, under: &Under, cloth: &str) {
         batch.add(&model, &params).expect("batch copy 1");
         let mut copy = agreement::BatchCloth { batch, id };
         let label = format!("{what}, {integrator}, batch copy 0 of 2");
-        if let Err(e) = agreement::check_steps(&label, &mut copy, &mut mirror(), STEPS, &bound) {
+        if let Err(e) = agreement::check_steps(&label, &mut copy, &mut mirror(), STEPS, &bound)
+            .and_then(|()| invariants(&label, &model, &agreement::Stepper::state(&copy)))
+        {
             failures.push(e);
         }
     }

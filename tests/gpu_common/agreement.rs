@@ -313,6 +313,43 @@ pub fn implicit_step(tolerance: f64) -> Bound {
     }
 }
 
+/// CG iterations a step of the device may take more or fewer than the
+/// mirror's from the same state, under the bounded policy: CG's residual
+/// falls by a roughly constant factor per iteration, so rounding that
+/// moves it by a few ulps moves the crossing of the tolerance by at most
+/// one iteration, unless two crossings are that close, which a second
+/// allows.
+pub const CG_ITERATION_MARGIN: u32 = 2;
+
+/// [`CG_ITERATION_MARGIN`] under the bounded policy, 0 under bits.
+pub fn cg_iteration_margin() -> u32 {
+    match policy() {
+        Policy::Bits => 0,
+        Policy::Bounded => CG_ITERATION_MARGIN,
+    }
+}
+
+/// Steps by which the device's blow-up may come before or after the
+/// mirror's under the bounded policy: a state growing by a factor per
+/// step reaches infinity a step earlier or later only if rounding moved
+/// it across that step's threshold, which a relative change of a few
+/// ulps does for at most one step.
+pub const BLOW_UP_MARGIN: u64 = 1;
+
+/// Panics unless the device's blow-up at `step` is the mirror's at
+/// `mirror_step`: the same step under bits, within [`BLOW_UP_MARGIN`]
+/// under bounds.
+pub fn assert_blow_up_step(what: &str, step: u64, mirror_step: u64) {
+    let margin = match policy() {
+        Policy::Bits => 0,
+        Policy::Bounded => BLOW_UP_MARGIN,
+    };
+    assert!(
+        step.abs_diff(mirror_step) <= margin,
+        "{what}: the GPU blew up at step {step}, the mirror at {mirror_step} (margin {margin})"
+    );
+}
+
 /// The bound of one step under `params`' integrator: [`implicit_step`] at
 /// its CG tolerance, else [`STEP`].
 pub fn step_bound(params: &wgcloth::Params) -> Bound {
