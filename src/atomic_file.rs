@@ -315,7 +315,7 @@ fn create_temporary(path: &Path, permissions: Option<&Permissions>) -> Result<(P
         file = Some(options.open(candidate)?);
         Ok(())
     })
-    .map_err(|source| io_error(path, source))?;
+    .map_err(|source| io_error(path, unwritable_folder(path, source)))?;
     match file {
         Some(file) => Ok((tmp, file)),
         None => Err(io_error(path, io::Error::other("no temporary was created"))),
@@ -355,6 +355,29 @@ fn temporary_name(path: &Path) -> io::Result<PathBuf> {
     Ok(path.with_file_name(format!(".{shown}.{}.{random:016x}.tmp", std::process::id())))
 }
 
+/// `source`, a failure to create the temporary beside `path`, in the
+/// user's words where the folder refused it: an output that exists and is
+/// writable itself is still refused in a folder that lets no file be
+/// created, and "Permission denied" alone points at the file.
+fn unwritable_folder(path: &Path, source: io::Error) -> io::Error {
+    if source.kind() != io::ErrorKind::PermissionDenied {
+        return source;
+    }
+    let folder = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.display().to_string(),
+        _ => ".".to_string(),
+    };
+    io::Error::new(
+        io::ErrorKind::PermissionDenied,
+        format!(
+            "its folder {folder} does not let this user create a file ({source}): an output \
+             is written whole to a temporary beside it and renamed into place, so its folder \
+             must be writable, even where the file itself exists and is; choose a writable \
+             folder"
+        ),
+    )
+}
+
 fn io_error(path: &Path, source: io::Error) -> Error {
     Error::Io {
         path: path.to_path_buf(),
@@ -365,6 +388,20 @@ fn io_error(path: &Path, source: io::Error) -> Error {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_folder_that_refuses_the_temporary_is_named_as_the_cause() {
+        let denied = io::Error::from(io::ErrorKind::PermissionDenied);
+        let e = unwritable_folder(Path::new("ro/p.txt"), denied).to_string();
+        assert!(
+            e.contains("its folder ro does not let this user create a file")
+                && e.contains("must be writable, even where the file itself exists"),
+            "{e}"
+        );
+        let other = io::Error::from(io::ErrorKind::NotFound);
+        let e = unwritable_folder(Path::new("p.txt"), other).to_string();
+        assert!(!e.contains("folder"), "{e}");
+    }
 
     /// A fresh directory for one test, removed afterwards.
     struct Dir(PathBuf);

@@ -233,18 +233,23 @@ impl Bending {
             .sum::<f64>()
     }
 
+    /// Gershgorin's bound on row `p` of `Q`, `|Q_pp| + Σ_j |Q_pj|`
+    /// \[N/m\]: over the particle's mass, an upper bound on the `ω²` of
+    /// the bending vibrations it takes part in (tight for the grid's
+    /// checkerboard mode), which the explicit integrator's limit adds to
+    /// the springs' (`material::explicit_headroom`).
+    pub fn row_bound(&self, p: usize) -> f64 {
+        let off: f64 = self.row(p).1.iter().map(|q| q.abs()).sum();
+        self.diagonal(p).abs() + off
+    }
+
     /// An upper bound on the largest `ω²` \[1/s²\] of the undamped bending
-    /// vibrations, `max_p (Q_pp + Σ_j |Q_pj|) / m_p` over the free
-    /// particles (Gershgorin's bound on `M⁻¹ Q`; tight for the grid's
-    /// checkerboard mode): symplectic Euler is stable for bending alone
-    /// while `dt < 2/ω`.
+    /// vibrations alone, `max_p` [`row_bound`](Self::row_bound)`(p) / m_p`
+    /// over the free particles (Gershgorin's bound on `M⁻¹ Q`).
     pub fn omega_squared_bound(&self, mass: &[f64], pinned: &[bool]) -> f64 {
         (0..self.particle_count())
             .filter(|&p| !pinned[p])
-            .map(|p| {
-                let off: f64 = self.row(p).1.iter().map(|q| q.abs()).sum();
-                (self.diagonal(p) + off) / mass[p]
-            })
+            .map(|p| self.row_bound(p) / mass[p])
             .fold(0.0, f64::max)
     }
 }

@@ -229,7 +229,7 @@ pub(crate) fn try_collect<T>(
 }
 
 /// `count × size_of::<T>()`, saturating (the sizes come from input).
-fn array<T>(count: u64) -> u64 {
+pub(crate) fn array<T>(count: u64) -> u64 {
     count.saturating_mul(size_of::<T>() as u64)
 }
 

@@ -26,7 +26,9 @@ use glam::DVec3;
 use crate::bending::Bending;
 use crate::error::{Error, Result};
 use crate::model::{Model, SpringConstants};
-use crate::params::{check, format_number, Integrator, Params, SpringKind, SpringParams};
+use crate::params::{
+    check, format_below, format_number, Integrator, Params, SpringKind, SpringParams,
+};
 
 /// A membrane material: what `[material]` gives.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,21 +87,57 @@ fn invalid(key: &str, allowed: String, got: impl std::fmt::Display) -> Error {
     }
 }
 
-/// Where the explicit integrator at `params.dt` cannot step `model`'s
-/// bending stably (`dt ω ≥ 2` for its stiffest bending vibration, `ω²`
-/// bounded from above by [`Bending::omega_squared_bound`]), the factor
-/// `4 / (dt² ω²) ≤ 1` its bending stiffness must shrink by; `None` where
-/// it can, and without a bending operator or with another integrator,
-/// which are stable at any bending.
+/// Where the explicit integrator at `params.dt` cannot step `model`
+/// stably with its bending, the factor `h < 1` (`≥ 0`) its bending
+/// stiffness must shrink by; `None` where it can, and without a bending
+/// operator or with another integrator, which are stable at any bending.
+///
+/// Symplectic Euler steps a vibration of `ω²` \[1/s²\] damped at rate
+/// `γ` \[1/s\] (`ẍ = −ω² x − γ ẋ`) stably while `dt² ω² + 2 dt γ < 4`
+/// (the roots of `z² − (2 − dt γ − dt² ω²) z + 1 − dt γ` inside the unit
+/// circle). Every vibration of the cloth has `dt² ω² + 2 dt γ` an
+/// eigenvalue of `M⁻¹ (dt² K + 2 dt D)`, exactly where the damping is
+/// Rayleigh (`D = β K`, a material's), with `K` the springs' and the
+/// bending's stiffness and `D` their damping; Gershgorin's bound on each
+/// free particle's row bounds it from above: the bending's
+/// `(dt² + 2 dt β) (|Q_pp| + Σ_j |Q_pj|)` ([`Bending::row_bound`]) plus
+/// each of its springs' `2 (dt² k + 2 dt kd)` (a spring's 3 × 3 blocks,
+/// `k n nᵀ` and its transverse part `k (1 − L/l) (I − n nᵀ)`, have norm at
+/// most `k`), over `m_p`. Both the springs' and the bending's damping
+/// count: at the material's default `β = 1 ms` and `dt = 1 ms` the bound
+/// is a third of the undamped one.
 fn explicit_headroom(model: &Model, params: &Params) -> Option<f64> {
     let bending = model.bending.as_ref()?;
     if params.integrator != Integrator::Explicit {
         return None;
     }
-    let omega2 = bending.omega_squared_bound(&model.mass, &model.pinned);
-    let limit = 4.0 / (params.dt * params.dt);
-    (omega2 >= limit).then(|| limit / omega2)
+    let dt = params.dt;
+    let mut springs = vec![0.0; model.particle_count()];
+    for (s, sp) in model.springs.iter().enumerate() {
+        let c = model.spring_constants(s, params);
+        let row = 2.0 * (dt * dt * c.k + 2.0 * dt * c.kd);
+        springs[sp.i as usize] += row;
+        springs[sp.j as usize] += row;
+    }
+    let per_bending = dt * dt + 2.0 * dt * bending.damping;
+    let headroom = (0..model.particle_count())
+        .filter(|&p| !model.pinned[p])
+        .map(|p| {
+            let b = per_bending * bending.row_bound(p);
+            if b > 0.0 {
+                ((4.0 * model.mass[p] - springs[p]) / b).max(0.0)
+            } else {
+                f64::INFINITY
+            }
+        })
+        .fold(f64::INFINITY, f64::min);
+    (headroom <= 1.0).then_some(headroom)
 }
+
+/// What the explicit integrator's bending limit asks of every vibration,
+/// for the refusals.
+const EXPLICIT_RULE: &str = "its stiffest vibration, springs and bending \
+     together with their damping, must satisfy dt² ω² + 2 dt γ < 4";
 
 /// Refuses a model whose linear bending operator the explicit integrator
 /// cannot step stably at `params.dt` ([`Material::check_explicit`] for a
@@ -113,11 +151,10 @@ pub fn check_explicit_bending(model: &Model, params: &Params) -> Result<()> {
         "material.bending",
         format!(
             "for the explicit integrator at dt = {} s, at most {} times this cloth's bending \
-             stiffness (its stiffest bending vibration must satisfy dt ω < 2); give a smaller \
-             bending, a smaller dt, or the implicit or semi-implicit integrator, which are \
-             stable at any bending",
+             stiffness ({EXPLICIT_RULE}); give a smaller bending, a smaller dt, or the \
+             implicit or semi-implicit integrator, which are stable at any bending",
             format_number(params.dt),
-            format_number(headroom)
+            format_below(headroom)
         ),
         "a bending operator too stiff for the explicit integrator",
     ))
@@ -183,9 +220,8 @@ impl Material {
     }
 
     /// Refuses a bending stiffness that the explicit integrator cannot
-    /// step stably at the scene's `dt` (`dt ω ≥ 2` for the stiffest bending
-    /// vibration of `model`, bounded from above by
-    /// [`Bending::omega_squared_bound`]), naming the largest that it can.
+    /// step stably at the scene's `dt` (see `explicit_headroom`), naming
+    /// the largest that it can.
     pub fn check_explicit(&self, model: &Model, params: &Params) -> Result<()> {
         let Some(headroom) = explicit_headroom(model, params) else {
             return Ok(());
@@ -193,11 +229,10 @@ impl Material {
         Err(invalid(
             "material.bending",
             format!(
-                "at most {} N·m for the explicit integrator at dt = {} s on this cloth (its \
-                 stiffest bending vibration must satisfy dt ω < 2); give a smaller bending, a \
-                 smaller dt, or the implicit or semi-implicit integrator, which are stable at \
-                 any bending",
-                format_number(self.bending * headroom),
+                "at most {} N·m for the explicit integrator at dt = {} s on this cloth \
+                 ({EXPLICIT_RULE}); give a smaller bending, a smaller dt, or the implicit or \
+                 semi-implicit integrator, which are stable at any bending",
+                format_below(self.bending * headroom),
                 format_number(params.dt)
             ),
             format_number(self.bending),
@@ -234,6 +269,7 @@ impl Material {
                 mass[p as usize] += third;
             }
         }
+        self.check_f32_masses(&mass)?;
         let k = self.edge_stiffness(x, faces)?;
         let constants = model
             .springs
@@ -248,7 +284,23 @@ impl Material {
                     kd: self.damping * k,
                 }
             })
-            .collect();
+            .collect::<Vec<_>>();
+        if let Some(s) = constants.iter().position(|c| !((c.k as f32).is_finite())) {
+            let sp = &model.springs[s];
+            return Err(invalid(
+                "material.stretch",
+                format!(
+                    "a stretch stiffness whose springs' constants (it times a cell's area over \
+                     a side's length squared) are finite f32 numbers, as the GPU holds them; \
+                     the spring between particles {} and {} would have {} N/m (a cell far \
+                     from square: give cells closer to square)",
+                    sp.i,
+                    sp.j,
+                    format_number(constants[s].k)
+                ),
+                format_number(self.stretch),
+            ));
+        }
         model.mass = mass;
         model.own_constants = constants;
         model.bending = match (&model.grid, self.bending > 0.0) {
@@ -273,6 +325,30 @@ impl Material {
             )?),
         };
         Ok(())
+    }
+
+    /// Refuses a density whose particle masses (`mass`, from the rest
+    /// areas) the `f32` solvers cannot hold: each must be a normal `f32`,
+    /// so that it and its inverse are finite and non-zero there (a density
+    /// of 1e300 kg/m² gives infinite masses in `f32`, and a cloth that
+    /// never moves, while `f64` falls).
+    fn check_f32_masses(&self, mass: &[f64]) -> Result<()> {
+        let normal = |m: f64| (m as f32).is_normal() && m > 0.0;
+        let Some(p) = mass.iter().position(|&m| !normal(m)) else {
+            return Ok(());
+        };
+        Err(invalid(
+            "material.density",
+            format!(
+                "a density whose particle masses (density × a third of the area of each \
+                 triangle a particle is a corner of) are normal f32 numbers, from {} to {} kg, \
+                 as the GPU holds them; particle {p} would have {} kg",
+                format_number(f64::from(f32::MIN_POSITIVE)),
+                format_number(f64::from(f32::MAX)),
+                format_number(mass[p])
+            ),
+            format_number(self.density),
+        ))
     }
 
     /// The stiffness \[N/m\] each face gives its sides and diagonals

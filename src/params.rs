@@ -381,6 +381,23 @@ pub fn format_number(x: f64) -> String {
     }
 }
 
+/// `x` to three significant digits, as [`format_number`] shows it: for a
+/// derived quantity a message reports (a speed, a cell size), whose
+/// last digits are rounding.
+pub(crate) fn format_short(x: f64) -> String {
+    format_number(format!("{x:.2e}").parse().unwrap_or(x))
+}
+
+/// `x > 0` rounded down to three significant digits, as
+/// [`format_short`]: a bound a message advises, which must itself hold.
+pub(crate) fn format_below(x: f64) -> String {
+    if !(x > 0.0 && x.is_finite()) {
+        return format_number(x);
+    }
+    let unit = 10f64.powf(x.log10().floor() - 2.0);
+    format_short((x / unit).floor() * unit)
+}
+
 /// Checks that `value` is finite and `ok` holds, else the standard error:
 /// "must be finite and {allowed}" for a non-finite value, so that `inf`
 /// and `NaN` are told apart from a number out of range. Shared by every

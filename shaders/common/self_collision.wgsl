@@ -146,6 +146,7 @@ fn self_collision_respond_item(p: u32, src: u32, dst: u32, last: bool) -> bool {
         let rest = sc_rest(p);
         let corner = sc_corner(work[wi(W_SC_A, p)].xyz);
         var sum = vec3<f32>(0.0);
+        var slip = vec3<f32>(0.0);
         var contacts = 0u;
         // The 2 × 2 × 2 cells from the corner, x fastest (cpu's
         // NEIGHBOUR_CELLS).
@@ -170,20 +171,21 @@ fn self_collision_respond_item(p: u32, src: u32, dst: u32, last: bool) -> bool {
                 let other = x[q];
                 let share = wp / (wp + other.w);
                 let push = (t - dist) * share;
-                var corr = unseen3(n * push);
+                sum += unseen3(n * push);
                 let rel = (xp - start.xyz) - (xq - other.xyz);
                 let tangent = rel - unseen3(n * dot3(rel, n));
                 let slide = len3(tangent);
                 if (slide > 0.0) {
                     let limit = friction * push / slide;
-                    corr -= unseen3(tangent * select(limit, share, share < limit));
+                    slip += unseen3(tangent * select(limit, share, share < limit));
                 }
-                sum += corr;
                 contacts += 1u;
             }
         }
         if (contacts > 0u) {
-            out = xp + sum;
+            // The pushes summed, the friction corrections averaged (never
+            // past the slide: see the twin).
+            out = xp + (sum - slip / f32(contacts));
             moved = true;
         }
         if (last) {

@@ -333,9 +333,7 @@ pub fn cantilever(args: &BenchCantileverArgs) -> anyhow::Result<()> {
     } else {
         CantileverOptions::default()
     };
-    // Both destinations are checked before the sweep runs.
-    let csv = args.csv.as_deref().map(AtomicFile::create).transpose()?;
-    let svg = args.chart.as_deref().map(AtomicFile::create).transpose()?;
+    let (csv, svg) = csv_and_chart(args.csv.as_deref(), args.chart.as_deref())?;
     let report = evidence::cantilever(&options)?;
     write_outputs([
         (csv, cantilever_csv(&report).as_str()),
@@ -344,12 +342,24 @@ pub fn cantilever(args: &BenchCantileverArgs) -> anyhow::Result<()> {
     out!("{}", cantilever_table(&report))
 }
 
+/// The `--csv` and `--chart` files, opened before a sweep runs so that
+/// minutes of measuring are not lost to a destination; one file for both
+/// is refused (the chart would replace the table).
+fn csv_and_chart(
+    csv: Option<&Path>,
+    chart: Option<&Path>,
+) -> anyhow::Result<(Option<AtomicFile>, Option<AtomicFile>)> {
+    super::output::distinct_outputs(&[("--csv", csv), ("--chart", chart)])?;
+    Ok((
+        csv.map(AtomicFile::create).transpose()?,
+        chart.map(AtomicFile::create).transpose()?,
+    ))
+}
+
 /// `wgcloth bench drape`.
 pub fn drape(args: &BenchDrapeArgs) -> anyhow::Result<()> {
-    // Both destinations are checked before the sweep runs.
-    let csv = args.csv.as_deref().map(AtomicFile::create).transpose()?;
-    let svg = args.chart.as_deref().map(AtomicFile::create).transpose()?;
-    let rows = evidence::cantilever::drape(&args.sizes)?;
+    let (csv, svg) = csv_and_chart(args.csv.as_deref(), args.chart.as_deref())?;
+    let rows = evidence::cantilever::drape(&args.sizes).map_err(as_option)?;
     write_outputs([
         (csv, drape_csv(&rows).as_str()),
         (svg, chart::drape_svg(&rows).as_str()),
@@ -437,9 +447,28 @@ pub fn drape_csv(rows: &[evidence::cantilever::DrapeRow]) -> String {
     s
 }
 
+/// A refusal of [`evidence::cantilever::overhang`]'s or `drape`'s
+/// arguments under the option that gave it (`density` as `--density`);
+/// any other error as it is.
+fn as_option(e: wgcloth::Error) -> wgcloth::Error {
+    match e {
+        wgcloth::Error::InvalidParameter { key, allowed, got }
+            if ["density", "bending", "segments", "sizes"].contains(&key.as_str()) =>
+        {
+            wgcloth::Error::InvalidParameter {
+                key: format!("--{key}"),
+                allowed,
+                got,
+            }
+        }
+        e => e,
+    }
+}
+
 /// `wgcloth bench overhang`.
 pub fn overhang(args: &BenchOverhangArgs) -> anyhow::Result<()> {
-    let o = evidence::cantilever::overhang(args.density, args.bending, args.segments)?;
+    let o = evidence::cantilever::overhang(args.density, args.bending, args.segments)
+        .map_err(as_option)?;
     out!(
         "material: density {} kg/m², bending {:e} N·m; strip of {} segments, {} settled strips\n\
          overhang at 41.5°: O = {:.5} m, bending length c = O/2 = {:.5} m (elastica Γ there {:.4}; 8.00 exactly)\n\

@@ -148,7 +148,14 @@ struct BenchDrapeArgs {
     /// Rows of particles across the plate, comma-separated (each 3 to
     /// 257; `2ᵏ + 1` rows halve the spacing each time, which the order
     /// assumes). 65 takes minutes.
-    #[arg(long, value_name = "N,N,…", value_delimiter = ',', default_values_t = [9, 17, 33])]
+    #[arg(
+        long,
+        value_name = "N,N,…",
+        value_delimiter = ',',
+        default_values_t = [9, 17, 33],
+        value_parser = parse_plate_rows,
+        allow_hyphen_values = true
+    )]
     sizes: Vec<usize>,
 
     /// Write the table as CSV to FILE.
@@ -165,15 +172,35 @@ struct BenchDrapeArgs {
 struct BenchOverhangArgs {
     /// The material's areal density [kg/m²] (the default: a cotton
     /// shirting's ~0.12 kg/m²).
-    #[arg(long, value_name = "KG_PER_M2", default_value_t = 0.12)]
+    // Negative numbers reach the library's check, which says what is
+    // allowed under the option's name.
+    #[arg(
+        long,
+        value_name = "KG_PER_M2",
+        default_value_t = 0.12,
+        value_parser = parse_number,
+        allow_negative_numbers = true
+    )]
     density: f64,
 
     /// The material's bending stiffness per unit width [N·m].
-    #[arg(long, value_name = "N_M", default_value_t = 5e-6)]
+    #[arg(
+        long,
+        value_name = "N_M",
+        default_value_t = 5e-6,
+        value_parser = parse_number,
+        allow_negative_numbers = true
+    )]
     bending: f64,
 
-    /// Cells along the strip's overhang.
-    #[arg(long, value_name = "N", default_value_t = 16)]
+    /// Cells along the strip's overhang (2 to 256).
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 16,
+        value_parser = parse_segments,
+        allow_negative_numbers = true
+    )]
     segments: usize,
 }
 
@@ -580,6 +607,45 @@ fn parse_whole(s: &str, range: RangeInclusive<u64>, allowed: &str) -> Result<u64
         Ok(n) if range.contains(&n) => Ok(n),
         _ => Err(format!("must be {allowed}")),
     }
+}
+
+/// A number whose range the library checks under the option's name
+/// (`bench overhang`'s `--density`, `--bending`).
+fn parse_number(s: &str) -> Result<f64, String> {
+    s.trim()
+        .parse()
+        .map_err(|_| format!("must be a number, got `{s}`"))
+}
+
+/// `bench overhang --segments`: [`OVERHANG_SEGMENTS`].
+///
+/// [`OVERHANG_SEGMENTS`]: wgcloth::evidence::cantilever::OVERHANG_SEGMENTS
+fn parse_segments(s: &str) -> Result<usize, String> {
+    parse_count(
+        s,
+        wgcloth::evidence::cantilever::OVERHANG_SEGMENTS,
+        "a whole number of cells along the strip,",
+    )
+}
+
+/// One of `bench drape --sizes`: [`PLATE_ROWS`].
+///
+/// [`PLATE_ROWS`]: wgcloth::evidence::cantilever::PLATE_ROWS
+fn parse_plate_rows(s: &str) -> Result<usize, String> {
+    parse_count(
+        s,
+        wgcloth::evidence::cantilever::PLATE_ROWS,
+        "a comma-separated list of whole numbers of rows, each",
+    )
+}
+
+/// A whole number in the library's `range`, refused as "must be {what}
+/// {start} ≤ N ≤ {end}".
+fn parse_count(s: &str, range: RangeInclusive<usize>, what: &str) -> Result<usize, String> {
+    let (start, end) = (*range.start(), *range.end());
+    let allowed = format!("{what} {start} ≤ N ≤ {end}");
+    let n = parse_whole(s, start as u64..=end as u64, &allowed)?;
+    usize::try_from(n).map_err(|_| format!("must be {allowed}"))
 }
 
 /// `--steps`: at most [`run::MAX_STEPS`], the cap `--seconds` and the

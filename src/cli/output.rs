@@ -45,6 +45,25 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     false
 }
 
+/// Refuses two of a command's outputs (`--option`, path; `None`: not
+/// asked for) that name one file ([`same_file`]): the second would replace
+/// the first, and a run must never keep one of two outputs silently.
+pub fn distinct_outputs(outputs: &[(&str, Option<&Path>)]) -> Result<(), super::UsageError> {
+    for (k, (a_name, a)) in outputs.iter().enumerate() {
+        for (b_name, b) in &outputs[k + 1..] {
+            if let (Some(a), Some(b)) = (a, b) {
+                if same_file(a, b) {
+                    return Err(super::UsageError(format!(
+                        "{a_name} and {b_name} are the same file ({}); give each its own file",
+                        a.display()
+                    )));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// `--positions-out`: one line `x y z` per particle, in particle order.
 pub fn write_positions<R: Real>(out: &mut impl Write, x: &[Vec3<R>]) -> io::Result<()> {
     for p in x {

@@ -21,7 +21,7 @@ use wgcloth::params::format_number;
 pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     interrupt::install();
-    let mut scene = Scene::resolve(&args.scene)?;
+    let mut scene = Scene::resolve_until(&args.scene, &interrupt::requested)?;
     if let Some(integrator) = args.integrator {
         scene.params.integrator = integrator.into();
     }
@@ -45,6 +45,7 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
     // Before the output folder is touched.
     render::check_image(&context.device, width, height)
         .with_context(|| format!("--size {width}x{height}"))?;
+    let created = missing_folders(&out);
     prepare_dir(&out, args.overwrite)?;
     let options = FrameOptions {
         width,
@@ -85,6 +86,13 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         note!("note: compiled pipelines not kept for the next run: {e}");
     }
     let written = match written.and_then(|n| context.check().map(|()| n)) {
+        Err(e) if done == 0 && !matches!(e, wgcloth::Error::Interrupted) => {
+            // Refused before any frame (the solver or the image refused the
+            // scene on this device): as a refusal before the device opened,
+            // it leaves no folder behind.
+            remove_empty(&created);
+            return Err(e.into());
+        }
         Err(wgcloth::Error::Interrupted) => {
             return Err(
                 anyhow::Error::new(wgcloth::Error::Interrupted).context(format!(
@@ -103,6 +111,27 @@ pub fn render(args: &RenderArgs) -> anyhow::Result<()> {
         f64::from(written.saturating_sub(1)) * f64::from(steps_per_frame) * scene.params.dt,
         started.elapsed().as_secs_f64(),
     )
+}
+
+/// The folders `dir` and its ancestors that do not exist yet, `dir`
+/// first: what [`prepare_dir`] creates.
+fn missing_folders(dir: &Path) -> Vec<std::path::PathBuf> {
+    dir.ancestors()
+        .filter(|a| !a.as_os_str().is_empty())
+        .take_while(|a| a.symlink_metadata().is_err())
+        .map(Path::to_path_buf)
+        .collect()
+}
+
+/// Removes the folders of [`missing_folders`] again, deepest first, each
+/// only while it is empty (`remove_dir` refuses a folder with anything in
+/// it, so nothing a run wrote is lost).
+fn remove_empty(created: &[std::path::PathBuf]) {
+    for dir in created {
+        if std::fs::remove_dir(dir).is_err() {
+            break;
+        }
+    }
 }
 
 /// Creates `dir` if needed. Frames of an earlier run are never mixed with

@@ -12,7 +12,7 @@ use wgcloth::{Model, Params, Real, Scene};
 use super::backend::{Cpu, Gpu, Solver};
 use super::batch::GpuCopies;
 use super::interrupt;
-use super::output::{commit_all, same_file, write_positions, AtomicFile, Trace};
+use super::output::{commit_all, distinct_outputs, write_positions, AtomicFile, Trace};
 use super::profile;
 use super::summary::{Outcome, Summary};
 use super::{Backend, Precision, RunArgs, StepPathArg, UsageError};
@@ -34,7 +34,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     interrupt::install();
     let precision = precision_for_backend(args)?;
-    let mut scene = Scene::resolve(&args.scene)?;
+    let mut scene = Scene::resolve_until(&args.scene, &interrupt::requested)?;
     if let Some(integrator) = args.integrator {
         scene.params.integrator = integrator.into();
     }
@@ -50,15 +50,10 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         (None, Some(t)) => steps_for(t, scene.params.dt, "--seconds")?,
         (None, None) => steps_for(scene.duration, scene.params.dt, "the scene's duration")?,
     };
-    if let (Some(a), Some(b)) = (&args.positions_out, &args.trace_out) {
-        if same_file(a, b) {
-            return Err(UsageError(format!(
-                "--positions-out and --trace-out are the same file ({})",
-                a.display()
-            ))
-            .into());
-        }
-    }
+    distinct_outputs(&[
+        ("--positions-out", args.positions_out.as_deref()),
+        ("--trace-out", args.trace_out.as_deref()),
+    ])?;
     let model = scene.model()?;
     let animation = scene.animation(&model);
     let character = match (&animation, args.fps) {

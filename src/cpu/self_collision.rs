@@ -27,10 +27,15 @@
 //!    `(thickness − d) n` that separates them, and of the Coulomb friction
 //!    that removes their relative tangential displacement over the step,
 //!    capped by `friction ×` its normal push. A particle moves by the sum
-//!    of its contacts' corrections and writes only itself: no float
-//!    atomics, no order that depends on scheduling. The sum rather than
-//!    the average: a particle between layers pressed from both sides needs
-//!    every push, where the average undoes part of each.
+//!    of its contacts' pushes less the mean of their friction corrections,
+//!    and writes only itself: no float atomics, no order that depends on
+//!    scheduling. The sum of the pushes: a particle between layers pressed
+//!    from both sides needs every push, where the average undoes part of
+//!    each. The mean of the friction: each contact's takes at most its
+//!    share of that pair's slide, so their mean never carries the particle
+//!    past the particles it slides against — friction only ever removes
+//!    relative motion, at any `friction` — where their sum over several
+//!    contacts sliding alike would reverse the slide and add energy.
 //! 3. **Exclusion**: a pair whose *rest* distance is below
 //!    [`EXCLUDE_REST`] `× thickness` never collides (the rest positions
 //!    are kept in units of that radius, so the test is `|Δ|² < 1`). Rest distance rather
@@ -75,6 +80,14 @@ pub const STEP_CAP: f64 = 0.5;
 /// spacings, so tight folds go unseen, and each grid cell holds tens of
 /// particles of one layer (the cost grows with its square).
 pub const MAX_THICKNESS_DEFAULTS: f64 = 4.0;
+
+/// How far (relative) a `self_collision.thickness` may pass its bounds:
+/// the bounds come from rest positions (a 0.3 m cloth of 4 × 4 particles
+/// has its spacing computed as 0.09999999999999998 m, its largest
+/// thickness 0.3999999999999999 m), a few ulps (1e-16) off the round
+/// value a user reads in the docs and writes (0.4); 1e-9 admits that
+/// rounding and no thickness anyone means differently.
+pub const THICKNESS_BOUND_TOLERANCE: f64 = 1e-9;
 
 /// The grid's cell size in thicknesses: a little over two, so that every
 /// point within a thickness of a particle lies in the 2 × 2 × 2 cells its
@@ -194,15 +207,17 @@ pub fn thickness(model: &Model, params: &Params) -> Result<Option<f64>> {
         return Ok(Some(default));
     };
     let (low, high) = (triangle_gap(model), MAX_THICKNESS_DEFAULTS * default);
-    if t < low || t > high {
+    let slack = 1.0 + THICKNESS_BOUND_TOLERANCE;
+    if t * slack < low || t > high * slack {
         return Err(Error::InvalidParameter {
             key: key.into(),
             allowed: format!(
-                "{} ≤ thickness ≤ {} (m) for this cloth: at least its largest rest triangle's \
-                 gap (a particle slips through a thinner one), at most {} × the default {} \
-                 (the rest spacing)",
+                "{} ≤ thickness ≤ {} (m, each to {} relative) for this cloth: at least its \
+                 largest rest triangle's gap (a particle slips through a thinner one), at most \
+                 {} × the default {} (the rest spacing)",
                 format_number(low),
                 format_number(high),
+                format_number(THICKNESS_BOUND_TOLERANCE),
                 MAX_THICKNESS_DEFAULTS,
                 format_number(default)
             ),
@@ -370,6 +385,7 @@ pub fn respond<R: Real>(
     let xp = g.snapshot[p];
     let t2 = c.thickness * c.thickness;
     let mut sum = Vec3::ZERO;
+    let mut slip = Vec3::ZERO;
     let mut contacts = 0u32;
     let home = g.corner[p];
     for d in NEIGHBOUR_CELLS {
@@ -392,18 +408,22 @@ pub fn respond<R: Real>(
             let n = diff / dist;
             let share = wp / (wp + sys.inv_mass[q]);
             let push = (c.thickness - dist) * share;
-            let mut corr = n * push;
+            sum += n * push;
             let rel = (xp - x_old[p]) - (g.snapshot[q] - x_old[q]);
             let tangent = rel - n * rel.dot(n);
             let slide = tangent.length();
             if slide > R::ZERO {
-                corr -= tangent * share.min(c.friction * push / slide);
+                slip += tangent * share.min(c.friction * push / slide);
             }
-            sum += corr;
             contacts += 1;
         }
     }
-    (contacts > 0).then(|| xp + sum)
+    // The friction corrections are averaged where the pushes are summed:
+    // each takes at most its share of one pair's slide, and a sum of them
+    // over many contacts sliding alike would move the particle past the
+    // others (the slide reversed, energy added at every pass); their mean
+    // keeps the new relative slide between zero and the old.
+    (contacts > 0).then(|| xp + (sum - slip / R::from_f64(f64::from(contacts))))
 }
 
 /// Self-collision on the predicted positions `x`, the step having started

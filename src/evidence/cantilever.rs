@@ -47,7 +47,7 @@ use crate::error::{Error, Result};
 use crate::evidence::Backend;
 use crate::material::Material;
 use crate::model::{ClothSpec, Model, Orientation, Pin};
-use crate::params::{Integrator, Params, SpringKind};
+use crate::params::{format_number, format_short, Integrator, Params, SpringKind};
 use glam::DVec3;
 
 /// Free length of every strip \[m\].
@@ -584,6 +584,71 @@ pub const OVERHANG_ANGLE_DEGREES: f64 = 41.5;
 /// below the resolution's error.
 pub const OVERHANG_BISECTIONS: u32 = 24;
 
+/// The strip lengths [`overhang`] may settle: its segments of the
+/// overhang. Two are the fewest with a bend between the clamp and the
+/// tip; 256 settle for about a minute each, beyond any use of the test.
+pub const OVERHANG_SEGMENTS: std::ops::RangeInclusive<usize> = 2..=256;
+
+/// The `Γ` range [`overhang`] bisects over.
+const OVERHANG_GAMMAS: [f64; 2] = [1.0, 100.0];
+
+/// The overhang \[m\] of a strip of the material at `gamma = ρ g O³ / B`.
+fn overhang_length(gamma: f64, density: f64, bending: f64) -> f64 {
+    let gravity = -Params::default().gravity.y;
+    (gamma * bending / (density * gravity)).cbrt()
+}
+
+/// Refuses what [`overhang`] cannot measure, under the names of its
+/// arguments (`density`, `bending`, `segments`; a command line names its
+/// options so): segments outside [`OVERHANG_SEGMENTS`], a density or
+/// bending the material refuses or of zero bending (no overhang to find),
+/// and a pair whose strips (their length `(Γ B / (ρ g))^⅓` over the
+/// bisection's `Γ`) the solvers cannot hold.
+pub fn check_overhang(density: f64, bending: f64, segments: usize) -> Result<()> {
+    if !OVERHANG_SEGMENTS.contains(&segments) {
+        return Err(invalid(
+            "segments",
+            &format!(
+                "{} ≤ segments ≤ {} (cells along the strip's overhang)",
+                OVERHANG_SEGMENTS.start(),
+                OVERHANG_SEGMENTS.end()
+            ),
+            segments,
+        ));
+    }
+    crate::params::check("density", density, density > 0.0, "> 0 (kg/m²)")?;
+    crate::params::check(
+        "bending",
+        bending,
+        bending > 0.0 && bending <= crate::material::MAX_BENDING,
+        "0 < bending ≤ 1 (N·m per unit width; without bending a strip has no overhang)",
+    )?;
+    let [short, long] = OVERHANG_GAMMAS.map(|g| overhang_length(g, density, bending));
+    for length in [short, long] {
+        material_strip(
+            segments,
+            MATERIAL_ROWS,
+            length,
+            (density, bending),
+            Integrator::Implicit,
+        )
+        .map_err(|_| Error::InvalidParameter {
+            key: "density".to_string(),
+            allowed: format!(
+                "a density that, with bending {} N·m, gives strips the solvers can hold: the \
+                 test settles overhangs (Γ B / (ρ g))^⅓ for Γ from 1 to 100, here {} to {} m, \
+                 and in f32 a cloth stays within ±1e18 m, its cells at least 1e-18 m and its \
+                 particles' masses normal numbers",
+                format_number(bending),
+                format_short(short),
+                format_short(long)
+            ),
+            got: format_number(density),
+        })?;
+    }
+    Ok(())
+}
+
 /// What [`overhang`] measured.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Overhang {
@@ -615,18 +680,10 @@ pub struct Overhang {
 /// length `c = O/2` and the rigidity `B = ρ g c³` it implies. Exact for the
 /// elastica: its tip–chord angle reaches 41.5° at `Γ = ρ g O³ / B = 8.00`.
 pub fn overhang(density: f64, bending: f64, segments: usize) -> Result<Overhang> {
-    if segments < 2 {
-        return Err(invalid("bench.overhang.segments", "≥ 2", segments));
-    }
-    Material {
-        bending,
-        density,
-        ..Material::default()
-    }
-    .validate()?;
+    check_overhang(density, bending, segments)?;
     let gravity = -Params::default().gravity.y;
     let target = OVERHANG_ANGLE_DEGREES.to_radians().tan();
-    let length_at = |ln_gamma: f64| (ln_gamma.exp() * bending / (density * gravity)).cbrt();
+    let length_at = |ln_gamma: f64| overhang_length(ln_gamma.exp(), density, bending);
     let tan_at = |length: f64| -> Result<f64> {
         let (model, params) = material_strip(
             segments,
@@ -638,7 +695,7 @@ pub fn overhang(density: f64, bending: f64, segments: usize) -> Result<Overhang>
         let run = settle_model(segments, MATERIAL_ROWS, length, &model, &params)?;
         Ok(run.drop / run.reach)
     };
-    let (mut lo, mut hi) = (0.0f64, 100f64.ln());
+    let (mut lo, mut hi) = (OVERHANG_GAMMAS[0].ln(), OVERHANG_GAMMAS[1].ln());
     for _ in 0..OVERHANG_BISECTIONS {
         let mid = 0.5 * (lo + hi);
         if tan_at(length_at(mid))? < target {
@@ -773,11 +830,19 @@ pub struct DrapeRow {
     pub converged: bool,
 }
 
+/// The rows a [`drape`] plate may have: 3 are the fewest with a bend,
+/// 257 (`2⁸ + 1`) take about an hour.
+pub const PLATE_ROWS: std::ops::RangeInclusive<usize> = 3..=257;
+
 /// The clamped plate of [`plate_drop`] as a grid and as an irregular mesh
 /// at each of `sizes` rows (grids first, each in the order given).
 pub fn drape(sizes: &[usize]) -> Result<Vec<DrapeRow>> {
-    if let Some(&n) = sizes.iter().find(|&&n| !(3..=257).contains(&n)) {
-        return Err(invalid("bench.drape.sizes", "3 ≤ n ≤ 257 rows", n));
+    if let Some(&n) = sizes.iter().find(|&&n| !PLATE_ROWS.contains(&n)) {
+        return Err(invalid(
+            "sizes",
+            &format!("{} ≤ n ≤ {} rows", PLATE_ROWS.start(), PLATE_ROWS.end()),
+            n,
+        ));
     }
     let meshes = [
         PlateMesh::Grid as fn(usize) -> PlateMesh,

@@ -140,17 +140,68 @@ pub(super) fn parse(
     })
 }
 
+/// Where a walk over a GLB file's chunks ran past the end.
+enum Overrun {
+    /// A chunk header starting at byte `at` does not fit.
+    Header { at: usize },
+    /// The chunk at byte `at`, of type `name`, says it holds `size` bytes,
+    /// more than follow.
+    Data {
+        at: usize,
+        name: String,
+        size: usize,
+    },
+}
+
+/// A chunk type for a message: `JSON`, `BIN`, or the four bytes quoted.
+fn chunk_name(kind: &[u8]) -> String {
+    match kind {
+        b"JSON" => "JSON".to_string(),
+        b"BIN\0" => "BIN".to_string(),
+        other => format!("{:?}", String::from_utf8_lossy(other)),
+    }
+}
+
+/// A GLB chunk: its offset in the file, its type and its data.
+type Chunk<'a> = (usize, &'a [u8], &'a [u8]);
+
+/// The chunks of a GLB file `bytes` from byte 12 to byte `end`.
+fn chunks(bytes: &[u8], end: usize) -> Result<Vec<Chunk<'_>>, Overrun> {
+    let data = &bytes[..end];
+    let mut out = Vec::new();
+    let mut at = 12;
+    while at < data.len() {
+        let (Some(size), Some(kind)) = (glb_word(data, at), data.get(at + 4..at + 8)) else {
+            return Err(Overrun::Header { at });
+        };
+        let start = at + 8;
+        let stop = start.saturating_add(size);
+        if stop > data.len() {
+            return Err(Overrun::Data {
+                at,
+                name: chunk_name(kind),
+                size,
+            });
+        }
+        out.push((at, kind, &data[start..stop]));
+        at = stop;
+    }
+    Ok(out)
+}
+
+/// The little-endian `u32` at byte `at` of `data`, if it is there.
+fn glb_word(data: &[u8], at: usize) -> Option<usize> {
+    data.get(at..at.checked_add(4)?)
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+}
+
 /// A GLB file's JSON chunk and its binary chunk, if it has one, every
 /// length checked against the file (glTF 2.0 §4.4: a 12-byte header —
 /// `glTF`, version 2, the file's length — then chunks, each its length,
 /// its type and its data; the first is `JSON`, a `BIN\0` may follow, and
 /// chunks of other types are skipped, as the format asks).
 fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
-    let word = |data: &[u8], at: usize| {
-        data.get(at..at.checked_add(4)?)
-            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
-    };
-    let (Some(version), Some(length)) = (word(bytes, 4), word(bytes, 8)) else {
+    let (Some(version), Some(length)) = (glb_word(bytes, 4), glb_word(bytes, 8)) else {
         return Err(format!(
             "is truncated: a GLB file starts with a 12-byte header (`glTF`, version, length), \
              but this one has {} bytes",
@@ -169,47 +220,51 @@ fn split_glb(bytes: &[u8]) -> Result<(&[u8], Option<&[u8]>), String> {
         ));
     }
     if length > bytes.len() {
-        return Err(format!(
-            "is truncated: its GLB header says the file has {length} bytes, but it has {}",
-            bytes.len()
-        ));
+        // Whole chunks up to the file's end are a whole file whose
+        // header's length alone is wrong; anything else was cut short.
+        let whole = matches!(chunks(bytes, bytes.len()), Ok(c) if !c.is_empty());
+        return Err(if whole {
+            format!(
+                "its GLB header says the file has {length} bytes, but it has {}, which its \
+                 chunks fill exactly: the header's length field is wrong (it must be the \
+                 file's length)",
+                bytes.len()
+            )
+        } else {
+            format!(
+                "is truncated: its GLB header says the file has {length} bytes, but it has {}",
+                bytes.len()
+            )
+        });
     }
-    let data = &bytes[..length];
     let (mut json, mut bin) = (None, None);
-    let mut at = 12;
-    while at < data.len() {
-        let (Some(size), Some(kind)) = (word(data, at), data.get(at + 4..at + 8)) else {
-            return Err(format!(
-                "is truncated: a GLB chunk header (length and type, 8 bytes) starts at byte \
-                 {at}, but the file (by its header) ends at byte {length}"
-            ));
-        };
-        let name = match kind {
-            b"JSON" => "JSON".to_string(),
-            b"BIN\0" => "BIN".to_string(),
-            other => format!("{:?}", String::from_utf8_lossy(other)),
-        };
-        let start = at + 8;
-        let end = start.saturating_add(size);
-        if end > data.len() {
-            return Err(format!(
-                "is truncated: its {name} chunk at byte {at} says it holds {size} bytes, but only \
-                 {} follow its header",
-                data.len() - start
-            ));
-        }
-        let chunk = &data[start..end];
+    // The file is at least as long as its header says: a chunk that runs
+    // past that end has a wrong length field, not a missing part.
+    let found = chunks(bytes, length).map_err(|overrun| match overrun {
+        Overrun::Header { at } => format!(
+            "a GLB chunk header (length and type, 8 bytes) starts at byte {at}, but the \
+             file's header puts its end at byte {length}: a chunk's length field or the \
+             header's is wrong"
+        ),
+        Overrun::Data { at, name, size } => format!(
+            "its {name} chunk at byte {at} says it holds {size} bytes, but only {} follow \
+             its header before the file's end at byte {length} (as its GLB header says): \
+             the chunk's length field is wrong",
+            length - (at + 8)
+        ),
+    })?;
+    for (at, kind, chunk) in found {
         match kind {
             b"JSON" if json.is_none() => json = Some(chunk),
             _ if json.is_none() => {
                 return Err(format!(
-                    "its first GLB chunk (at byte {at}) is {name}; it must be the JSON chunk"
+                    "its first GLB chunk (at byte {at}) is {}; it must be the JSON chunk",
+                    chunk_name(kind)
                 ))
             }
             b"BIN\0" if bin.is_none() => bin = Some(chunk),
             _ => {}
         }
-        at = end;
     }
     let json = json.ok_or("is a GLB file without a JSON chunk")?;
     Ok((json, bin))
@@ -438,6 +493,15 @@ mod tests {
         let e = error(&long_bin);
         assert!(
             e.contains("BIN chunk at byte 24 says it holds 9 bytes"),
+            "{e}"
+        );
+        assert!(!e.contains("truncated"), "{e}");
+        // A whole file whose header alone overstates its length.
+        let mut long_header = file.clone();
+        long_header[8..12].copy_from_slice(&(file.len() as u32 + 4).to_le_bytes());
+        let e = error(&long_header);
+        assert!(
+            e.contains("header's length field is wrong") && !e.contains("truncated"),
             "{e}"
         );
         let mut bin_first = file.clone();

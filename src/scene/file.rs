@@ -215,7 +215,7 @@ struct CharacterColliderTable {
     rotation: Option<Exactly<Number, 4>>,
     scale: Option<Number>,
     friction: Option<Number>,
-    resolution: Option<Whole<u32>>,
+    resolution: Option<Whole<u64>>,
     thickness: Option<Number>,
 }
 
@@ -270,7 +270,7 @@ struct ColliderTable {
     friction: Option<Number>,
     velocity: Option<Vec3>,
     angular_velocity: Option<Vec3>,
-    resolution: Option<Whole<u32>>,
+    resolution: Option<Whole<u64>>,
     thickness: Option<Number>,
 }
 
@@ -301,8 +301,9 @@ pub(super) struct ColliderKeys {
     pub velocity: DVec3,
     /// `angular_velocity` [rad/s].
     pub angular_velocity: DVec3,
-    /// `resolution`.
-    pub resolution: u32,
+    /// `resolution` (its range is the bake's to check, so that a number
+    /// beyond `u32` is told the range, not the type).
+    pub resolution: u64,
     /// `thickness` \[m\].
     pub thickness: f64,
 }
@@ -710,7 +711,9 @@ fn collider_keys(c: ColliderTable) -> ColliderKeys {
         friction: c.friction.map_or(DEFAULT_FRICTION, f64::from),
         velocity: c.velocity.map_or(DVec3::ZERO, DVec3::from),
         angular_velocity: c.angular_velocity.map_or(DVec3::ZERO, DVec3::from),
-        resolution: c.resolution.map_or(crate::sdf::DEFAULT_RESOLUTION, |r| r.0),
+        resolution: c
+            .resolution
+            .map_or(u64::from(crate::sdf::DEFAULT_RESOLUTION), |r| r.0),
         thickness: c.thickness.map_or(DEFAULT_COLLIDER_THICKNESS, f64::from),
     }
 }

@@ -26,7 +26,7 @@ use crate::error::{Error, Result};
 use crate::material::Material;
 use crate::mesh::{Mesh, MeshCloth};
 use crate::model::{ClothSpec, Model};
-use crate::params::{check, check_finite, Params};
+use crate::params::{check, check_finite, format_number, format_short, Params};
 
 /// A complete, validated scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -110,20 +110,25 @@ impl Scene {
     /// Parses and validates a scene from TOML text; `path` is used in error
     /// messages (and its stem as the scene's name) only.
     pub fn from_toml(text: &str, path: &Path) -> Result<Scene> {
-        Scene::from_toml_with(text, path, &|file, name| Mesh::load(file, name))
+        Scene::from_toml_with(text, path, &|file, name| Mesh::load(file, name), &|| false)
     }
 
     /// [`Scene::from_toml`] with `read_mesh` reading a mesh cloth's file
-    /// (already resolved against the scene's folder) and picking its mesh.
+    /// (already resolved against the scene's folder) and picking its mesh,
+    /// and `stop` asked while a collider bakes ([`crate::sdf::bake_until`]).
     fn from_toml_with(
         text: &str,
         path: &Path,
         read_mesh: &dyn Fn(&Path, Option<&str>) -> Result<Mesh>,
+        stop: &dyn Fn() -> bool,
     ) -> Result<Scene> {
         let fail = |message: String| Error::Scene {
             path: path.to_path_buf(),
             message,
         };
+        if let Some(message) = control_character(text) {
+            return Err(fail(message));
+        }
         let de = toml::Deserializer::parse(text).map_err(|e| {
             fail(format!(
                 "{}TOML syntax error: {}",
@@ -162,13 +167,13 @@ impl Scene {
             e => e,
         };
         for (n, keys) in colliders.into_iter().enumerate() {
-            let collider = mesh_collider(&format!("collider[{n}]"), keys, path, read_mesh);
+            let collider = mesh_collider(&format!("collider[{n}]"), keys, path, read_mesh, stop);
             params.mesh_colliders.push(collider.map_err(in_file)?);
         }
         if let Some(c) = &mut character {
             for (n, keys) in character_colliders.into_iter().enumerate() {
                 let key = format!("character.collider[{n}]");
-                let collider = mesh_collider(&key, keys, path, read_mesh);
+                let collider = mesh_collider(&key, keys, path, read_mesh, stop);
                 c.colliders.push(collider.map_err(in_file)?);
             }
             let start = c.keys.first().map_or(0.0, |k| k.time);
@@ -271,11 +276,16 @@ impl Scene {
     /// behind a symlink) and a file over [`MAX_SCENE_BYTES`] are refused
     /// without being read.
     pub fn load(path: &Path) -> Result<Scene> {
+        Scene::load_until(path, &|| false)
+    }
+
+    /// [`Scene::load`], its colliders' bakes asking `stop` ([`Scene::resolve_until`]).
+    fn load_until(path: &Path, stop: &dyn Fn() -> bool) -> Result<Scene> {
         let text = read_scene_text(path).map_err(|message| Error::Scene {
             path: path.to_path_buf(),
             message,
         })?;
-        Scene::from_toml(&text, path)
+        Scene::from_toml_with(&text, path, &|file, name| Mesh::load(file, name), stop)
     }
 
     /// The names of the built-in scenes.
@@ -295,6 +305,11 @@ impl Scene {
 
     /// A built-in scene by name.
     pub fn builtin(name: &str) -> Result<Scene> {
+        Scene::builtin_until(name, &|| false)
+    }
+
+    /// [`Scene::builtin`], its colliders' bakes asking `stop`.
+    fn builtin_until(name: &str, stop: &dyn Fn() -> bool) -> Result<Scene> {
         // Embedded so a built-in scene works from any working directory.
         let text = match name {
             "hanging" => include_str!("../../scenes/hanging.toml"),
@@ -314,15 +329,20 @@ impl Scene {
             }
         };
         let path = Path::new("scenes").join(format!("{name}.toml"));
-        Scene::from_toml_with(text, &path, &|file, mesh_name| {
-            let bytes = builtin_mesh(file).ok_or_else(|| Error::Mesh {
-                path: file.to_path_buf(),
-                message: "is not a mesh embedded with the built-in scenes".to_string(),
-            })?;
-            Mesh::parse(bytes, file, mesh_name, &|uri| {
-                Err(format!("a built-in mesh has no external buffer `{uri}`"))
-            })
-        })
+        Scene::from_toml_with(
+            text,
+            &path,
+            &|file, mesh_name| {
+                let bytes = builtin_mesh(file).ok_or_else(|| Error::Mesh {
+                    path: file.to_path_buf(),
+                    message: "is not a mesh embedded with the built-in scenes".to_string(),
+                })?;
+                Mesh::parse(bytes, file, mesh_name, &|uri| {
+                    Err(format!("a built-in mesh has no external buffer `{uri}`"))
+                })
+            },
+            stop,
+        )
     }
 
     /// A path to a scene file if one exists there, else a built-in name.
@@ -334,15 +354,22 @@ impl Scene {
     /// what it is, and a mistyped file name reports the missing file rather
     /// than an unknown built-in.
     pub fn resolve(name_or_path: &str) -> Result<Scene> {
+        Scene::resolve_until(name_or_path, &|| false)
+    }
+
+    /// [`Scene::resolve`], asking `stop` while a `[[collider]]` mesh bakes
+    /// (a fine grid takes a minute): once it says so, the load ends with
+    /// [`Error::Interrupted`] within a row of lattice points.
+    pub fn resolve_until(name_or_path: &str, stop: &dyn Fn() -> bool) -> Result<Scene> {
         let path = Path::new(name_or_path);
         if path.is_file() {
-            Scene::load(path)
+            Scene::load_until(path, stop)
         } else if Scene::builtin_names().contains(&name_or_path) {
-            Scene::builtin(name_or_path)
+            Scene::builtin_until(name_or_path, stop)
         } else if path.symlink_metadata().is_ok() || name_or_path.ends_with(".toml") {
-            Scene::load(path)
+            Scene::load_until(path, stop)
         } else {
-            Scene::builtin(name_or_path)
+            Scene::builtin_until(name_or_path, stop)
         }
     }
 
@@ -402,6 +429,7 @@ fn mesh_collider(
     k: file::ColliderKeys,
     scene: &Path,
     read_mesh: &dyn Fn(&Path, Option<&str>) -> Result<Mesh>,
+    stop: &dyn Fn() -> bool,
 ) -> Result<crate::sdf::MeshCollider> {
     check(
         &format!("{key}.scale"),
@@ -421,18 +449,7 @@ fn mesh_collider(
         k.friction >= 0.0 && k.friction.is_finite(),
         "friction ≥ 0",
     )?;
-    let turns = k.degrees != 0.0;
-    check(
-        &format!("{key}.rotation"),
-        k.axis.length(),
-        k.axis.is_finite() && k.degrees.is_finite() && (!turns || k.axis.length() > 0.0),
-        "[x, y, z, degrees]: an axis (not zero where the angle is not) and an angle",
-    )?;
-    let rotation = if turns {
-        DQuat::from_axis_angle(k.axis.normalize(), k.degrees.to_radians())
-    } else {
-        DQuat::IDENTITY
-    };
+    let rotation = collider_rotation(key, k.axis, k.degrees)?;
     let pose = crate::sdf::MeshPose {
         position: k.position,
         rotation,
@@ -442,8 +459,9 @@ fn mesh_collider(
     crate::params::check_mesh_pose(key, &pose)?;
     let file = scene.parent().unwrap_or(Path::new("")).join(&k.file);
     let mesh = read_mesh(&file, k.name.as_deref())?;
-    let grid = crate::sdf::bake(&mesh, &file, key, k.scale, k.resolution, k.thickness)?;
-    Ok(crate::sdf::MeshCollider {
+    let resolution = crate::sdf::check_resolution(key, k.resolution)?;
+    let grid = crate::sdf::bake_until(&mesh, &file, key, k.scale, resolution, k.thickness, stop)?;
+    let collider = crate::sdf::MeshCollider {
         path: PathBuf::from(k.file),
         grid: std::sync::Arc::new(grid),
         position: pose.position,
@@ -452,7 +470,68 @@ fn mesh_collider(
         angular_velocity: pose.angular_velocity,
         friction: k.friction,
         thickness: k.thickness,
-    })
+    };
+    // A scene file's body keeps its orientation (nothing sets its pose
+    // each frame), so it may turn only about an axis it is round about.
+    if let Some((normal, rim)) = collider.turning_off_axis() {
+        let w = pose.angular_velocity;
+        return Err(Error::InvalidParameter {
+            key: format!("{key}.angular_velocity"),
+            allowed: format!(
+                "a turning about an axis the body is round about (a turntable, a roller), \
+                 through its `position`: a collider keeps its orientation, so only such a \
+                 body's surface moves along itself as it turns; this one's would move along \
+                 its normal at up to {} m/s, {} % of its rim speed of {} m/s (at most {} %), and \
+                 drive the cloth round a body that does not turn; turn any other body by \
+                 setting its pose each frame through the API",
+                format_short(normal),
+                format_short(100.0 * normal / rim),
+                format_short(rim),
+                format_short(100.0 * crate::sdf::MAX_TURNING_NORMAL_SHARE)
+            ),
+            got: format!(
+                "[{}, {}, {}]",
+                format_number(w.x),
+                format_number(w.y),
+                format_number(w.z)
+            ),
+        });
+    }
+    Ok(collider)
+}
+
+/// A collider's `rotation = [x, y, z, degrees]` (`key`: `collider[0]`)
+/// as a unit quaternion, or what is wrong with it: a component that is
+/// not finite (named by its place), and a zero axis with a non-zero
+/// angle. Any finite axis but zero has a direction, however long or
+/// short: it is scaled by its largest component before it is normalised,
+/// so that its squared length neither overflows nor underflows.
+fn collider_rotation(key: &str, axis: DVec3, degrees: f64) -> Result<DQuat> {
+    for (c, value) in axis.to_array().into_iter().enumerate() {
+        check_finite(&format!("{key}.rotation[{c}]"), value, "an axis component")?;
+    }
+    check_finite(
+        &format!("{key}.rotation[3]"),
+        degrees,
+        "the angle in degrees",
+    )?;
+    if degrees == 0.0 {
+        return Ok(DQuat::IDENTITY);
+    }
+    let largest = axis.abs().max_element();
+    if largest == 0.0 {
+        return Err(Error::InvalidParameter {
+            key: format!("{key}.rotation"),
+            allowed: "[x, y, z, degrees] with an axis other than [0, 0, 0] where the angle is \
+                      not 0 (any length: only its direction counts)"
+                .to_string(),
+            got: format!("[0, 0, 0, {}]", format_number(degrees)),
+        });
+    }
+    Ok(DQuat::from_axis_angle(
+        (axis / largest).normalize(),
+        degrees.to_radians(),
+    ))
 }
 
 /// The mesh files of the built-in scenes, embedded so a built-in scene
@@ -533,14 +612,41 @@ fn check_duration(duration: f64) -> Result<()> {
 
 /// `line L, column C: ` for an error toml could place, else nothing.
 fn location(text: &str, err: &toml::de::Error) -> String {
-    let Some(span) = err.span() else {
-        return String::new();
-    };
-    let before = text.get(..span.start).unwrap_or(text);
+    err.span()
+        .map_or_else(String::new, |span| at_byte(text, span.start))
+}
+
+/// "line L, column C: " of byte `at` of `text`.
+fn at_byte(text: &str, at: usize) -> String {
+    let before = text.get(..at).unwrap_or(text);
     let line = before.matches('\n').count() + 1;
     let line_start = before.rfind('\n').map_or(0, |i| i + 1);
     let column = before[line_start..].chars().count() + 1;
     format!("line {line}, column {column}: ")
+}
+
+/// The first control character TOML forbids in `text` (U+0000 to U+001F
+/// but tab, newline and carriage return, and U+007F, anywhere: in
+/// strings they are written as escapes), as a message: where it is and what it is. The TOML parser
+/// would report it as whatever token it broke (`invalid float` for a NUL
+/// after a number), which does not say what is in the file.
+fn control_character(text: &str) -> Option<String> {
+    let (at, c) = text
+        .char_indices()
+        .find(|&(_, c)| (c <= '\u{1f}' || c == '\u{7f}') && !matches!(c, '\t' | '\n' | '\r'))?;
+    let name = if c == '\0' {
+        "a NUL byte"
+    } else {
+        "a control character"
+    };
+    Some(format!(
+        "{}{name} (U+{:04X}): a TOML file may hold no control character but tab, newline and \
+         carriage return (in a string, write it as the escape `\\u{:04X}`); a scene file is \
+         text, so this one may not be a scene",
+        at_byte(text, at),
+        u32::from(c),
+        u32::from(c)
+    ))
 }
 
 /// A schema error as "line L, column C: \`key\`: what is wrong; write

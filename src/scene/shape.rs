@@ -74,6 +74,10 @@ impl Count for u32 {
     const MAX: u64 = u32::MAX as u64;
 }
 
+impl Count for u64 {
+    const MAX: u64 = u64::MAX;
+}
+
 impl Count for usize {
     const MAX: u64 = usize::MAX as u64;
 }

@@ -14,11 +14,19 @@
 //! - an open edge (an edge of one face only): an open mesh has no inside;
 //! - two faces running along a shared edge the same way (one of them is
 //!   flipped, so the inside is not defined);
-//! - a grid of more than [`MAX_GRID_CELLS`] lattice points, before anything
-//!   is allocated.
+//! - a part (faces joined through shared vertices) wound inward that lies
+//!   inside no other part ([`parts`](super::parts): an inward part is a
+//!   cavity only inside a solid);
+//! - a grid of more than [`MAX_GRID_CELLS`] lattice points, counted so
+//!   that nothing wraps ([`lattice`](super::lattice)), before anything is
+//!   allocated, with the `resolution` or `thickness` that would fit;
+//! - a `scale` whose grid the `f32` solvers cannot hold (beyond ±1e18 m,
+//!   or cells below 1e-18 m), naming `collider[N].scale`;
+//! - a grid the host's memory cannot hold (counted against it, then
+//!   allocated fallibly: [`Error::OutOfMemory`]).
 //!
-//! A mesh wound inside out throughout (negative volume) is taken as it is
-//! meant: its inside is the enclosed volume.
+//! A mesh wound inside out throughout (negative total volume) is taken as
+//! it is meant: its inside is the enclosed volume.
 //!
 //! # Not detected
 //!
@@ -34,9 +42,13 @@ use std::path::Path;
 
 use glam::DVec3;
 
+use super::lattice::{self, Lattice};
+use super::parts;
 use super::DistanceGrid;
+use crate::budget::{array, check_host, try_with_capacity};
 use crate::error::{Error, Result};
 use crate::mesh::Mesh;
+use crate::params::format_number;
 
 /// The coarsest `resolution`: fewer than 4 cells along the longest side
 /// cannot hold any shape.
@@ -49,10 +61,21 @@ pub const MAX_RESOLUTION: u32 = 512;
 /// buffer holding them shares with the cloth; the bake of that many takes
 /// about a minute on one core.
 pub const MAX_GRID_CELLS: u64 = 1 << 24;
-/// Lattice points of padding around the mesh (beyond `thickness`): two
-/// cells, so the field is sampled outside the body before a particle
-/// within `thickness` of it is reached.
-const PAD_CELLS: f64 = 2.0;
+/// `collider[N].resolution` (`key`: `collider[N]`) as the bake takes it,
+/// or its refusal: [`MIN_RESOLUTION`] to [`MAX_RESOLUTION`], however
+/// large the number written.
+pub(crate) fn check_resolution(key: &str, resolution: u64) -> Result<u32> {
+    u32::try_from(resolution)
+        .ok()
+        .filter(|r| (MIN_RESOLUTION..=MAX_RESOLUTION).contains(r))
+        .ok_or_else(|| Error::InvalidParameter {
+            key: format!("{key}.resolution"),
+            allowed: format!(
+                "{MIN_RESOLUTION} to {MAX_RESOLUTION} (cells along the mesh's longest side)"
+            ),
+            got: resolution.to_string(),
+        })
+}
 
 /// Bakes the grid of `mesh` scaled by `scale` at `resolution` cells along
 /// its longest side, padded for a collider of `thickness` \[m\]. `path`
@@ -65,15 +88,23 @@ pub fn bake(
     resolution: u32,
     thickness: f64,
 ) -> Result<DistanceGrid> {
-    if !(MIN_RESOLUTION..=MAX_RESOLUTION).contains(&resolution) {
-        return Err(Error::InvalidParameter {
-            key: format!("{key}.resolution"),
-            allowed: format!(
-                "{MIN_RESOLUTION} to {MAX_RESOLUTION} (cells along the mesh's longest side)"
-            ),
-            got: resolution.to_string(),
-        });
-    }
+    bake_until(mesh, path, key, scale, resolution, thickness, &|| false)
+}
+
+/// [`bake`], asking `stop` before each row of lattice points (a few
+/// hundred distance queries, well under a millisecond) and ending with
+/// [`Error::Interrupted`] once it says so: a fine grid bakes for a minute,
+/// and a host's Ctrl-C must not wait for it.
+pub fn bake_until(
+    mesh: &Mesh,
+    path: &Path,
+    key: &str,
+    scale: f64,
+    resolution: u32,
+    thickness: f64,
+    stop: &dyn Fn() -> bool,
+) -> Result<DistanceGrid> {
+    check_resolution(key, u64::from(resolution))?;
     let fail = |message: String| Error::Mesh {
         path: path.to_path_buf(),
         message,
@@ -90,42 +121,74 @@ pub fn bake(
         .iter()
         .map(|(t, _)| t.map(|i| p[i as usize]))
         .collect();
-    let volume: f64 = tris.iter().map(|[a, b, c]| a.dot(b.cross(*c))).sum();
     let mut index: Vec<[u32; 3]> = faces.iter().map(|(t, _)| *t).collect();
-    if volume < 0.0 {
+    let (part, parts) = parts::parts(&index, p.len());
+    let mut volume = parts::volumes(&tris, &part, parts);
+    if volume.iter().sum::<f64>() < 0.0 {
         // Wound inside out throughout: turn every face over.
         for (t, i) in tris.iter_mut().zip(&mut index) {
             t.swap(1, 2);
             i.swap(1, 2);
         }
+        volume.iter_mut().for_each(|v| *v = -*v);
+    }
+    if let Some((n, t)) = parts::stray_inward_part(&tris, &part, &volume) {
+        return Err(fail(format!(
+            "part {} of its {parts} parts (faces joined through shared vertices; the part \
+             whose first face is on {}) is wound inward — its faces enclose a negative volume — but lies inside no \
+             other part, so it is no cavity: a cloth would fall into it and rest inside; wind \
+             that part's faces the other way (outward, counter-clockwise seen from outside)",
+            n + 1,
+            mesh.where_face(&mesh.faces[faces[t].1])
+        )));
     }
     let (lo, hi) = p.iter().fold((DVec3::MAX, DVec3::MIN), |(lo, hi), &v| {
         (lo.min(v), hi.max(v))
     });
-    let cell = ((hi - lo).max_element() / f64::from(resolution)) as f32;
-    let pad = thickness + PAD_CELLS * f64::from(cell);
-    let origin = (lo - DVec3::splat(pad)).as_vec3().to_array();
-    let span = hi - lo + DVec3::splat(2.0 * pad);
-    let dims = span
-        .to_array()
-        .map(|s| (s / f64::from(cell)).ceil() as u64 + 1);
-    let cells = dims.iter().product::<u64>();
-    if !(cell > 0.0 && cell.is_finite()) || cells > MAX_GRID_CELLS {
-        return Err(fail(format!(
-            "`{key}`: a grid of {} × {} × {} lattice points (resolution {resolution}, \
-             thickness {thickness} m) is more than the {MAX_GRID_CELLS} a collider may have; \
-             lower `{key}.resolution`",
-            dims[0], dims[1], dims[2]
+    let lattice = Lattice::new(hi - lo, resolution, thickness);
+    if let Some(allowed) = lattice::scale_problem(lo, hi, &lattice) {
+        return Err(Error::InvalidParameter {
+            key: format!("{key}.scale"),
+            allowed,
+            got: format_number(scale),
+        });
+    }
+    if !lattice.fits() {
+        return Err(fail(lattice::too_many_points(
+            key,
+            hi - lo,
+            resolution,
+            thickness,
         )));
     }
-    let dims = dims.map(|d| d as u32);
+    if let Some(allowed) = lattice::reach_problem(lo, hi, &lattice) {
+        return Err(Error::InvalidParameter {
+            key: format!("{key}.thickness"),
+            allowed,
+            got: format_number(thickness),
+        });
+    }
+    let cell = lattice.cell;
+    let origin = (lo - DVec3::splat(lattice.pad)).as_vec3().to_array();
+    let dims = lattice.dims_u32();
+    let points = dims.iter().map(|&d| d as usize).product::<usize>();
+    let what = || {
+        format!(
+            "the distance grid of `{key}` ({} × {} × {} lattice points)",
+            dims[0], dims[1], dims[2]
+        )
+    };
+    check_host(array::<f32>(points as u64), what)?;
+    let mut samples = try_with_capacity::<f32>(points, &what())?;
     let normals = PseudoNormals::new(&tris, &index, p.len());
     let tree = Tree::new(&tris);
-    let mut samples = Vec::with_capacity(cells as usize);
     let at = |i: u32, o: f32| f64::from(o) + f64::from(cell) * f64::from(i);
     let mut hint = 0;
     for k in 0..dims[2] {
         for j in 0..dims[1] {
+            if stop() {
+                return Err(Error::Interrupted);
+            }
             for i in 0..dims[0] {
                 let x = DVec3::new(at(i, origin[0]), at(j, origin[1]), at(k, origin[2]));
                 let (t, q, feature) = tree.nearest(&tris, x, hint);

@@ -15,13 +15,16 @@
 //! What the bake refuses, and what it does not see, is in [`bake`].
 
 mod bake;
+mod lattice;
+mod parts;
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use glam::{DQuat, DVec3};
 
-pub use bake::{bake, MAX_GRID_CELLS, MAX_RESOLUTION, MIN_RESOLUTION};
+pub(crate) use bake::check_resolution;
+pub use bake::{bake, bake_until, MAX_GRID_CELLS, MAX_RESOLUTION, MIN_RESOLUTION};
 
 /// The default `resolution`: 64 cells along the mesh's longest side puts a
 /// cell of 1.6 cm on a 1 m table, finer than the few-centimetre cells of
@@ -109,6 +112,43 @@ impl MeshCollider {
         let size = DVec3::from(g.dims.map(|n| f64::from(n - 1))) * f64::from(g.cell);
         let centre = self.position + self.rotation * (lo + size * 0.5);
         (centre, size.length() * 0.5)
+    }
+}
+
+/// The most a body that keeps its orientation may move along its own
+/// normal as it turns, as a share of its rim speed (`|ω| ×` the farthest
+/// a vertex is from the axis): a prism of 16 or more sides about the
+/// axis, whose facets' corners move along their normals by `sin(π/16)`
+/// = 0.195 of the rim speed, passes as round; a box turned about its
+/// middle (a table: 0.8) does not.
+pub const MAX_TURNING_NORMAL_SHARE: f64 = 0.2;
+
+impl MeshCollider {
+    /// Where this body's turning, with its orientation kept, would move
+    /// its surface along the normal by more than
+    /// [`MAX_TURNING_NORMAL_SHARE`] of its rim speed: that speed \[m/s\]
+    /// and the rim speed. A body that keeps its orientation while `ω × r`
+    /// drives its surface is consistent only where `ω × r` runs along the
+    /// surface (a turntable, a roller); elsewhere the surface would push
+    /// the cloth along its normal without moving, and slide along its
+    /// faces like a conveyor, winding the cloth round a body that does
+    /// not turn until it blows up.
+    pub fn turning_off_axis(&self) -> Option<(f64, f64)> {
+        let omega = self.rotation.inverse() * self.angular_velocity;
+        if omega == DVec3::ZERO {
+            return None;
+        }
+        let (mut normal, mut rim) = (0.0f64, 0.0f64);
+        for t in &self.grid.triangles {
+            let [a, b, c] = t.map(|v| v.as_dvec3());
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            for v in [a, b, c] {
+                let spin = omega.cross(v);
+                normal = normal.max(spin.dot(n).abs());
+                rim = rim.max(spin.length());
+            }
+        }
+        (normal > MAX_TURNING_NORMAL_SHARE * rim).then_some((normal, rim))
     }
 }
 

@@ -10,7 +10,7 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use crate::cli_common::{stderr, TempDir, BIN};
-use crate::refusal_faults;
+use crate::{refusal_faults, CUBE_OBJ};
 
 /// A file of a row's directory.
 #[derive(Clone)]
@@ -146,6 +146,46 @@ fn obj(text: &str, more: &str) -> Vec<Entry> {
 /// The triangle as an OBJ.
 const TRIANGLE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
 
+/// Cubes of half-side `half` about `centre` as one OBJ, each wound
+/// outward or, where `inward`, inside out.
+fn cubes(pieces: &[([f64; 3], f64, bool)]) -> String {
+    let mut obj = String::new();
+    let mut faces = String::new();
+    for (n, &(c, half, inward)) in pieces.iter().enumerate() {
+        for k in 0..8 {
+            let at = |bit: usize, axis: usize| c[axis] + if k & bit == 0 { -half } else { half };
+            obj.push_str(&format!("v {} {} {}\n", at(1, 0), at(2, 1), at(4, 2)));
+        }
+        for q in [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ] {
+            let mut q = q.map(|i| i + 8 * n + 1);
+            if inward {
+                q.reverse();
+            }
+            faces.push_str(&format!("f {} {} {} {}\n", q[0], q[1], q[2], q[3]));
+        }
+    }
+    obj + &faces
+}
+
+/// A scene of a 5 × 5 cloth over the collider `mesh/m.obj` of this text,
+/// its `[[collider]]` table adding `more` lines.
+fn collider(text: &str, more: &str) -> Vec<Entry> {
+    vec![
+        Folder("mesh"),
+        File("mesh/m.obj", text.as_bytes().to_vec()),
+        scene(&format!(
+            "[cloth]\nresolution = [5, 5]\n\n[[collider]]\nmesh = \"mesh/m.obj\"\n{more}"
+        )),
+    ]
+}
+
 /// A right triangle with legs of 1e200 (file units).
 const HUGE_OBJ: &str = "v 0 0 0\nv 1e200 0 0\nv 0 1e200 0\nf 1 2 3\n";
 
@@ -172,6 +212,12 @@ fn refused_rows() -> Vec<Row> {
     let long_json_chunk = {
         let mut g = glb();
         g[12..16].copy_from_slice(&1_000_000u32.to_le_bytes());
+        g
+    };
+    let long_header = {
+        let mut g = glb();
+        let length = g.len() as u32 + 4;
+        g[8..12].copy_from_slice(&length.to_le_bytes());
         g
     };
     let short_header = b"glTF\x02\x00\x00\x00".to_vec();
@@ -251,10 +297,107 @@ fn refused_rows() -> Vec<Row> {
             files: glb_file(long_json_chunk),
             expect: &[
                 "mesh file mesh/m.glb",
-                "is truncated",
                 "JSON chunk at byte 12 says it holds 1000000 bytes",
+                "the chunk's length field is wrong",
             ],
-            absent: &["slice"],
+            absent: &["slice", "truncated"],
+        },
+        Row {
+            what: "a whole GLB whose header alone overstates its length",
+            files: glb_file(long_header),
+            expect: &[
+                "mesh file mesh/m.glb",
+                "its GLB header says the file has",
+                "which its chunks fill exactly",
+                "the header's length field is wrong",
+            ],
+            absent: &["truncated"],
+        },
+        Row {
+            what: "a collider thickness whose lattice count once wrapped past u64",
+            files: collider(CUBE_OBJ, "thickness = 1e30\n"),
+            expect: &[
+                "mesh file mesh/m.obj",
+                "`collider[0]`",
+                "more than the 16777216 a collider may have",
+                "`collider[0].thickness` at most 1.46 m",
+            ],
+            absent: &["resolution` at most"],
+        },
+        Row {
+            what: "a 1 µm collider under the default thickness",
+            files: collider(CUBE_OBJ, "scale = 1e-6\n"),
+            expect: &[
+                "`collider[0]`",
+                "thickness 0.005 m",
+                "`collider[0].thickness` at most 1.46e-6 m",
+                "the padding, not the mesh, fills the grid",
+            ],
+            absent: &["resolution` at most", "lower `collider[0].resolution`"],
+        },
+        Row {
+            what: "a collider scale whose cells underflow f32",
+            files: collider(CUBE_OBJ, "scale = 1e-40\n"),
+            expect: &[
+                "scene file scene.toml",
+                "`collider[0].scale`",
+                "at least 1e-18 m",
+                "got 1e-40",
+            ],
+            absent: &["lattice points"],
+        },
+        Row {
+            what: "a collider scale whose grid is beyond f32",
+            files: collider(CUBE_OBJ, "scale = 1e39\n"),
+            expect: &[
+                "scene file scene.toml",
+                "`collider[0].scale`",
+                "within ±1e18 m",
+                "got 1e39",
+            ],
+            absent: &[],
+        },
+        Row {
+            what: "a collider resolution beyond u32",
+            files: collider(CUBE_OBJ, "resolution = 5000000000\n"),
+            expect: &["`collider[0].resolution`", "4 to 512", "got 5000000000"],
+            absent: &["4294967295"],
+        },
+        Row {
+            what: "a collider rotation of an infinite angle",
+            files: collider(CUBE_OBJ, "rotation = [0, 1, 0, inf]\n"),
+            expect: &[
+                "`collider[0].rotation[3]`",
+                "the angle in degrees",
+                "got inf",
+            ],
+            absent: &[],
+        },
+        Row {
+            what: "a collider rotation of a zero axis",
+            files: collider(CUBE_OBJ, "rotation = [0, 0, 0, 90]\n"),
+            expect: &[
+                "`collider[0].rotation`",
+                "an axis other than [0, 0, 0]",
+                "got [0, 0, 0, 90]",
+            ],
+            absent: &[],
+        },
+        Row {
+            what: "a collider mesh with one part wound inside out beside another",
+            files: collider(
+                &cubes(&[([0.0; 3], 0.5, false), ([2.0, 0.0, 0.0], 0.25, true)]),
+                "",
+            ),
+            expect: &[
+                "mesh file mesh/m.obj",
+                "part 2 of its 2 parts",
+                "first face is on line 23",
+                "wound inward",
+                "inside no other part",
+                "wind that part's faces the other way",
+            ],
+            absent: &[],
         },
         Row {
             what: "a GLB shorter than its header",
@@ -521,6 +664,25 @@ fn accepted_rows() -> Vec<(&'static str, Vec<Entry>)> {
     rows.push((
         "a right triangle at 1e200 scaled by 1e-200",
         obj(HUGE_OBJ, "scale = 1e-200\n"),
+    ));
+    rows.push((
+        "a hollow collider: a part wound inward inside an outward one",
+        collider(
+            &cubes(&[([0.0; 3], 0.5, false), ([0.0; 3], 0.25, true)]),
+            "",
+        ),
+    ));
+    rows.push((
+        "a collider wound inside out throughout",
+        collider(&cubes(&[([0.0; 3], 0.5, true)]), ""),
+    ));
+    rows.push((
+        "a collider rotation about a finite, huge axis",
+        collider(CUBE_OBJ, "rotation = [1e300, 0, 0, 90]\n"),
+    ));
+    rows.push((
+        "a collider rotation about a tiny, non-zero axis",
+        collider(CUBE_OBJ, "rotation = [1e-300, 0, 0, 90]\n"),
     ));
     rows
 }

@@ -12,6 +12,7 @@ use wgcloth::{Error, Scene};
 use crate::cli_common::{
     assert_status, stderr, wgcloth, TempDir, BIN, EXIT_INVALID, EXIT_NO_ADAPTER, LAVAPIPE,
 };
+use crate::{cube_collider_scene, CUBE_OBJ, FINE_BAKE};
 
 /// A cloth of 10⁶ particles (two pinned corners), explicit: its model
 /// alone is about 0.4 GiB, the f64 CPU solver's workspace 1.1 GiB more.
@@ -68,6 +69,12 @@ const MALLOC_ARENAS: &str = "2";
 /// `LP_NUM_THREADS` of the limited runs: lavapipe's worker threads (one
 /// per core by default), each with its stack, fixed for the same reason.
 const LAVAPIPE_THREADS: &str = "2";
+
+/// `ulimit -v` for the collider rows \[KiB\]: about 51 MB. Before a
+/// scene's colliders bake (no device open) the binary maps about 16 MB,
+/// so a 5 × 5 cloth over a coarse cube runs under it (the control) and
+/// the 245³-point grid of [`FINE_BAKE`] (56 MiB of samples) cannot fit.
+const BAKE_ADDRESS_SPACE_KIB: u64 = 50_000;
 
 /// Runs the binary with `args` under `ulimit -v kib`, in `dir`, with the
 /// address space it maps made independent of the machine's core count.
@@ -186,6 +193,33 @@ fn a_million_particles_under_an_address_space_limit_are_refused_on_the_cpu() {
         "an implausibly small amount: {err}"
     );
     assert_eq!(dir.files(), ["million.toml"], "nothing else on disk");
+}
+
+#[test]
+fn a_collider_grid_beyond_the_memory_is_refused_naming_the_collider() {
+    let dir = TempDir::new("memdev-bake");
+    dir.write("cube.obj", CUBE_OBJ);
+    dir.write("coarse.toml", &cube_collider_scene(16));
+    dir.write("fine.toml", &cube_collider_scene(FINE_BAKE));
+    let args = |scene| ["run", scene, "--steps", "1", "--positions-out", "p.txt"];
+    let out = wgcloth_limited(BAKE_ADDRESS_SPACE_KIB, &dir, &args("coarse.toml"));
+    assert_status(&out, 0);
+    std::fs::remove_file(dir.join("p.txt")).expect("the control wrote p.txt");
+    let out = wgcloth_limited(BAKE_ADDRESS_SPACE_KIB, &dir, &args("fine.toml"));
+    let side = FINE_BAKE + 5;
+    let err = assert_refused(
+        &out,
+        &[
+            "the distance grid of `collider[0]`",
+            &format!("{side} × {side} × {side} lattice points"),
+            "ulimit -v",
+        ],
+    );
+    assert!(
+        bytes_needed(&err) >= 4 * u64::from(side).pow(3),
+        "the amount does not count the grid's f32 samples: {err}"
+    );
+    assert_eq!(dir.files(), ["coarse.toml", "cube.obj", "fine.toml"]);
 }
 
 #[test]

@@ -293,6 +293,115 @@ const ROWS: &[Row] = &[
         expect: &["scene.toml", "larger than 1 MiB"],
         absent: &[],
     },
+    Row {
+        what: "a NUL byte in a scene file",
+        scene: Scene::Text("[simulation]\ndt = 0.01\0\n"),
+        args: &["run", "scene.toml"],
+        expect: &[
+            "scene.toml",
+            "line 2, column 10",
+            "a NUL byte (U+0000)",
+            "no control character but tab, newline and carriage return",
+        ],
+        absent: &["invalid float"],
+    },
+    Row {
+        what: "a density whose masses are infinite in f32",
+        scene: Scene::Text("[cloth]\nresolution = [5, 5]\n[material]\ndensity = 1e300\n"),
+        args: &["run", "scene.toml"],
+        expect: &["`material.density`", "normal f32 numbers", "got 1e300"],
+        absent: &[],
+    },
+    Row {
+        what: "bench overhang: a negative --density",
+        scene: Scene::None,
+        args: &["bench", "overhang", "--density", "-1"],
+        expect: &["`--density`", "> 0 (kg/m²)", "got -1"],
+        absent: &["unexpected argument"],
+    },
+    Row {
+        what: "bench overhang: --bending 0",
+        scene: Scene::None,
+        args: &["bench", "overhang", "--bending", "0"],
+        expect: &["`--bending`", "0 < bending ≤ 1", "got 0"],
+        absent: &["material.stretch"],
+    },
+    Row {
+        what: "bench overhang: a density whose strips no cloth can hold",
+        scene: Scene::None,
+        args: &["bench", "overhang", "--density", "1e-300"],
+        expect: &["`--density`", "with bending 5e-6 N·m", "Γ from 1 to 100"],
+        absent: &["`cloth.origin"],
+    },
+    Row {
+        what: "bench overhang: --segments beyond its range",
+        scene: Scene::None,
+        args: &["bench", "overhang", "--segments", "100000000"],
+        expect: &["--segments", "2 ≤ N ≤ 256"],
+        absent: &["cloth.resolution"],
+    },
+    Row {
+        what: "bench overhang: a negative --segments",
+        scene: Scene::None,
+        args: &["bench", "overhang", "--segments", "-3"],
+        expect: &["--segments", "2 ≤ N ≤ 256"],
+        absent: &["unexpected argument"],
+    },
+    Row {
+        what: "bench drape: a size that is not a number",
+        scene: Scene::None,
+        args: &["bench", "drape", "--sizes", "5,x"],
+        expect: &["--sizes", "'x'", "each 3 ≤ N ≤ 257"],
+        absent: &["ParseIntError", "invalid digit"],
+    },
+    Row {
+        what: "bench drape: a negative size",
+        scene: Scene::None,
+        args: &["bench", "drape", "--sizes", "-5"],
+        expect: &["--sizes", "each 3 ≤ N ≤ 257"],
+        absent: &["unexpected argument"],
+    },
+    Row {
+        what: "bench drape: one file for the CSV and the chart",
+        scene: Scene::None,
+        args: &["bench", "drape", "--csv", "same.txt", "--chart", "same.txt"],
+        expect: &["--csv and --chart are the same file (same.txt)"],
+        absent: &[],
+    },
+    Row {
+        what: "bench cantilever: one file for the CSV and the chart",
+        scene: Scene::None,
+        args: &[
+            "bench",
+            "cantilever",
+            "--quick",
+            "--csv",
+            "t.csv",
+            "--chart",
+            "./t.csv",
+        ],
+        expect: &["--csv and --chart are the same file (t.csv)"],
+        absent: &[],
+    },
+    Row {
+        what: "render refused by the solver after the device opened",
+        scene: Scene::Text(
+            "[simulation]\nintegrator = \"explicit\"\ndt = 0.001\n[cloth]\n\
+             resolution = [11, 11]\nsize = [1.0, 1.0]\n[material]\nbending = 0.7\n",
+        ),
+        args: &[
+            "render",
+            "scene.toml",
+            "--out",
+            "frames/sub",
+            "--frames",
+            "1",
+            "--size",
+            "64x48",
+        ],
+        expect: &["`material.bending`", "at most"],
+        absent: &[],
+    },
 ];
 
 /// Puts the row's `scene.toml` in `dir`.
@@ -370,6 +479,28 @@ fn a_valid_run_writes_its_outputs_where_the_rows_look() {
     );
     assert_status(&out, 0);
     assert_eq!(dir.files(), ["positions.txt", "trace.csv"]);
+}
+
+#[test]
+fn a_self_collision_thickness_at_its_documented_maximum_is_accepted() {
+    // A 0.3 m cloth of 4 × 4 particles: rest spacing 0.1 m, so at most
+    // 4 × 0.1 = 0.4 m, which its computed spacing (0.09999999999999998)
+    // once put just out of reach.
+    let dir = TempDir::new("messages-thickness-maximum");
+    let scene = "[cloth]\nresolution = [4, 4]\nsize = [0.3, 0.3]\n[self_collision]\n";
+    std::fs::write(dir.join("scene.toml"), format!("{scene}thickness = 0.4\n"))
+        .expect("write the scene");
+    let out = wgcloth_in(&dir.0, &["run", "scene.toml", "--steps", "1"]);
+    assert_status(&out, 0);
+    std::fs::write(dir.join("scene.toml"), format!("{scene}thickness = 0.41\n"))
+        .expect("write the scene");
+    let out = wgcloth_in(&dir.0, &["run", "scene.toml", "--steps", "1"]);
+    assert_status(&out, EXIT_INVALID);
+    assert!(
+        stderr(&out).contains("to 1e-9 relative"),
+        "{}",
+        stderr(&out)
+    );
 }
 
 #[test]

@@ -361,13 +361,14 @@ fn spawn(dir: &TempDir, args: &[&str]) -> Child {
 }
 
 /// Waits until `ready()` holds, then sends `signal` to `child` and returns
-/// its exit status and stderr.
+/// its exit status and stderr, and how long it took to end after the
+/// signal.
 fn interrupt(
     dir: &TempDir,
     mut child: Child,
     signal: &str,
     ready: impl Fn() -> bool,
-) -> (i32, String) {
+) -> (i32, String, Duration) {
     let started = Instant::now();
     while !ready() {
         if let Some(status) = child.try_wait().expect("poll the child") {
@@ -385,12 +386,14 @@ fn interrupt(
         .status()
         .expect("run kill");
     assert!(sent.success(), "kill {signal} failed");
+    let signalled = Instant::now();
     let status = child.wait().expect("wait for the child");
+    let took = signalled.elapsed();
     let err = fs::read_to_string(dir.join("stderr.txt")).expect("read stderr.txt");
     let code = status
         .code()
         .unwrap_or_else(|| panic!("killed by the signal ({status}):\n{err}"));
-    (code, err)
+    (code, err, took)
 }
 
 #[test]
@@ -424,7 +427,7 @@ fn an_interrupted_render_leaves_whole_frames_and_no_temporary() {
             .count()
         })
     };
-    let (code, err) = interrupt(&dir, child, "-TERM", || written() >= 2);
+    let (code, err, _) = interrupt(&dir, child, "-TERM", || written() >= 2);
     assert_eq!(code, EXIT_INTERRUPTED, "{err}");
     assert!(err.contains("interrupted"), "{err}");
     let decoded = decoded_frames(&frames, 64, 48);
@@ -453,10 +456,110 @@ fn an_interrupted_run_writes_nothing() {
     );
     // The temporary exists once the outputs are open, so stepping is under
     // way and the handler installed.
-    let (code, err) = interrupt(&dir, child, "-INT", || !hidden(&dir.0).is_empty());
+    let (code, err, _) = interrupt(&dir, child, "-INT", || !hidden(&dir.0).is_empty());
     assert_eq!(code, EXIT_INTERRUPTED, "{err}");
     assert!(err.contains("interrupted"), "{err}");
     assert_eq!(dir.files(), ["stderr.txt"]);
+}
+
+/// An unprivileged user to run a row as where the tests run as root, whom
+/// a folder's permissions do not stop: `nobody`.
+const NOBODY: &str = "65534";
+
+#[test]
+fn a_read_only_folders_existing_file_is_refused_naming_the_folder() {
+    let dir = TempDir::new("read-only-folder");
+    let ro = dir.join("ro");
+    fs::create_dir(&ro).expect("create ro");
+    fs::write(ro.join("p.txt"), "old\n").expect("write ro/p.txt");
+    fs::set_permissions(&ro, fs::Permissions::from_mode(0o555)).expect("chmod 555 ro");
+    // As root the folder's mode would not stop anything: run as nobody.
+    let root = Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0");
+    let args = [
+        "run",
+        "hanging",
+        "--steps",
+        "1",
+        "--positions-out",
+        "ro/p.txt",
+    ];
+    let out = if root {
+        Command::new("setpriv")
+            .args(["--reuid", NOBODY, "--regid", NOBODY, "--clear-groups", BIN])
+            .args(args)
+            .current_dir(&dir.0)
+            .output()
+            .expect("run the binary through setpriv")
+    } else {
+        Command::new(BIN)
+            .args(args)
+            .current_dir(&dir.0)
+            .output()
+            .expect("run the binary")
+    };
+    fs::set_permissions(&ro, fs::Permissions::from_mode(0o755)).expect("chmod 755 ro");
+    assert_status(&out, EXIT_FAILURE);
+    assert_mentions(
+        &out,
+        &[
+            "ro/p.txt",
+            "its folder ro does not let this user create a file",
+            "must be writable, even where the file itself exists",
+        ],
+    );
+    assert_eq!(fs::read_to_string(ro.join("p.txt")).expect("read"), "old\n");
+    assert_eq!(names_in(&ro), ["p.txt"]);
+}
+
+/// CPU time \[s\] process `pid` has used (user and system, from
+/// `/proc/PID/stat` in clock ticks of 1/100 s, Linux's `USER_HZ`); zero
+/// once it is gone.
+fn cpu_seconds(pid: u32) -> f64 {
+    let stat = fs::read_to_string(format!("/proc/{pid}/stat")).unwrap_or_default();
+    // Fields after the command name in parentheses: utime and stime are
+    // the 12th and 13th of them.
+    let after = stat.rsplit_once(") ").map_or("", |(_, rest)| rest);
+    let ticks: u64 = after
+        .split(' ')
+        .skip(11)
+        .take(2)
+        .filter_map(|f| f.parse::<u64>().ok())
+        .sum();
+    ticks as f64 / 100.0
+}
+
+/// How soon a bake must end once interrupted: it asks between rows of
+/// lattice points (a few hundred distance queries, under a millisecond),
+/// so the rest is the process's exit; two seconds allow a loaded machine.
+const BAKE_STOP: Duration = Duration::from_secs(2);
+
+#[test]
+fn an_interrupted_collider_bake_stops_at_once_and_writes_nothing() {
+    let dir = TempDir::new("bake-interrupted");
+    dir.write("cube.obj", crate::CUBE_OBJ);
+    dir.write("scene.toml", &crate::cube_collider_scene(crate::FINE_BAKE));
+    let child = spawn(
+        &dir,
+        &[
+            "run",
+            "scene.toml",
+            "--steps",
+            "1",
+            "--positions-out",
+            "pos.txt",
+        ],
+    );
+    // The scene parses in milliseconds: a quarter second of CPU is inside
+    // the bake (about 8 s on the development machine).
+    let pid = child.id();
+    let (code, err, took) = interrupt(&dir, child, "-INT", || cpu_seconds(pid) >= 0.25);
+    assert_eq!(code, EXIT_INTERRUPTED, "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    assert!(took < BAKE_STOP, "it took {took:?} to stop:\n{err}");
+    assert_eq!(dir.files(), ["cube.obj", "scene.toml", "stderr.txt"]);
 }
 
 /// Exit status of a command whose standard output's reader had gone:
