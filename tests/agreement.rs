@@ -4,8 +4,9 @@
 //!
 //! - **Red proofs.** Kernels changed as a bug would change them (a spring
 //!   term dropped, a neighbour's index shifted, `dt` one ulp high, a
-//!   damping coefficient 10⁻³ off) must fail the bounded tier against the
-//!   mirror. They run the bounded tier whatever the policy, so they prove
+//!   damping coefficient 10⁻³ off, a term of the implicit CG's product
+//!   dropped) must fail the bounded tier against the mirror (the implicit
+//!   one its `f64` residual). They run the bounded tier whatever the policy, so they prove
 //!   the bounds on every adapter.
 //! - **Admission.** A CPU mirror that fuses every product into the sum it
 //!   feeds (`gpu_common::fused`: what a hardware GPU may do to any `a·b + c`)
@@ -106,6 +107,14 @@ const MUTATIONS: &[Mutation] = &[
         kernel: Kernel::SpringForces,
         find: "kd * rate",
         replace: "(kd * 1.001) * rate",
+    },
+    Mutation {
+        what: "each spring's m mᵀ part dropped from the implicit CG's product",
+        integrator: Integrator::Implicit,
+        damping: None,
+        kernel: Kernel::CgApply,
+        find: "let y = d * blk.w + blk.xyz * dot3(blk.xyz, d);",
+        replace: "let y = d * blk.w;",
     },
 ];
 

@@ -3,7 +3,7 @@
 
 mod gpu_common;
 
-use gpu_common::agreement::{self, Policy};
+use gpu_common::agreement::{self, Policy, Stepper};
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::gpu::{GpuSolver, StepPath};
@@ -35,6 +35,49 @@ fn implicit_matches_the_cpu_mirror() {
         let mut c = CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
         agreement::assert_steps("implicit", &mut g, &mut c, steps, &bound);
     }
+}
+
+/// On every adapter, whatever the policy: each step's `Δv`, from the
+/// mirror re-seeded with the device's state, satisfies the system an `f64`
+/// solver assembles at that state to CG's tolerance (plus what `f32`
+/// rounding of CG's recursive residual allows), its constraint decisions
+/// the `f64` solver's but for a counted few (`agreement::FILTER_FLIPS`).
+#[test]
+fn each_implicit_step_satisfies_its_system_in_f64() {
+    let (model, params) = scene();
+    let bound = agreement::implicit_step(params.implicit.tolerance);
+    let mut g = exact_gpu(&model, &params);
+    let mut c = CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
+    let mut judge = CpuSolver::<f64>::new(&model, &params).expect("f64 judge");
+    agreement::check_reseeded_judged("implicit", &mut g, &mut c, Some(&mut judge), LONG, &bound)
+        .unwrap_or_else(|e| panic!("{e}"));
+}
+
+/// The `f64` residual can fail: the device's own answer passes it, and the
+/// same answer scaled by ten times what it admits does not.
+#[test]
+fn the_f64_residual_rejects_an_answer_ten_bounds_off() {
+    const WARM: u32 = 20;
+    let (model, params) = scene();
+    let bound = agreement::implicit_step(params.implicit.tolerance);
+    let mut g = exact_gpu(&model, &params);
+    let mut c = CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
+    let mut judge = CpuSolver::<f64>::new(&model, &params).expect("f64 judge");
+    agreement::check_reseeded_judged("warm-up", &mut g, &mut c, Some(&mut judge), WARM, &bound)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let before = Stepper::state(&g);
+    g.step(1).expect("GPU step");
+    let (dv, kinds) = g.implicit_answer().expect("the GPU keeps its Δv");
+    agreement::check_implicit_residual("as it is", &mut judge.clone(), &before, &dv, &kinds, false)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let admitted = params.implicit.tolerance + agreement::RESIDUAL_GAP;
+    let off: Vec<_> = dv
+        .iter()
+        .map(|d| *d * (1.0 + 10.0 * admitted) as f32)
+        .collect();
+    let verdict =
+        agreement::check_implicit_residual("scaled", &mut judge, &before, &off, &kinds, false);
+    assert!(verdict.is_err(), "an answer ten bounds off passed");
 }
 
 #[test]

@@ -1274,10 +1274,9 @@ const FOLDED_WARM: u32 = 90;
 
 /// The folded cloth of tests/self_collision.rs mid-drop, with
 /// self-collision at its defaults, on the multi-dispatch path (the GPU's
-/// Jacobi fix-up on both sides). Its states are not compared: the grid
-/// kernels' implicit step leaves the sign of a zero velocity of a particle
-/// resting on the ground as the mirror does not (−0 for +0; positions
-/// agree), and every twin below reads its inputs from the device.
+/// Jacobi fix-up on both sides). Its states are not compared here (the
+/// whole drop is, in tests/self_collision.rs): every twin below reads its
+/// inputs from the device.
 fn folded(integrator: Integrator) -> Twins {
     let model = folded_model();
     let mut params = Params {

@@ -678,6 +678,11 @@ pub trait Stepper {
     fn advance(&mut self, n: u32) -> Result<(), String>;
     /// The state.
     fn state(&self) -> States;
+    /// After an implicit step: its `Δv` and each particle's filter kind
+    /// (`kernel_config::filter_kind`), where the stepper keeps them.
+    fn implicit_answer(&self) -> Option<(Vec<Vec3>, Vec<f32>)> {
+        None
+    }
 }
 
 impl Stepper for GpuSolver {
@@ -692,6 +697,112 @@ impl Stepper for GpuSolver {
             .unwrap_or_else(|e| panic!("GPU read-back: {e}"));
         (s.x, s.v)
     }
+    fn implicit_answer(&self) -> Option<(Vec<Vec3>, Vec<f32>)> {
+        use wgcloth::kernel_config::work;
+        let words = self
+            .debug_read(wgcloth::gpu::DebugBuffer::Work)
+            .unwrap_or_else(|e| panic!("GPU read-back: {e}"));
+        let n = self.particle_count() as usize;
+        let entry = |sec: u32, p: usize| -> [f32; 4] {
+            let at = (sec as usize * n + p) * 4;
+            std::array::from_fn(|k| f32::from_bits(words[at + k]))
+        };
+        Some((
+            (0..n)
+                .map(|p| {
+                    let e = entry(work::DV, p);
+                    Vec3::new(e[0], e[1], e[2])
+                })
+                .collect(),
+            (0..n).map(|p| entry(work::Z, p)[3]).collect(),
+        ))
+    }
+}
+
+/// How far above CG's tolerance the `f64` residual of the device's answer
+/// may be: CG stops on its recursively updated `f32` residual, which
+/// parts from the true residual by rounding of the order of `U` times the
+/// condition number times the products summed (a block product of twelve
+/// springs, four terms each: 64), relative to the right-hand side.
+pub const RESIDUAL_GAP: f64 = 64.0 * U * CG_CONDITION;
+
+/// Particles whose constraint the device decided otherwise than the `f64`
+/// judge may be, per step: a contact taken or not, where the particle
+/// lies within rounding of the contact's slop; each is left out of the
+/// residual and counted. Two a step admits a particle on each side of a
+/// surface; more is a real disagreement.
+pub const FILTER_FLIPS: usize = 2;
+
+/// The implicit step's own test: the device's `Δv` (`dv`, with its filter
+/// kinds `kinds`) must satisfy the system that `judge` (an `f64` solver of
+/// the same cloth, at the step's clock) assembles at the state `before`,
+/// to CG's tolerance plus [`RESIDUAL_GAP`] — `‖S(b − A Δv)‖_P ≤ (tol +
+/// gap) ‖S b‖_P` in the block-diagonal preconditioner's norm, CG's own
+/// stopping test. Particles whose filter differs are left out and counted
+/// (at most [`FILTER_FLIPS`]). `cap_reached`: CG stopped at its iteration
+/// cap, where no tolerance is promised. The judge is then stepped once,
+/// to the next step's clock.
+pub fn check_implicit_residual(
+    what: &str,
+    judge: &mut CpuSolver<f64>,
+    before: &States,
+    dv: &[Vec3],
+    kinds: &[f32],
+    cap_reached: bool,
+) -> Result<(), String> {
+    use wgcloth::cpu::twins::{self as cpu, Filter};
+    use wgcloth::kernel_config::filter_kind::{FIXED, FREE, PLANE};
+    let wide = |v: &[Vec3]| -> Vec<wgcloth::real::Vec3<f64>> {
+        v.iter()
+            .map(|p| wgcloth::real::Vec3::new(p.x.into(), p.y.into(), p.z.into()))
+            .collect()
+    };
+    judge
+        .set_state(wgcloth::cpu::State {
+            x: wide(&before.0),
+            v: wide(&before.1),
+        })
+        .map_err(|e| format!("{what}: the f64 judge: {e}"))?;
+    let tolerance = judge.system().cg_tolerance;
+    let (sys, st, w) = cpu::parts(judge);
+    cpu::implicit::springs(sys, st, w);
+    cpu::implicit::prepare(sys, st, w);
+    w.dv = wide(dv);
+    cpu::cg::init(sys, w);
+    let (mut rho, mut delta0, mut flips) = (0.0, 0.0, 0usize);
+    for (p, f) in w.filter.iter().enumerate() {
+        let kind = match f {
+            Filter::Free => FREE,
+            Filter::Fixed => FIXED,
+            Filter::Plane(..) => PLANE,
+        };
+        if kind != kinds[p] {
+            flips += 1;
+            continue;
+        }
+        let r = w.r[p];
+        rho += r.dot(f.apply(w.precond[p].mul(r)));
+        delta0 += w.delta0_terms[p];
+    }
+    judge
+        .step()
+        .map_err(|e| format!("{what}: the f64 judge's step: {e}"))?;
+    if flips > FILTER_FLIPS {
+        return Err(format!(
+            "{what}: {flips} particles constrained otherwise than in f64, over {FILTER_FLIPS}"
+        ));
+    }
+    let relative = if delta0 > 0.0 {
+        (rho.max(0.0) / delta0).sqrt()
+    } else {
+        0.0
+    };
+    if !cap_reached && relative > tolerance + RESIDUAL_GAP {
+        return Err(format!(
+            "{what}: the device's Δv leaves a residual of {relative:e} of the right-hand side in f64, over the tolerance {tolerance:e} + {RESIDUAL_GAP:e}"
+        ));
+    }
+    Ok(())
 }
 
 impl Stepper for CpuSolver<f32> {
@@ -757,6 +868,19 @@ pub fn check_steps(
     steps: u32,
     bound: &Bound,
 ) -> Result<(), String> {
+    check_steps_judged(what, device, mirror, None, steps, bound)
+}
+
+/// [`check_steps`], each implicit step under the bounded policy also held
+/// to its `f64` residual by `judge` (see [`check_reseeded_judged`]).
+pub fn check_steps_judged(
+    what: &str,
+    device: &mut dyn Stepper,
+    mirror: &mut CpuSolver<f32>,
+    judge: Option<&mut CpuSolver<f64>>,
+    steps: u32,
+    bound: &Bound,
+) -> Result<(), String> {
     match policy() {
         Policy::Bits => {
             // In submits of a few steps, as `wgcloth run` steps, so that
@@ -772,7 +896,7 @@ pub fn check_steps(
                 bound,
             )
         }
-        Policy::Bounded => check_reseeded(what, device, mirror, steps, bound),
+        Policy::Bounded => check_reseeded_judged(what, device, mirror, judge, steps, bound),
     }
 }
 
@@ -785,6 +909,20 @@ pub fn check_reseeded(
     steps: u32,
     bound: &Bound,
 ) -> Result<(), String> {
+    check_reseeded_judged(what, device, mirror, None, steps, bound)
+}
+
+/// [`check_reseeded`], each implicit step's answer also held to its own
+/// `f64` residual by `judge` (see [`check_implicit_residual`]), where the
+/// device keeps its answer.
+pub fn check_reseeded_judged(
+    what: &str,
+    device: &mut dyn Stepper,
+    mirror: &mut CpuSolver<f32>,
+    mut judge: Option<&mut CpuSolver<f64>>,
+    steps: u32,
+    bound: &Bound,
+) -> Result<(), String> {
     let mut drift = Drift::default();
     for step in 1..=steps {
         let before = device.state();
@@ -793,6 +931,16 @@ pub fn check_reseeded(
         mirror.advance(1)?;
         let (g, c) = (device.state(), mirror_state(mirror));
         let at = format!("{what}, step {step} (re-seeded)");
+        let implicit = mirror.integrator() == wgcloth::params::Integrator::Implicit;
+        let answer = judge
+            .as_deref_mut()
+            .filter(|_| implicit)
+            .and_then(|j| device.implicit_answer().map(|a| (j, a)));
+        if let Some((judge, (dv, kinds))) = answer {
+            let cap = mirror.system().cg_max_iterations;
+            let cap_reached = mirror.last_stats().cg_iterations >= cap;
+            check_implicit_residual(&at, judge, &before, &dv, &kinds, cap_reached)?;
+        }
         let from_positions = velocities_from_positions(mirror);
         check_step_state(&at, mirror.system(), &before, &g, &c, from_positions, bound)?;
         drift.add(&flat(&before.0), &flat(&g.0), &flat(&c.0));
