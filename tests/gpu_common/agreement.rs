@@ -65,11 +65,11 @@ pub fn policy() -> Policy {
     static POLICY: OnceLock<Policy> = OnceLock::new();
     *POLICY.get_or_init(|| {
         let probe = probe();
-        let forced = std::env::var(POLICY_VAR).ok();
+        let forced = std::env::var(POLICY_VAR).ok().filter(|v| !v.is_empty());
         let policy = match forced.as_deref() {
             Some("bits") => Policy::Bits,
             Some("bounded") => Policy::Bounded,
-            None | Some("") => {
+            None => {
                 if probe.rounds_like_the_mirror() {
                     Policy::Bits
                 } else {
