@@ -168,8 +168,8 @@ pub struct GpuSolver {
 /// mirror takes, so `step` never depends on the budget.
 #[derive(Debug)]
 pub(super) struct Rewind {
-    /// `(copy, size in bytes)` of `x`, `v`, `work` and `status`, in order.
-    copies: Vec<(wgpu::Buffer, u64)>,
+    /// Copies of `x`, `v`, `work` and `status`, in that order.
+    copies: Vec<wgpu::Buffer>,
 }
 
 impl Rewind {
@@ -179,14 +179,12 @@ impl Rewind {
             .stepped()
             .iter()
             .map(|b| {
-                let size = b.size();
-                let copy = device.create_buffer(&wgpu::BufferDescriptor {
+                device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("wgcloth.rewind"),
-                    size,
+                    size: b.size(),
                     usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
-                });
-                (copy, size)
+                })
             })
             .collect();
         Rewind { copies }
@@ -194,17 +192,27 @@ impl Rewind {
 
     /// Records copies of `buffers`' state into the rewind's.
     fn save(&self, encoder: &mut wgpu::CommandEncoder, buffers: &ClothBuffers) {
-        for (b, (copy, size)) in buffers.stepped().iter().zip(&self.copies) {
-            encoder.copy_buffer_to_buffer(b, 0, copy, 0, *size);
+        for (b, copy) in buffers.stepped().iter().zip(&self.copies) {
+            encoder.copy_buffer_to_buffer(b, 0, copy, 0, b.size());
         }
     }
 
     /// Records copies of the rewind's buffers back into `buffers`.
     fn restore(&self, encoder: &mut wgpu::CommandEncoder, buffers: &ClothBuffers) {
-        for (b, (copy, size)) in buffers.stepped().iter().zip(&self.copies) {
-            encoder.copy_buffer_to_buffer(copy, 0, b, 0, *size);
+        for (b, copy) in buffers.stepped().iter().zip(&self.copies) {
+            encoder.copy_buffer_to_buffer(copy, 0, b, 0, b.size());
         }
     }
+}
+
+/// What a submit of steps records before them (see [`Rewind`]).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Before {
+    Nothing,
+    /// Copy the state into the rewind (made if there is none).
+    Save,
+    /// Copy the rewind back into the state.
+    Restore,
 }
 
 /// What the step plan depends on (`params`: as uploaded).
@@ -738,25 +746,15 @@ impl GpuSolver {
 
     /// [`GpuSolver::step`] as a future, for a browser's event loop.
     pub async fn step_async(&mut self, n: u32) -> Result<StepStats> {
-        let device = self.device.clone();
         // Below its maximum, the CG budget may cut a step short: keep what
         // the steps change, to run them again with the maximum if it did.
         let rewind = self.cg.current() < self.cg.max();
-        guarded_async(&device, "stepping", None, || {
-            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("wgcloth.step"),
-            });
-            if rewind {
-                let copies = self
-                    .rewind
-                    .get_or_insert_with(|| Rewind::new(&device, &self.buffers));
-                copies.save(&mut encoder, &self.buffers);
-            }
-            self.encode_steps(&mut encoder, n);
-            self.queue.submit([encoder.finish()]);
-            Ok(())
-        })
-        .await?;
+        let before = if rewind {
+            Before::Save
+        } else {
+            Before::Nothing
+        };
+        self.submit_steps("stepping", n, before).await?;
         let hits = self.cg.hits();
         let stats = self.check_async().await?;
         if !rewind || self.cg.hits() == hits {
@@ -764,25 +762,37 @@ impl GpuSolver {
         }
         // A step stopped at the budget: the check has restored the
         // maximum; run the steps again from where they started.
-        guarded_async(
-            &device,
-            "stepping again with the full CG budget",
-            None,
-            || {
-                let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("wgcloth.step.again"),
-                });
-                if let Some(copies) = &self.rewind {
-                    copies.restore(&mut encoder, &self.buffers);
-                }
-                self.steps_recorded -= u64::from(n);
-                self.encode_steps(&mut encoder, n);
-                self.queue.submit([encoder.finish()]);
-                Ok(())
-            },
-        )
-        .await?;
+        self.steps_recorded -= u64::from(n);
+        self.submit_steps("stepping again with the full CG budget", n, Before::Restore)
+            .await?;
         self.check_async().await
+    }
+
+    /// Records `n` steps, after what `before` says, in an encoder of their
+    /// own and submits it; `what` names it in a device error.
+    async fn submit_steps(&mut self, what: &str, n: u32, before: Before) -> Result<()> {
+        let device = self.device.clone();
+        guarded_async(&device, what, None, || {
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("wgcloth.step"),
+            });
+            match before {
+                Before::Nothing => {}
+                Before::Save => self
+                    .rewind
+                    .get_or_insert_with(|| Rewind::new(&device, &self.buffers))
+                    .save(&mut encoder, &self.buffers),
+                Before::Restore => {
+                    if let Some(copies) = &self.rewind {
+                        copies.restore(&mut encoder, &self.buffers);
+                    }
+                }
+            }
+            self.encode_steps(&mut encoder, n);
+            self.queue.submit([encoder.finish()]);
+            Ok(())
+        })
+        .await
     }
 
     /// Reads the status words; an error names the first step whose state
