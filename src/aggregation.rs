@@ -15,6 +15,10 @@ pub const LEVEL_SIDES: [usize; 2] = [4, 16];
 /// Level-1 aggregates per level-2 aggregate side.
 pub const RATIO: usize = LEVEL_SIDES[1] / LEVEL_SIDES[0];
 
+/// Slots of a level-2 aggregate in the level-2-major order of the level-1
+/// aggregates ([`Aggregation::slot_aggregate`]).
+pub const SLOTS_PER_LEVEL2: usize = RATIO * RATIO;
+
 /// How an `nx × ny` grid is cut into aggregates (the last row and column
 /// of aggregates may be partial).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -84,6 +88,28 @@ impl Aggregation {
         self.index(level, (p / self.nx) / side, (p % self.nx) / side)
     }
 
+    /// Slots of the level-2-major order of the level-1 aggregates:
+    /// [`SLOTS_PER_LEVEL2`] per level-2 aggregate.
+    pub fn slots(&self) -> usize {
+        self.count(1) * SLOTS_PER_LEVEL2
+    }
+
+    /// The level-1 aggregate (its index among level 1's) at slot `slot` of
+    /// the level-2-major order: slot `16 b + 4 i + j` holds the level-1
+    /// aggregate `i` rows and `j` columns into level-2 aggregate `b`, or
+    /// none where the grid's edge cuts level-2 aggregate `b` short. CG's
+    /// per-aggregate update runs an invocation per slot, so the level-1
+    /// aggregates of one level-2 aggregate share a workgroup, which sums
+    /// their residuals itself (twin: `level1_of_slot` in
+    /// `shaders/common/coarse.wgsl`).
+    pub fn slot_aggregate(&self, slot: usize) -> Option<usize> {
+        let b = slot / SLOTS_PER_LEVEL2;
+        let k = slot % SLOTS_PER_LEVEL2;
+        let row = (b / self.across(1)) * RATIO + k / RATIO;
+        let col = (b % self.across(1)) * RATIO + k % RATIO;
+        (row < self.down(0) && col < self.across(0)).then(|| self.index(0, row, col))
+    }
+
     /// Particles of aggregate `(row, col)` of `level`, row-major.
     pub fn particles(
         &self,
@@ -118,6 +144,20 @@ mod tests {
             assert!(seen.iter().all(|&c| c == 1), "level {level}");
         }
         assert_eq!(agg.count(0), 10 * 6);
+        // The level-2-major slots hold every level-1 aggregate once, each in
+        // its level-2 aggregate's run of slots.
+        let mut seen = vec![0; agg.count(0)];
+        for slot in 0..agg.slots() {
+            if let Some(a) = agg.slot_aggregate(slot) {
+                seen[a] += 1;
+                let p = agg
+                    .particles(0, a / agg.across(0), a % agg.across(0))
+                    .next();
+                let level2 = p.map(|p| agg.of(1, p) - agg.count(0));
+                assert_eq!(level2, Some(slot / SLOTS_PER_LEVEL2), "slot {slot}");
+            }
+        }
+        assert!(seen.iter().all(|&c| c == 1));
         assert_eq!(agg.count(1), 3 * 2);
     }
 

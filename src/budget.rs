@@ -417,10 +417,10 @@ pub fn gpu_bytes(
         bending_bytes::<f32>(counts),
     ]);
     let scratch = total(&[work, spring_work, partials]);
-    // alpha_args' three slots and beta_args' two per recorded CG
+    // A slot of apply_args and one of update_args per recorded CG
     // iteration, and one more.
     let slot_words = array::<[u32; 3]>(
-        5 * (u64::from(
+        2 * (u64::from(
             params
                 .implicit
                 .max_iterations

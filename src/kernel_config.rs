@@ -16,13 +16,28 @@ use std::fmt::Write;
 /// to a 33 × 33 cloth (17 workgroups).
 pub const WORKGROUP: u32 = 64;
 
-/// Particles per block of a reduction (dot products in CG, torque sums):
-/// [`WORKGROUP`], so the CPU sums in the GPU's order.
+/// Particles per block of the torque compensation's reductions:
+/// [`WORKGROUP`], so the CPU sums in the GPU's order (CG's reductions
+/// take blocks of [`CG_BLOCK`]).
 pub const REDUCTION_BLOCK: usize = WORKGROUP as usize;
 
-/// Invocations of the one-workgroup CG scalar kernels (cg_start, cg_alpha,
-/// cg_beta) on devices that allow it (the solver takes less where the
-/// device's limits are lower).
+/// Invocations per workgroup of the CG kernels (`cg_init`, `cg_apply`,
+/// `cg_update`), and so the block size of CG's reductions: each
+/// workgroup writes a partial sum of its [`CG_GROUP`] particles' terms,
+/// and every workgroup of the next kernel adds all the partials itself,
+/// so a dispatch reads (particles / [`CG_GROUP`])² partials in all. 256
+/// keeps that to about a million 16-byte loads from cache at 513² (every
+/// WebGPU device grants 256 invocations) while a 33² cloth still spreads
+/// over five workgroups.
+pub const CG_GROUP: u32 = 256;
+/// Particles per block of CG's reductions: [`CG_GROUP`], so the CPU sums
+/// in the GPU's order.
+pub const CG_BLOCK: usize = CG_GROUP as usize;
+const _: () = assert!(CG_GROUP.is_power_of_two() && CG_GROUP == SUM_GROUP);
+
+/// Invocations of the one-workgroup kernels (the workgroup path's
+/// `cloth_*`, self-collision's scan) on devices that allow it (the solver
+/// takes less where the device's limits are lower).
 pub const SUM_GROUP: u32 = 256;
 
 /// The most particles a cloth may have to be stepped by one workgroup
@@ -39,9 +54,9 @@ pub const WORKGROUP_STEP_MAX_PARTICLES: u32 = 4096;
 
 /// Workgroup memory the workgroup kernels need at most \[bytes\]: the
 /// cloth's parameters (`Params`, 1 920 bytes with the mesh colliders'
-/// poses), the staging of the block sums (`SUM_GROUP` words),
-/// self-collision's scan (`SUM_GROUP` words), the reduction scratch
-/// (`WORKGROUP` words) and a few shared words, within 8 KiB — half of the
+/// poses), self-collision's scan (`SUM_GROUP` words), the torque's
+/// reduction scratch (`WORKGROUP` words), the CG reductions' tree
+/// (`WORKGROUP` vec4s) and a few shared words, within 8 KiB — half of the
 /// 16 KiB every WebGPU device allows.
 pub const WORKGROUP_STEP_SHARED_BYTES: u32 = 8192;
 
@@ -244,19 +259,30 @@ pub mod spring_work {
 }
 
 /// The reduction partials, after the per-spring sections of the `work`
-/// buffer, one `f32` per `vec4` (in x): slot `k` holds one per reduction
-/// block (`k × blocks + block`; blocks = ⌈particles / WORKGROUP⌉), then
-/// the [`CG_SCALARS`](partials::CG_SCALARS) CG scalars (WGSL: `P_*`,
-/// `C_*`, `pi`, `scalar_index`, `partial`).
+/// buffer, a `vec4` each: slot `k` holds one per reduction block (`k ×
+/// blocks + block`; blocks = ⌈particles / WORKGROUP⌉), then the
+/// [`CG_SCALARS`](partials::CG_SCALARS) CG scalars (WGSL: `P_*`, `C_*`,
+/// `pi`, `scalar_index`, `partial`). The torque's sums keep one `f32` per
+/// `vec4` (in x); CG's sums one `vec4` per block of
+/// [`CG_GROUP`](super::CG_GROUP): cᵀq in [`CQ`](partials::CQ)'s x, the
+/// residual's three sums in [`RES`](partials::RES), so the kernel that
+/// adds them loads each block once. No CG kernel reads a slot it writes.
 pub mod partials {
-    /// cᵀq, per block.
+    /// CG's cᵀq (in x), per CG block: written by `cg_apply`, read by
+    /// `cg_update`.
     pub const CQ: u32 = 0;
-    /// ρ = rᵀs, per block.
-    pub const RS: u32 = 1;
-    /// δ0, per block.
+    /// CG's residual sums, per CG block (with coarse levels ρ and δ's
+    /// coarse terms per workgroup of the per-slot update): written by
+    /// `cg_init` and `cg_update`, read by `cg_apply`.
+    pub const RES: u32 = 1;
+    /// Component of [`RES`]: ρ = rᵀs.
+    pub const RS: u32 = 0;
+    /// Component of [`RES`]: δ's coarse-level terms.
+    pub const DC: u32 = 1;
+    /// Component of [`RES`]: δ0.
     pub const D0: u32 = 2;
     /// The first of the [`TORQUE_SLOTS`] torque-compensation sums.
-    pub const TORQUE: u32 = 3;
+    pub const TORQUE: u32 = 2;
     /// Torque-compensation sums (`shaders/common/torque.wgsl`).
     pub const TORQUE_SLOTS: u32 = 16;
     /// Number of per-block slots.
@@ -269,8 +295,11 @@ pub mod partials {
     pub const ALPHA: u32 = 2;
     /// CG scalar: β.
     pub const BETA: u32 = 3;
+    /// CG scalar: δ at the start of the last completed iteration, for the
+    /// next β.
+    pub const DELTA_PREV: u32 = 4;
     /// Number of CG scalars after the slots.
-    pub const CG_SCALARS: u32 = 4;
+    pub const CG_SCALARS: u32 = 5;
 }
 
 /// Words of the `status` buffer.
@@ -299,11 +328,12 @@ pub mod status {
     /// The first of three rotating "this fix-up pass moved something"
     /// flags.
     pub const FIXUP_FLAG: usize = 10;
-    /// The CG iteration whose `alpha_args` slots were last enabled (they
-    /// may still hold workgroups; `cg_start` clears them).
-    pub const ALPHA_SLOT: usize = 13;
-    /// The same for `beta_args`.
-    pub const BETA_SLOT: usize = 14;
+    /// The CG iteration whose `apply_args` slot was last enabled (it may
+    /// still hold workgroups; `cg_init` clears it).
+    pub const APPLY_SLOT: usize = 13;
+    /// The same for `update_args`, which is also the iteration a
+    /// `cg_update` runs.
+    pub const UPDATE_SLOT: usize = 14;
     /// Number of status words.
     pub const COUNT: usize = 16;
 }
@@ -320,8 +350,8 @@ pub mod filter_kind {
 
 // The slots fit their buffers, and the fix-up's three flags the words
 // between their first and the CG slots.
-const _: () = assert!(status::BETA_SLOT < status::COUNT);
-const _: () = assert!(status::FIXUP_FLAG + 3 <= status::ALPHA_SLOT);
+const _: () = assert!(status::UPDATE_SLOT < status::COUNT);
+const _: () = assert!(status::FIXUP_FLAG + 3 <= status::APPLY_SLOT);
 const _: () = assert!(work::CLOCK < work::COUNT);
 
 /// `(WGSL name, value)` of every unsigned constant.
@@ -338,7 +368,7 @@ fn wgsl_u32() -> Vec<(String, u32)> {
             .zip(0u32..)
             .map(|(n, k)| (format!("W_{n}"), k)),
     );
-    let named: [(&str, u32); 52] = [
+    let named: [(&str, u32); 56] = [
         ("INTEGRATOR_EXPLICIT", integrator::EXPLICIT),
         ("INTEGRATOR_IMPLICIT", integrator::IMPLICIT),
         ("INTEGRATOR_SEMI_IMPLICIT", integrator::SEMI_IMPLICIT),
@@ -362,14 +392,18 @@ fn wgsl_u32() -> Vec<(String, u32)> {
         ("S_KV", spring_work::KV),
         ("S_FORCE", spring_work::FORCE),
         ("P_CQ", partials::CQ),
+        ("P_RES", partials::RES),
         ("P_RS", partials::RS),
         ("P_D0", partials::D0),
+        ("P_DC", partials::DC),
+        ("CG_GROUP", CG_GROUP),
         ("P_TORQUE", partials::TORQUE),
         ("P_SLOTS", partials::SLOTS),
         ("C_DELTA0", partials::DELTA0),
         ("C_DELTA", partials::DELTA),
         ("C_ALPHA", partials::ALPHA),
         ("C_BETA", partials::BETA),
+        ("C_DELTA_PREV", partials::DELTA_PREV),
         ("STATUS_STEP", status::STEP as u32),
         ("STATUS_BAD_STEP", status::BAD_STEP as u32),
         ("STATUS_BAD_PARTICLE", status::BAD_PARTICLE as u32),
@@ -381,8 +415,8 @@ fn wgsl_u32() -> Vec<(String, u32)> {
         ("STATUS_FIXUP_RESULT", status::FIXUP_RESULT as u32),
         ("STATUS_FIXUP_PASSES", status::FIXUP_PASSES as u32),
         ("STATUS_FIXUP_FLAG", status::FIXUP_FLAG as u32),
-        ("STATUS_ALPHA_SLOT", status::ALPHA_SLOT as u32),
-        ("STATUS_BETA_SLOT", status::BETA_SLOT as u32),
+        ("STATUS_APPLY_SLOT", status::APPLY_SLOT as u32),
+        ("STATUS_UPDATE_SLOT", status::UPDATE_SLOT as u32),
         ("FEATURE_WIND", feature::WIND),
         ("FEATURE_GROUND", feature::GROUND),
         ("FEATURE_SPHERES", feature::SPHERES),

@@ -27,7 +27,7 @@ use twins::{
 use wgcloth::cpu::twins as cpu;
 use wgcloth::cpu::twins::Filter;
 use wgcloth::gpu::{DebugBuffer, Dispatch, Kernel, StepPath, Variant};
-use wgcloth::kernel_config::{partials, spring_work, status, work};
+use wgcloth::kernel_config::{partials, spring_work, status, work, CG_BLOCK};
 use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
 use wgcloth::real::Vec3;
 use wgcloth::Params;
@@ -153,12 +153,8 @@ const TWIN_TESTS: &[(Kernel, fn())] = &[
     (Kernel::ImplicitPrepare, implicit_prepare_matches_its_twin),
     (Kernel::CoarseSetup, coarse_setup_matches_its_twin),
     (Kernel::CgInit, cg_init_matches_its_twin),
-    (Kernel::CgStart, cg_start_matches_its_twin),
-    (Kernel::CgProlong, cg_prolong_matches_its_twin),
     (Kernel::CgApply, cg_apply_matches_its_twin),
-    (Kernel::CgAlpha, cg_alpha_matches_its_twin),
     (Kernel::CgUpdate, cg_update_matches_its_twin),
-    (Kernel::CgBeta, cg_beta_matches_its_twin),
     (Kernel::ImplicitFinish, implicit_finish_matches_its_twin),
     (Kernel::SemiRhs, semi_rhs_matches_its_twin),
     (Kernel::FilterDense, filter_dense_matches_its_twin),
@@ -274,16 +270,6 @@ fn work_section(t: &Twins, words: &[u32], k: u32) -> Vec<u32> {
     section(words, at(k), t.n).to_vec()
 }
 
-/// Partial slot `slot`'s words (one per reduction block).
-fn partial_slot(t: &Twins, words: &[u32], slot: u32) -> Vec<u32> {
-    t.gpu.debug_layout().partial_slot(words, slot).to_vec()
-}
-
-/// CG scalar `k`'s word.
-fn cg_scalar(t: &Twins, words: &[u32], k: u32) -> u32 {
-    words[t.gpu.debug_layout().cg_scalar(k)]
-}
-
 /// The block sums of `terms` in the CPU's reduction order, as words.
 fn block_words(terms: &[f32]) -> Vec<u32> {
     let mut out = Vec::new();
@@ -311,22 +297,6 @@ fn load_cg_setup(t: &mut Twins, grid: bool) {
     wk.precond = precond;
     wk.rhs = xyz(&work_words, at(work::RHS), n);
     wk.delta0_terms = w(&work_words, at(work::RHS), n);
-}
-
-/// The CG scalars the device holds, and its CG count and stop.
-fn device_scalars(t: &Twins) -> cpu::cg::Scalars<f32> {
-    let p = t.read(DebugBuffer::Partials);
-    let st = t.read(DebugBuffer::Status);
-    let f = |k| f32::from_bits(cg_scalar(t, &p, k));
-    cpu::cg::Scalars {
-        delta0: f(partials::DELTA0),
-        delta: f(partials::DELTA),
-        alpha: f(partials::ALPHA),
-        beta: f(partials::BETA),
-        rho: 0.0,
-        iterations: st[status::CG_ITERATIONS],
-        stopped: st[status::CG_STOPPED] != 0,
-    }
 }
 
 /// The sections a `fixup_jacobi` dispatch reads and writes.
@@ -628,20 +598,83 @@ fn coarse_setup_matches_its_twin() {
     assert_same("W_COARSE_INV_O", &sec(work::COARSE_INV_O), &off);
 }
 
+/// What a CG kernel writes besides `work`'s vectors: the partials and CG
+/// scalars, the status words and both buffers of indirect arguments.
+struct CgOut {
+    work: Vec<u32>,
+    partials: Vec<u32>,
+    status: Vec<u32>,
+    apply_slots: Vec<u32>,
+    update_slots: Vec<u32>,
+}
+
+/// Runs the CG kernel at dispatch `i` of `t` alone and reads what it
+/// writes.
+fn run_cg_kernel(t: &mut Twins, i: usize) -> CgOut {
+    t.run_alone(i);
+    CgOut {
+        work: t.read(DebugBuffer::Work),
+        partials: t.read(DebugBuffer::Partials),
+        status: t.read(DebugBuffer::Status),
+        apply_slots: t.read(DebugBuffer::ApplyArgs),
+        update_slots: t.read(DebugBuffer::UpdateArgs),
+    }
+}
+
+/// Component `c` of the first `blocks` partials of CG slot `slot` in the
+/// device's `partials` words.
+fn cg_partials(t: &Twins, words: &[u32], slot: u32, c: u32, blocks: usize) -> Vec<u32> {
+    t.gpu.debug_layout().partial_slot(words, slot, c as usize)[..blocks].to_vec()
+}
+
+/// CG's reduction blocks of the test cloth (its per-particle kernels'
+/// workgroups).
+fn cg_blocks(t: &Twins) -> usize {
+    t.n.div_ceil(CG_BLOCK)
+}
+
+/// The workgroups of `kernel`'s dispatches in the plan of `t`.
+fn groups(t: &Twins, kernel: Kernel) -> u32 {
+    let plan = t.plan();
+    let d = plan
+        .iter()
+        .find(|d| d.kernel == kernel)
+        .expect("a CG kernel");
+    d.items.div_ceil(kernel.workgroup_size())
+}
+
+/// Slot `k` of `slots` enabled with `groups` workgroups, and slot `k − 1`
+/// cleared.
+fn assert_slot(t: &Twins, what: &str, slots: &[u32], k: usize, groups: u32) {
+    let layout = t.gpu.debug_layout();
+    assert_eq!(layout.arg_slot(slots, k), groups, "{what}'s slot {k}");
+    if k > 0 {
+        assert_eq!(
+            layout.arg_slot(slots, k - 1),
+            0,
+            "{what}'s slot {} cleared",
+            k - 1
+        );
+    }
+}
+
 /// cg_init's outputs against its twin's, in `t` at dispatch `i` (on a
 /// grid, whose kernel computes the spring blocks from the positions: the
-/// twins of implicit_springs and cg_init).
+/// twins of implicit_springs and cg_init): the vectors, the partial sums
+/// of δ0 and ρ, CG's count and stop reset, and the first cg_apply's slot.
 fn check_cg_init(t: &mut Twins, i: usize) {
     load_cg_setup(t, t.grid);
     let dv = t.work_xyz(at(work::DV));
-    t.run_alone(i);
-    let out = t.read(DebugBuffer::Work);
+    let after = run_cg_kernel(t, i);
+    let out = &after.work;
     let n = t.n;
+    let blocks = cg_blocks(t);
+    let apply_groups = groups(t, Kernel::CgApply);
     let (sys, _, wk) = t.parts();
     wk.dv = dv;
     cpu::cg::init(sys, wk);
     let coarse = wk.coarse.is_some();
-    let sec = |k: u32| section(&out, at(k), n).to_vec();
+    let sec = |k: u32| section(out, at(k), n).to_vec();
     let terms = &wk.rho_terms;
     assert_same("W_R", &sec(work::R), &pack(&wk.r, |p| terms[p]));
     if !coarse {
@@ -649,12 +682,21 @@ fn check_cg_init(t: &mut Twins, i: usize) {
     }
     assert_same("W_C", &sec(work::C), &vectors(&wk.c));
     assert_same("W_Q", &sec(work::Q), &vectors(&wk.q));
+    let (d0, rs) = (block_words(&wk.delta0_terms), block_words(&wk.rho_terms));
+    assert_eq!(d0.len(), blocks);
+    let res = |c| cg_partials(t, &after.partials, partials::RES, c, blocks);
+    assert_same("P_RES δ0", &res(partials::D0), &d0);
+    if !coarse {
+        assert_same("P_RES ρ", &res(partials::RS), &rs);
+    }
+    assert_eq!(after.status[status::CG_ITERATIONS], 0);
+    assert_eq!(after.status[status::CG_STOPPED], 0);
+    assert_slot(t, "cg_apply", &after.apply_slots, 0, apply_groups);
 }
 
 general_and!(cg_init_matches_its_twin: Implicit, coarse_grid, CgInit, 0, check_cg_init);
 
-/// Loads the coarse levels' sums the device holds (level 1's `Πᵀr` and
-/// terms, both levels' `θ D⁻¹`) into the mirror.
+/// Loads the coarse levels' inverses the device holds into the mirror.
 fn load_coarse(t: &mut Twins) {
     let words = t.read(DebugBuffer::Work);
     let n = t.n;
@@ -662,245 +704,189 @@ fn load_coarse(t: &mut Twins) {
     let Some(coarse) = wk.coarse.as_mut() else {
         return;
     };
-    let n1 = coarse.r1.len();
-    coarse.r1 = xyz(&words, at(work::COARSE_Z), n)[..n1].to_vec();
-    coarse.term1 = w(&words, at(work::COARSE_Z), n)[..n1].to_vec();
     let total = coarse.inv.len();
     coarse.inv = sym3s(&words, at(work::COARSE_INV_D), at(work::COARSE_INV_O), n)[..total].to_vec();
 }
 
-/// The device's level-2 corrections and terms against the mirror's.
-fn check_level2(t: &mut Twins, out: &[u32]) {
-    let n = t.n;
-    let (_, _, wk) = t.parts();
-    let Some(coarse) = wk.coarse.as_ref() else {
-        return;
-    };
-    let (n1, n2) = (coarse.r1.len(), coarse.z2.len());
-    let got = &section(out, at(work::COARSE_Z), n)[n1 * 4..(n1 + n2) * 4];
-    assert_same(
-        "level-2 W_COARSE_Z",
-        got,
-        &pack(&coarse.z2, |k| coarse.term2[k]),
-    );
-}
-
-/// What a CG scalar kernel leaves besides its scalars, in a test scene
-/// whose CG runs on: the status word that stops CG as the twin's
-/// `stopped`, and iteration `k`'s slots of the indirect arguments it
-/// enables, `args` (`alpha_args`: cg_alpha's, cg_apply's and cg_prolong's;
-/// `beta_args`: cg_beta's and cg_update's), enabled and `k − 1`'s
-/// cleared.
-fn assert_running(
-    t: &Twins,
-    flags: &[u32],
-    cg: &cpu::cg::Scalars<f32>,
-    args: &[u32],
-    alpha: bool,
-    k: usize,
-) {
-    assert_eq!(flags[status::CG_STOPPED], u32::from(cg.stopped), "stopped");
-    assert!(!cg.stopped, "the test's CG runs on");
-    let layout = t.gpu.debug_layout();
-    let plan = t.plan();
-    let groups = |kernel: Kernel| {
-        let d = plan
-            .iter()
-            .find(|d| d.kernel == kernel)
-            .expect("a CG kernel");
-        d.items.div_ceil(wgcloth::gpu::WORKGROUP)
-    };
-    let per_particle: &[Kernel] = if alpha {
-        &[Kernel::CgApply, Kernel::CgUpdate]
-    } else {
-        &[Kernel::CgUpdate]
-    };
-    assert_eq!(layout.arg_slot(args, 0, k), 1, "the next kernel's slot {k}");
-    for (d, &kernel) in per_particle.iter().enumerate() {
-        // cg_prolong's slot (the third of alpha_args) takes cg_update's
-        // workgroups.
-        let want = groups(kernel);
-        assert_eq!(layout.arg_slot(args, d + 1, k), want, "{kernel}'s slot {k}");
-    }
-    if k > 0 {
-        for d in 0..=per_particle.len() {
-            assert_eq!(layout.arg_slot(args, d, k - 1), 0, "slot {} cleared", k - 1);
-        }
+/// The CG scalars the device holds, and its CG count and stop.
+fn device_scalars(t: &Twins) -> cpu::cg::Scalars<f32> {
+    let p = t.read(DebugBuffer::Partials);
+    let st = t.read(DebugBuffer::Status);
+    let f = |k| f32::from_bits(p[t.gpu.debug_layout().cg_scalar(k)]);
+    cpu::cg::Scalars {
+        delta0: f(partials::DELTA0),
+        delta: f(partials::DELTA),
+        alpha: f(partials::ALPHA),
+        beta: f(partials::BETA),
+        delta_prev: f(partials::DELTA_PREV),
+        rho: 0.0,
+        iterations: st[status::CG_ITERATIONS],
+        stopped: st[status::CG_STOPPED] != 0,
     }
 }
 
-/// What a CG scalar kernel writes: in `work` (the coarse terms),
-/// `partials`, `status`, and the scalar kernels' indirect slots.
-struct Scalar {
-    work: Vec<u32>,
-    partials: Vec<u32>,
-    status: Vec<u32>,
-    alpha_slots: Vec<u32>,
-    beta_slots: Vec<u32>,
+/// CG scalar `k`'s word in the device's `partials` words.
+fn cg_scalar(t: &Twins, words: &[u32], k: u32) -> u32 {
+    words[t.gpu.debug_layout().cg_scalar(k)]
 }
 
-/// Runs the CG scalar kernel at dispatch `i` of `t` alone and reads what
-/// it writes.
-fn run_scalar_kernel(t: &mut Twins, i: usize) -> Scalar {
-    t.run_alone(i);
-    Scalar {
-        work: t.read(DebugBuffer::Work),
-        partials: t.read(DebugBuffer::Partials),
-        status: t.read(DebugBuffer::Status),
-        alpha_slots: t.read(DebugBuffer::AlphaArgs),
-        beta_slots: t.read(DebugBuffer::BetaArgs),
-    }
-}
-
-/// cg_start's outputs against its twin's, in `t` at dispatch `i`.
-fn check_cg_start(t: &mut Twins, i: usize) {
+/// cg_apply's outputs against its twin's, in `t` at dispatch `i` (a later
+/// iteration, whose β counts): the residual's sums from the device's
+/// partials (with coarse levels its per-slot ones, and the level-2
+/// corrections the twin adds to `s` first), the direction and product,
+/// cᵀq's partial sums, the scalars and cg_update's slot. On a grid the
+/// kernel computes the spring blocks from the positions: its twin is then
+/// implicit_springs' and cg_apply's.
+fn check_cg_apply(t: &mut Twins, i: usize) {
+    // A grid cloth's springs keep their grid slots on the general kernels
+    // too: the blocks then come from the mirror's own spring pass.
+    let grid_cloth = t.grid || t.parts().2.coarse.is_some();
+    load_cg_setup(t, grid_cloth);
     load_coarse(t);
     let before = t.read(DebugBuffer::Work);
-    let after = run_scalar_kernel(t, i);
+    let partials_before = t.read(DebugBuffer::Partials);
+    let scalars = device_scalars(t);
+    assert!(scalars.iterations > 0, "a later iteration, whose β counts");
+    let after = run_cg_kernel(t, i);
     let n = t.n;
-    let (sys, _, wk) = t.parts();
-    wk.delta0_terms = w(&before, at(work::RHS), n);
-    wk.rho_terms = w(&before, at(work::R), n);
-    cpu::cg::start(sys, wk);
-    let (cg, d0, rs) = (
-        wk.cg,
-        block_words(&wk.delta0_terms),
-        block_words(&wk.rho_terms),
-    );
-    check_level2(t, &after.work);
-    assert_same("P_D0", &partial_slot(t, &after.partials, partials::D0), &d0);
-    assert_same("P_RS", &partial_slot(t, &after.partials, partials::RS), &rs);
-    let scalars = [partials::DELTA0, partials::DELTA, partials::BETA]
-        .map(|k| cg_scalar(t, &after.partials, k));
-    assert_same("δ0, δ, β", &scalars, &bits(&[cg.delta0, cg.delta, cg.beta]));
-    assert_running(t, &after.status, &cg, &after.alpha_slots, true, 0);
-}
-
-general_and!(cg_start_matches_its_twin: Implicit, coarse_general, CgStart, 0, check_cg_start);
-
-#[test]
-fn cg_prolong_matches_its_twin() {
-    let mut t = coarse(false);
-    // After the second iteration's cg_beta.
-    let i = t.run_to(Kernel::CgProlong, 2);
-    let filter = device_filters(&t);
-    let before = t.read(DebugBuffer::Work);
-    t.run_alone(i);
-    let out = t.read(DebugBuffer::Work);
-    let n = t.n;
-    let (_, _, wk) = t.parts();
-    wk.filter = filter;
-    wk.s = xyz(&before, at(work::S), n);
-    let coarse = wk.coarse.as_mut().expect("coarse levels");
-    let (n1, n2) = (coarse.r1.len(), coarse.z2.len());
-    coarse.z2 = xyz(&before, at(work::COARSE_Z), n)[n1..n1 + n2].to_vec();
-    cpu::cg::prolong(wk);
-    let got = section(&out, at(work::S), n);
-    assert_same("W_S", got, &with_kinds(&wk.s, &wk.filter));
-}
-
-/// cg_apply's outputs against its twin's, in `t` at dispatch `i`. On a
-/// grid the kernel computes the spring blocks from the positions and, with
-/// coarse levels, adds level 2's correction to each `s` it loads: its twin
-/// is then implicit_springs' (for the blocks), cg_prolong's and
-/// cg_apply's.
-fn check_cg_apply(t: &mut Twins, i: usize) {
-    let grid = t.grid;
-    load_cg_setup(t, grid);
-    if grid {
-        load_coarse(t);
-    }
-    let before = t.read(DebugBuffer::Work);
-    let beta = device_scalars(t).beta;
-    assert!(
-        beta != 0.0,
-        "a later iteration, whose direction update counts"
-    );
-    t.run_alone(i);
-    let out = t.read(DebugBuffer::Work);
-    let n = t.n;
+    let blocks = cg_blocks(t);
+    let update_groups = groups(t, Kernel::CgUpdate);
+    let slot_partials = |c| {
+        let words = t
+            .gpu
+            .debug_layout()
+            .partial_slot(&partials_before, partials::RES, c as usize);
+        words
+            .iter()
+            .map(|&w| f32::from_bits(w))
+            .collect::<Vec<f32>>()
+    };
+    let (rs, dc) = (slot_partials(partials::RS), slot_partials(partials::DC));
     let (sys, _, wk) = t.parts();
     wk.s = xyz(&before, at(work::S), n);
     wk.c = xyz(&before, at(work::C), n);
     wk.q = xyz(&before, at(work::Q), n);
-    wk.cg.beta = beta;
-    if let Some(coarse) = wk.coarse.as_mut().filter(|_| grid) {
-        let (n1, n2) = (coarse.r1.len(), coarse.z2.len());
+    wk.rho_terms = w(&before, at(work::R), n);
+    wk.cg = scalars;
+    if let Some(coarse) = wk.coarse.as_mut() {
+        let (n1, n2, k) = (coarse.r1.len(), coarse.z2.len(), coarse.rho_partials.len());
         coarse.z2 = xyz(&before, at(work::COARSE_Z), n)[n1..n1 + n2].to_vec();
-        cpu::cg::prolong(wk);
+        coarse.rho_partials = rs[..k].to_vec();
+        coarse.dc_partials = dc[..k].to_vec();
     }
     cpu::cg::apply(sys, wk);
+    let cg = wk.cg;
+    assert!(!cg.stopped, "the test's CG runs on");
     let terms = &wk.cq_terms;
-    assert_same("W_C", section(&out, at(work::C), n), &vectors(&wk.c));
+    assert_same("W_C", section(&after.work, at(work::C), n), &vectors(&wk.c));
     assert_same(
         "W_Q",
-        section(&out, at(work::Q), n),
+        section(&after.work, at(work::Q), n),
         &pack(&wk.q, |p| terms[p]),
     );
+    let cq = block_words(&wk.cq_terms);
+    assert_same(
+        "P_CQ",
+        &cg_partials(t, &after.partials, partials::CQ, 0, blocks),
+        &cq,
+    );
+    let scalars = [partials::DELTA, partials::BETA].map(|k| cg_scalar(t, &after.partials, k));
+    assert_same("δ, β", &scalars, &bits(&[cg.delta, cg.beta]));
+    assert_eq!(after.status[status::CG_STOPPED], 0, "stopped");
+    let k = cg.iterations as usize;
+    assert_eq!(after.status[status::UPDATE_SLOT], k as u32);
+    assert_slot(t, "cg_update", &after.update_slots, k, update_groups);
 }
 
 general_and!(cg_apply_matches_its_twin: Implicit, coarse_grid, CgApply, 1, check_cg_apply);
 
 #[test]
-fn cg_alpha_matches_its_twin() {
-    let (mut t, i) = general_at(Integrator::Implicit, true, Kernel::CgAlpha, 1);
-    let scalars = device_scalars(&t);
-    let cq = w(&t.read(DebugBuffer::Work), at(work::Q), t.n);
-    let after = run_scalar_kernel(&mut t, i);
-    let (_, _, wk) = t.parts();
-    wk.cg = scalars;
-    wk.cq_terms = cq;
-    cpu::cg::alpha(wk);
-    let (cg, cq) = (wk.cg, block_words(&wk.cq_terms));
-    assert_same(
-        "P_CQ",
-        &partial_slot(&t, &after.partials, partials::CQ),
-        &cq,
-    );
-    assert_same(
-        "α",
-        &[cg_scalar(&t, &after.partials, partials::ALPHA)],
-        &bits(&[cg.alpha]),
-    );
-    assert_running(
-        &t,
-        &after.status,
-        &cg,
-        &after.beta_slots,
-        false,
-        cg.iterations as usize,
-    );
+fn cg_apply_with_coarse_levels_on_the_general_kernels_matches_its_twin() {
+    let mut t = coarse_general();
+    let i = t.run_to(Kernel::CgApply, 2);
+    check_cg_apply(&mut t, i);
 }
 
-/// cg_update's outputs against its twin's, in `t` at dispatch `i`.
+/// cg_update's outputs against its twin's, in `t` at dispatch `i`: Δv, r,
+/// s, ρ's partial sums (with coarse levels both levels' sums and
+/// corrections and the per-slot partials), and outside the first variant
+/// α, the count and the next cg_apply's slot.
 fn check_cg_update(t: &mut Twins, i: usize) {
     let first = t.plan()[i].variant == Variant::CgFirst;
     load_cg_setup(t, false);
     load_coarse(t);
-    let alpha = device_scalars(t).alpha;
+    let scalars = device_scalars(t);
     let before = t.read(DebugBuffer::Work);
-    t.run_alone(i);
-    let out = t.read(DebugBuffer::Work);
+    let after = run_cg_kernel(t, i);
     let n = t.n;
+    let blocks = cg_blocks(t);
+    let apply_groups = groups(t, Kernel::CgApply);
+    let layout = t.gpu.debug_layout();
+    let res = |c, len: usize| {
+        layout.partial_slot(&after.partials, partials::RES, c as usize)[..len].to_vec()
+    };
     let (_, _, wk) = t.parts();
     let v = |k: u32| xyz(&before, at(k), n);
     (wk.dv, wk.r, wk.c, wk.q) = (v(work::DV), v(work::R), v(work::C), v(work::Q));
-    wk.cg.alpha = alpha;
+    wk.cq_terms = w(&before, at(work::Q), n);
+    wk.cg = scalars;
     cpu::cg::update(wk, first);
-    let sec = |k: u32| section(&out, at(k), n);
+    let cg = wk.cg;
+    let sec = |k: u32| section(&after.work, at(k), n);
     let terms = &wk.rho_terms;
     assert_same("W_DV", sec(work::DV), &with_kinds(&wk.dv, &wk.filter));
     assert_same("W_R", sec(work::R), &pack(&wk.r, |p| terms[p]));
     assert_same("W_S", sec(work::S), &with_kinds(&wk.s, &wk.filter));
     if let Some(coarse) = &wk.coarse {
-        let n1 = coarse.r1.len();
-        let got = &sec(work::COARSE_Z)[..n1 * 4];
+        let (n1, n2) = (coarse.r1.len(), coarse.z2.len());
         assert_same(
             "level-1 W_COARSE_Z",
-            got,
+            &sec(work::COARSE_Z)[..n1 * 4],
             &pack(&coarse.r1, |a| coarse.term1[a]),
         );
+        assert_same(
+            "level-2 W_COARSE_Z",
+            &sec(work::COARSE_Z)[n1 * 4..(n1 + n2) * 4],
+            &pack(&coarse.z2, |k| coarse.term2[k]),
+        );
+        let k = coarse.rho_partials.len();
+        assert_same(
+            "P_RES ρ",
+            &res(partials::RS, k),
+            &bits(&coarse.rho_partials),
+        );
+        assert_same(
+            "P_RES coarse",
+            &res(partials::DC, k),
+            &bits(&coarse.dc_partials),
+        );
+    } else {
+        assert_same(
+            "P_RES ρ",
+            &res(partials::RS, blocks),
+            &block_words(&wk.rho_terms),
+        );
     }
+    if first {
+        return;
+    }
+    assert!(!cg.stopped, "the test's CG runs on");
+    let alpha = [cg_scalar(t, &after.partials, partials::ALPHA)];
+    assert_same("α", &alpha, &bits(&[cg.alpha]));
+    let prev = [cg_scalar(t, &after.partials, partials::DELTA_PREV)];
+    assert_same("δ_prev", &prev, &bits(&[cg.delta_prev]));
+    assert_eq!(
+        after.status[status::CG_ITERATIONS],
+        cg.iterations,
+        "iterations"
+    );
+    assert_slot(
+        t,
+        "cg_apply",
+        &after.apply_slots,
+        cg.iterations as usize,
+        apply_groups,
+    );
 }
 
 #[test]
@@ -922,39 +908,6 @@ fn cg_update_matches_its_twin() {
         .expect("up to the iteration's cg_update");
     check_cg_update(&mut t, j);
 }
-
-/// cg_beta's outputs against its twin's, in `t` at dispatch `i`.
-fn check_cg_beta(t: &mut Twins, i: usize) {
-    load_coarse(t);
-    let scalars = device_scalars(t);
-    let rho = w(&t.read(DebugBuffer::Work), at(work::R), t.n);
-    let after = run_scalar_kernel(t, i);
-    let (sys, _, wk) = t.parts();
-    wk.cg = scalars;
-    wk.rho_terms = rho;
-    cpu::cg::beta(sys, wk);
-    let cg = wk.cg;
-    let rs = block_words(&wk.rho_terms);
-    check_level2(t, &after.work);
-    assert_same("P_RS", &partial_slot(t, &after.partials, partials::RS), &rs);
-    let scalars = [partials::DELTA, partials::BETA].map(|k| cg_scalar(t, &after.partials, k));
-    assert_same("δ, β", &scalars, &bits(&[cg.delta, cg.beta]));
-    assert_eq!(
-        after.status[status::CG_ITERATIONS],
-        cg.iterations,
-        "iterations"
-    );
-    assert_running(
-        t,
-        &after.status,
-        &cg,
-        &after.alpha_slots,
-        true,
-        cg.iterations as usize,
-    );
-}
-
-general_and!(cg_beta_matches_its_twin: Implicit, coarse_general, CgBeta, 1, check_cg_beta);
 
 /// implicit_finish's outputs against its twin's, in `t` at dispatch `i`
 /// (on a grid, whose kernel computes the blocks its contacts need from the
@@ -1036,7 +989,11 @@ fn filter_dense_matches_its_twin() {
 /// device's partials `p`.
 fn torque_words(t: &Twins, p: &[u32], slots: std::ops::Range<u32>) -> Vec<u32> {
     slots
-        .flat_map(|k| partial_slot(t, p, partials::TORQUE + k))
+        .flat_map(|k| {
+            t.gpu
+                .debug_layout()
+                .partial_slot(p, partials::TORQUE + k, 0)
+        })
         .collect()
 }
 

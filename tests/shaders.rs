@@ -102,12 +102,12 @@ fn every_kernel_binds_at_most_webgpu_s_storage_buffers() {
             widest = widest.max(used.len());
         }
     }
-    // The count is of something: cg_start binds group 0's six and both
-    // argument buffers, cg_alpha one of them, a workgroup kernel group
+    // The count is of something: cg_init binds group 0's six and both
+    // argument buffers, cg_apply one of them, a workgroup kernel group
     // 0's six and its cloth table.
     let count = |k: Kernel| storage_bindings(k, GridBlock::ONE).len();
-    assert_eq!(count(Kernel::CgStart), 8);
-    assert_eq!(count(Kernel::CgAlpha), 7);
+    assert_eq!(count(Kernel::CgInit), 8);
+    assert_eq!(count(Kernel::CgApply), 7);
     assert_eq!(count(Kernel::ClothImplicit), 7);
     assert_eq!(widest, 8);
 }
@@ -381,7 +381,7 @@ fn an_include_cycle_is_an_error() {
 /// read back through naga from a composed kernel.
 #[test]
 fn the_shared_constants_reach_the_kernels() {
-    let module = parse(Kernel::CgBeta);
+    let module = parse(Kernel::CgUpdate);
     let value = |name: &str| -> Option<f64> {
         let init = module
             .constants

@@ -7,3 +7,6 @@
 #include "common/layout.wgsl"
 
 @group(0) @binding(0) var<uniform> params: Params;
+
+// The parameters are one cloth's uniform block, not a cloth table's entry.
+const CLOTH_TABLE: bool = false;

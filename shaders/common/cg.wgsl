@@ -3,13 +3,7 @@
 
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
-
-// Aggregate a's entry of `work` section `section` (the coarse levels,
-// common/coarse.wgsl, keep one entry per aggregate of both levels, level
-// 1's first, where the particles keep one per particle).
-fn wa(section: u32, a: u32) -> u32 {
-    return wi(section, params.particle_base + a);
-}
+#include "common/coarse_layout.wgsl"
 
 // Twin: implicit::Filter::apply. `f` is W_Z's w (kind), `n` W_FILTER's xyz.
 fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
@@ -255,7 +249,10 @@ fn grid_apply_with(
 // block (m, a) (twin: SpringBlock::apply). Four loads per spring. Then the
 // linear bending operator's (dt² + dt β) (Q a)_p (add_bending_product).
 fn apply_a(sec: u32, p: u32) -> vec3<f32> {
-    let own = work[wi(sec, p)].xyz;
+    var own = work[wi(sec, p)].xyz;
+    if (!GRID && coarse_at_load() && sec == W_S) {
+        own = cg_source(p).xyz;
+    }
     var acc = own * v[p].w;
     if (GRID) {
         // The same terms in the same order. The grid kernels that run
@@ -287,7 +284,11 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
     for (var k = begin; k < end; k++) {
         let e = topo(params.spring_adj_entries + k);
         let at_j = (e & 1u) != 0u;
-        let other = work[wi(sec, topo(others + k))].xyz;
+        let q = topo(others + k);
+        var other = work[wi(sec, q)].xyz;
+        if (coarse_at_load() && sec == W_S) {
+            other = cg_source(q).xyz;
+        }
         let d = select(own - other, other - own, at_j);
         let blk = work[si(S_BLOCK, e >> 1u)];
         let y = d * blk.w + blk.xyz * dot3(blk.xyz, d);
@@ -301,41 +302,49 @@ fn apply_a(sec: u32, p: u32) -> vec3<f32> {
 // `dv`, from (A Δv)_p, unfiltered, `adv` (twin: the particle loop of
 // cpu::cg::init): r = S b − S A Δv, and without coarse levels s = S P r
 // with ρ's term r·s in r's w (with them cg_update's first call computes s and
-// ρ's terms); a zero previous direction and product.
-fn cg_init_end(p: u32, dv: vec4<f32>, adv: vec3<f32>, coarse: bool) {
+// ρ's terms); a zero previous direction and product. Returns the
+// particle's terms of δ0 (kept in W_RHS's w) and ρ.
+fn cg_init_end(p: u32, dv: vec4<f32>, adv: vec3<f32>, coarse: bool) -> vec2<f32> {
     let kind = dv.w;
     let q = filter_with(kind, p, adv);
-    let r = filter_with(kind, p, work[wi(W_RHS, p)].xyz) - q;
+    let rhs = work[wi(W_RHS, p)];
+    let r = filter_with(kind, p, rhs.xyz) - q;
+    var rho = 0.0;
     if (coarse) {
         work[wi(W_R, p)] = vec4<f32>(r, 0.0);
     } else {
         let s = filter_with(kind, p, precond_mul(p, r));
-        work[wi(W_R, p)] = vec4<f32>(r, dot3(r, s));
+        rho = dot3(r, s);
+        work[wi(W_R, p)] = vec4<f32>(r, rho);
         work[wi(W_S, p)] = vec4<f32>(s, kind);
     }
     work[wi(W_C, p)] = vec4<f32>(0.0);
     work[wi(W_Q, p)] = vec4<f32>(0.0);
+    return vec2<f32>(rhs.w, rho);
 }
 
 // cg_init of particle p through the adjacency lists.
-fn cg_init_item(p: u32, coarse: bool) {
-    cg_init_end(p, work[wi(W_DV, p)], apply_a(W_DV, p), coarse);
+fn cg_init_item(p: u32, coarse: bool) -> vec2<f32> {
+    return cg_init_end(p, work[wi(W_DV, p)], apply_a(W_DV, p), coarse);
 }
 
 // c = s + β c and q = S (A s) + β q for particle p, whose s (with its
 // filter kind in w) is `s` and (A s)_p, unfiltered, `as_p`, with cᵀq's
-// term in q's w (twin: the particle loop of cpu::cg::apply).
-fn cg_apply_end(p: u32, s: vec4<f32>, as_p: vec3<f32>, beta: f32) {
+// term in q's w, which it returns (twin: the particle loop of
+// cpu::cg::apply).
+fn cg_apply_end(p: u32, s: vec4<f32>, as_p: vec3<f32>, beta: f32) -> f32 {
     let t = filter_with(s.w, p, as_p);
     let c = s.xyz + work[wi(W_C, p)].xyz * beta;
     let q = t + work[wi(W_Q, p)].xyz * beta;
+    let cq = dot3(c, q);
     work[wi(W_C, p)] = vec4<f32>(c, 0.0);
-    work[wi(W_Q, p)] = vec4<f32>(q, dot3(c, q));
+    work[wi(W_Q, p)] = vec4<f32>(q, cq);
+    return cq;
 }
 
 // cg_apply of particle p through the adjacency lists.
-fn cg_apply_item(p: u32, beta: f32) {
-    cg_apply_end(p, work[wi(W_S, p)], apply_a(W_S, p), beta);
+fn cg_apply_item(p: u32, beta: f32) -> f32 {
+    return cg_apply_end(p, cg_source(p), apply_a(W_S, p), beta);
 }
 
 // Δv of particle p after the step `alpha` along c (stored) and r after
@@ -356,116 +365,286 @@ fn update_particle(p: u32, alpha: f32, first: bool) -> vec4<f32> {
 
 // The CG update of particle p without coarse levels (twin: the particle
 // loop of cpu::cg::update): Δv and r (update_particle), s = S P r with
-// the filter kind in its w, ρ's term r·P r in r's w.
-fn cg_update_item(p: u32, alpha: f32, first: bool) {
+// the filter kind in its w, ρ's term r·P r in r's w, which it returns.
+fn cg_update_item(p: u32, alpha: f32, first: bool) -> f32 {
     let rk = update_particle(p, alpha, first);
     let r = rk.xyz;
     let s = precond_mul(p, r);
-    work[wi(W_R, p)] = vec4<f32>(r, dot3(r, s));
+    let rho = dot3(r, s);
+    work[wi(W_R, p)] = vec4<f32>(r, rho);
     work[wi(W_S, p)] = vec4<f32>(filter_with(rk.w, p, s), rk.w);
+    return rho;
+}
+
+// Whether cg_apply adds the level-2 corrections to the s it loads: with
+// coarse levels, on the multi-dispatch path (a workgroup kernel, whose
+// pipeline may have COARSE set for a batch's other cloths, adds them to
+// the stored s in a pass of its own).
+fn coarse_at_load() -> bool {
+    return COARSE && !CLOTH_TABLE;
+}
+
+// The s cg_apply takes at particle p, with its filter kind in w: as
+// cg_update stored it, plus with coarse levels (multi-dispatch) the
+// correction S z of its level-2 aggregate (twin: cpu::cg::prolong; on a
+// grid the gather adds it through near_correction instead). The workgroup
+// kernels add the correction to the stored s in a pass of their own.
+fn cg_source(p: u32) -> vec4<f32> {
+    let s = work[wi(W_S, p)];
+    if (!coarse_at_load()) {
+        return s;
+    }
+    return vec4<f32>(s.xyz + filter_with(s.w, p, level2_z(p)), s.w);
 }
 
 // The CG iterations' indirect dispatch arguments (group 1): a slot
-// (workgroups, 1, 1) per recorded CG iteration, and one more, for each
-// indirect dispatch of an iteration. `alpha_args` holds cg_alpha's slots,
-// then cg_apply's, then cg_prolong's (the pass before the iteration's
-// cg_apply); `beta_args` cg_beta's, then cg_update's. An iteration's slots
-// hold workgroups only while it is due: cg_start enables iteration 0's
-// `alpha_args` slots, cg_alpha k enables iteration k's `beta_args` slots
-// and clears k − 1's, cg_beta k clears k's `alpha_args` slots and enables
-// k + 1's — so once CG stops, the rest of the recorded iterations dispatch
+// (workgroups, 1, 1) per recorded CG iteration, and one more, of each
+// per-iteration kernel: `apply_args` cg_apply's, `update_args`
+// cg_update's. A slot holds workgroups only while its iteration is due:
+// cg_init enables iteration 0's cg_apply, cg_apply k enables iteration
+// k's cg_update (unless CG has converged) and clears k − 1's, cg_update k
+// clears its iteration's cg_apply and enables k + 1's (unless CG broke
+// down) — so once CG stops, the rest of the recorded iterations dispatch
 // no workgroup at all (an empty indirect dispatch costs far less than a
 // workgroup that runs only to find CG stopped). A kernel may not bind the
-// buffer it is dispatched from: cg_alpha binds only `beta_args`, cg_beta
-// only `alpha_args`, cg_start both (with group 0's six, the eight storage
-// buffers every WebGPU device grants).
-@group(1) @binding(0) var<storage, read_write> alpha_args: array<u32>;
-@group(1) @binding(1) var<storage, read_write> beta_args: array<u32>;
+// buffer it is dispatched from: cg_apply binds only `update_args`,
+// cg_update only `apply_args`, cg_init both (with group 0's six, the
+// eight storage buffers every WebGPU device grants).
+@group(1) @binding(0) var<storage, read_write> apply_args: array<u32>;
+@group(1) @binding(1) var<storage, read_write> update_args: array<u32>;
 
-// cg_apply's workgroups: it gathers by block on a grid (params.grid.w
-// blocks).
-fn apply_groups() -> u32 {
-    if (GRID) {
-        return (params.grid.w + WORKGROUP - 1u) / WORKGROUP;
-    }
-    return params.partial_count;
+// cg_init's and cg_apply's workgroups of CG_GROUP, a particle per
+// invocation (the CG kernels gather no blocks, so that a workgroup's
+// partial sums always cover the same particles), and CG's reduction
+// blocks.
+fn cg_blocks() -> u32 {
+    return (params.particle_count + CG_GROUP - 1u) / CG_GROUP;
 }
 
-// cg_update's and cg_prolong's workgroups: with coarse levels they take a
-// level-1 aggregate per invocation.
+// cg_update's workgroups: with coarse levels it takes a slot of the
+// level-2-major order of the level-1 aggregates per invocation.
 fn update_groups() -> u32 {
     if (COARSE) {
-        return (params.coarse.z + WORKGROUP - 1u) / WORKGROUP;
+        return coarse_slot_partials();
     }
-    return params.partial_count;
+    return cg_blocks();
 }
 
-// Slots per dispatch in `alpha_args` (three dispatches of three words).
-fn alpha_arg_slots() -> u32 {
-    return arrayLength(&alpha_args) / 9u;
+// Slots of the level-2-major order of the level-1 aggregates (twin:
+// Aggregation::slots): LEVEL2_SLOTS per level-2 aggregate.
+const LEVEL2_SLOTS: u32 = 16u;
+
+fn coarse_slots() -> u32 {
+    return params.coarse.w * LEVEL2_SLOTS;
 }
 
-// Enables (`on`) or clears iteration k's slots of `alpha_args`.
-fn set_alpha_args(k: u32, on: bool) {
-    let slots = alpha_arg_slots();
-    alpha_args[3u * k] = select(0u, 1u, on);
-    alpha_args[3u * (slots + k)] = select(0u, apply_groups(), on);
-    alpha_args[3u * (2u * slots + k)] = select(0u, update_groups(), on);
+// Partial sums of the per-slot cg_update: one per workgroup.
+fn coarse_slot_partials() -> u32 {
+    return (coarse_slots() + CG_GROUP - 1u) / CG_GROUP;
 }
 
-// Enables (`on`) or clears iteration k's slots of `beta_args`.
-fn set_beta_args(k: u32, on: bool) {
-    let slots = arrayLength(&beta_args) / 6u;
-    beta_args[3u * k] = select(0u, 1u, on);
-    beta_args[3u * (slots + k)] = select(0u, update_groups(), on);
+// Enables (`on`) or clears iteration k's cg_apply slot.
+fn set_apply_args(k: u32, on: bool) {
+    apply_args[3u * k] = select(0u, cg_blocks(), on);
 }
 
-// The CG iteration in progress (counted by cg_beta).
-fn cg_iteration() -> u32 {
-    return atomicLoad(&status[sw(STATUS_CG_ITERATIONS)]);
+// Enables (`on`) or clears iteration k's cg_update slot.
+fn set_update_args(k: u32, on: bool) {
+    update_args[3u * k] = select(0u, update_groups(), on);
 }
 
-// cg_start: clear the slots the last solve left enabled, then enable
-// iteration 0's `alpha_args` slots if CG runs.
-fn start_slots(running: bool) {
-    set_alpha_args(atomicLoad(&status[sw(STATUS_ALPHA_SLOT)]), false);
-    set_beta_args(atomicLoad(&status[sw(STATUS_BETA_SLOT)]), false);
+// cg_init, once per solve (one invocation): clear the slots the last
+// solve left enabled, enable iteration 0's cg_apply, and zero the count
+// and the stop.
+fn start_slots() {
+    set_apply_args(atomicLoad(&status[sw(STATUS_APPLY_SLOT)]), false);
+    set_update_args(atomicLoad(&status[sw(STATUS_UPDATE_SLOT)]), false);
+    set_apply_args(0u, true);
+    atomicStore(&status[sw(STATUS_APPLY_SLOT)], 0u);
+    atomicStore(&status[sw(STATUS_CG_ITERATIONS)], 0u);
+    atomicStore(&status[sw(STATUS_CG_STOPPED)], 0u);
+}
+
+// cg_apply of iteration k (one invocation): its scalars for cg_update
+// and the host, then clear iteration k − 1's cg_update slot and enable
+// k's, or stop CG.
+fn apply_slots(k: u32, running: bool, delta0: f32, delta: f32, beta: f32) {
+    if (k == 0u) {
+        set_partial(scalar_index(C_DELTA0), delta0);
+    } else {
+        set_update_args(k - 1u, false);
+    }
+    set_partial(scalar_index(C_DELTA), delta);
+    set_partial(scalar_index(C_BETA), beta);
     if (running) {
-        set_alpha_args(0u, true);
-        atomicStore(&status[sw(STATUS_ALPHA_SLOT)], 0u);
+        set_update_args(k, true);
+        atomicStore(&status[sw(STATUS_UPDATE_SLOT)], k);
+    } else {
+        atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);
     }
 }
 
-// cg_alpha of iteration k: clear iteration k − 1's `beta_args` slots;
-// enable k's unless CG stopped.
-fn alpha_slots_next(k: u32, running: bool) {
-    if (k > 0u) {
-        set_beta_args(k - 1u, false);
-    }
+// cg_update of iteration k (one invocation): α for the host, clear the
+// iteration's cg_apply slot; then count the iteration, keep δ for the
+// next β and enable k + 1's cg_apply (the slot after the last recorded
+// iteration launches nothing), or stop CG.
+fn update_slots(k: u32, running: bool, alpha: f32, delta: f32) {
+    set_partial(scalar_index(C_ALPHA), alpha);
+    set_apply_args(k, false);
     if (running) {
-        set_beta_args(k, true);
-        atomicStore(&status[sw(STATUS_BETA_SLOT)], k);
+        atomicStore(&status[sw(STATUS_CG_ITERATIONS)], k + 1u);
+        set_partial(scalar_index(C_DELTA_PREV), delta);
+        if (k + 1u < arrayLength(&apply_args) / 3u) {
+            set_apply_args(k + 1u, true);
+            atomicStore(&status[sw(STATUS_APPLY_SLOT)], k + 1u);
+        }
+    } else {
+        atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);
     }
 }
 
-// cg_beta of iteration k: clear iteration k's `alpha_args` slots; enable
-// k + 1's unless CG stopped (the slots after the last recorded iteration
-// launch only its cg_prolong).
-fn beta_slots_next(k: u32, running: bool) {
-    set_alpha_args(k, false);
-    if (running && k + 1u < alpha_arg_slots()) {
-        set_alpha_args(k + 1u, true);
-        atomicStore(&status[sw(STATUS_ALPHA_SLOT)], k + 1u);
+// The reduction tree of a workgroup: one vec4 per lane of CG_GROUP (a
+// workgroup kernel's further invocations take no part).
+var<workgroup> tree: array<vec4<f32>, CG_GROUP>;
+var<workgroup> tree_total: vec4<f32>;
+
+// The first `width` (a power of two) of the pairwise tree of the lanes'
+// `value`s: lane i ← lane i + lane i + w for w = 1, 2, … < width at each
+// i that is a multiple of 2w (twin: cpu::cg::pairwise). Returns, in every
+// lane, the sum of its run of `width` lanes. Call from uniform control
+// flow, every invocation of the workgroup.
+fn tree_levels(value: vec4<f32>, lid: u32, width: u32) -> vec4<f32> {
+    // An earlier tree's readers are done with it.
+    workgroupBarrier();
+    if (lid < CG_GROUP) {
+        tree[lid] = value;
     }
+    for (var w = 1u; w < width; w *= 2u) {
+        workgroupBarrier();
+        if (lid < CG_GROUP && lid % (2u * w) == 0u) {
+            tree[lid] = tree[lid] + tree[lid + w];
+        }
+    }
+    workgroupBarrier();
+    return tree[min(lid, CG_GROUP - 1u) & ~(width - 1u)];
+}
+
+// The pairwise tree's total of the CG_GROUP lanes' `value`s, uniform over
+// the workgroup. Call from uniform control flow, every invocation.
+fn tree_reduce(value: vec4<f32>, lid: u32) -> vec4<f32> {
+    let total = tree_levels(value, lid, CG_GROUP);
+    if (lid == 0u) {
+        tree_total = total;
+    }
+    return workgroupUniformLoad(&tree_total);
+}
+
+// This workgroup's (`wid`) tree sums of its lanes' `value`s into the
+// components of its partials of CG slot `slot` (P_CQ or P_RES) that
+// `mask` selects, if `on` (twin: cpu::cg::block_partials). Call from
+// uniform control flow, every invocation.
+fn write_partials(value: vec4<f32>, lid: u32, wid: u32, slot: u32, mask: vec4<bool>, on: bool) {
+    let total = tree_reduce(value, lid);
+    if (lid != 0u || !on) {
+        return;
+    }
+    set_cg_partials(slot, wid, total, mask);
+}
+
+// Stores the components of `value` that `mask` selects into block b's
+// partials of CG slot `slot`.
+fn set_cg_partials(slot: u32, b: u32, value: vec4<f32>, mask: vec4<bool>) {
+    let i = pi(slot, b);
+    work[i] = select(work[i], value, mask);
+}
+
+// The partial sums of four CG blocks at once, the workgroup kernels'
+// form of write_partials: component c of lane l's `values` is its term of
+// block 4 q + c (its particle l there); each component's tree goes to
+// component `component` of that block's partials of CG slot `slot`. The
+// same tree as each block's own workgroup's. Call from uniform control
+// flow, every invocation.
+fn write_block_partials(values: vec4<f32>, lid: u32, q: u32, slot: u32, component: u32) {
+    let total = tree_reduce(values, lid);
+    if (lid != 0u) {
+        return;
+    }
+    for (var c = 0u; c < 4u; c++) {
+        let b = 4u * q + c;
+        if (b < cg_blocks()) {
+            var mask = vec4<bool>(false);
+            mask[component] = true;
+            set_cg_partials(slot, b, vec4<f32>(total[c]), mask);
+        }
+    }
+}
+
+// The totals of the components of CG slot `slot`'s partials (`counts`
+// blocks of each; 0 for a component not wanted), as every workgroup of a
+// CG kernel finds them (twin: cpu::cg::sum_partials): lane l adds blocks
+// l, l + CG_GROUP, … from zero, then the pairwise tree of the lanes.
+// Uniform over the workgroup. Call from uniform control flow, every
+// invocation.
+fn sum_partials_tree(slot: u32, counts: vec4<u32>, lid: u32) -> vec4<f32> {
+    var acc = vec4<f32>(0.0);
+    if (lid < CG_GROUP) {
+        let most = max(max(counts.x, counts.y), max(counts.z, counts.w));
+        for (var k = lid; k < most; k += CG_GROUP) {
+            // Adding zero leaves a sum that started at +0 unchanged.
+            acc += select(vec4<f32>(0.0), work[pi(slot, k)], vec4<u32>(k) < counts);
+        }
+    }
+    return tree_reduce(acc, lid);
+}
+
+// (ρ, δ, δ0 if `first`, 0) of the current residual from the partials the
+// last kernel left (twin: cpu::cg::residual_sums, and δ0 from its block
+// sums): with coarse levels ρ's partials are the per-slot update's and δ
+// adds their coarse terms. Uniform over the workgroup. Call from uniform
+// control flow, every invocation.
+fn cg_residual_sums(lid: u32, first: bool, coarse: bool) -> vec4<f32> {
+    var rho_count = cg_blocks();
+    if (coarse) {
+        rho_count = coarse_slot_partials();
+    }
+    let d0_count = select(0u, cg_blocks(), first);
+    let dc_count = select(0u, rho_count, coarse);
+    var counts = vec4<u32>(0u);
+    counts[P_RS] = rho_count;
+    counts[P_DC] = dc_count;
+    counts[P_D0] = d0_count;
+    let sums = sum_partials_tree(P_RES, counts, lid);
+    var delta = sums[P_RS];
+    if (coarse) {
+        delta = sums[P_RS] + sums[P_DC];
+    }
+    return vec4<f32>(sums[P_RS], delta, sums[P_D0], 0.0);
+}
+
+// CG scalars C_*, after the partials: δ0, δ (the current rᵀM⁻¹r: with the
+// coarse levels more than ρ = rᵀP⁻¹r with the block-Jacobi P alone, which
+// decides convergence), α, β, and the last iteration's δ for the next β.
+// Written by one invocation, for the next kernels and the host.
+fn scalar_index(k: u32) -> u32 {
+    return params.partial_base + P_SLOTS * params.partial_count + k;
+}
+
+// Sum of the partials of `slot`, in sequence (the torque compensation's
+// order, cpu::torque).
+fn sum_partials(slot: u32) -> f32 {
+    var total = 0.0;
+    for (var k = 0u; k < params.partial_count; k++) {
+        total += partial(pi(slot, k));
+    }
+    return total;
 }
 
 var<workgroup> scratch: array<f32, WORKGROUP>;
-var<workgroup> shared_flag: u32;
 
-// Twin: cpu::cg::block_partials inside one block: writes this workgroup's sum
-// of `value`, in invocation order, to partials[slot]. Every invocation of
-// the workgroup must call it. Two barriers and one invocation adding up:
-// on lavapipe a barrier costs more than the additions of a whole tree.
+// The torque compensation's block sum (twin: cpu::torque's reduce): writes
+// this workgroup's sum of `value`, in invocation order, to
+// partials[slot]. Every invocation of the workgroup must call it. Two
+// barriers and one invocation adding up.
 fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
     // Invocation 0 may still be reading the previous reduction's values.
     workgroupBarrier();
@@ -479,115 +658,4 @@ fn reduce_to_partial(value: f32, lid: u32, wid: u32, slot: u32) {
         }
         set_partial(pi(slot, wid), total);
     }
-}
-
-// Sum of the partials of `slot`, in sequence (twin: the block loop of
-// block_sum).
-fn sum_partials(slot: u32) -> f32 {
-    var total = 0.0;
-    for (var k = 0u; k < params.partial_count; k++) {
-        total += partial(pi(slot, k));
-    }
-    return total;
-}
-
-// Where sum_staged finds its values.
-const STAGED_PARTIALS: u32 = 0u;
-const STAGED_LEVEL2: u32 = 1u;
-
-// Value k of a staged sum: partial k of `slot`, or the term in the w of
-// level-2 aggregate k's W_COARSE_Z (see cg_coarse).
-fn staged_value(source: u32, slot: u32, k: u32) -> f32 {
-    if (source == STAGED_LEVEL2) {
-        return work[wa(W_COARSE_Z, params.coarse.z + k)].w;
-    }
-    return partial(pi(slot, k));
-}
-
-var<workgroup> stage: array<f32, SUM_GROUP>;
-
-// Σ of the `count` values of `source` in sequence (twin: the block loop of
-// block_sum; the level-2 loop of Coarse::level2): the workgroup copies
-// SUM_GROUP values at a time into workgroup memory, and invocation 0 adds
-// them from there. On a GPU, invocation 0 loading each value from storage
-// itself would wait out a memory latency every few values (a 257² cloth
-// has ~1000 block sums; see gpu::kernels::sum_group for why every
-// adapter runs this form). The result is valid in invocation 0 only.
-// Call from uniform control flow, after a storageBarrier.
-fn sum_staged(source: u32, slot: u32, count: u32, lid: u32) -> f32 {
-    var total = 0.0;
-    for (var base = 0u; base < count; base += SUM_GROUP) {
-        if (base + lid < count) {
-            stage[lid] = staged_value(source, slot, base + lid);
-        }
-        workgroupBarrier();
-        if (lid == 0u) {
-            for (var k = 0u; k < min(SUM_GROUP, count - base); k++) {
-                total += stage[k];
-            }
-        }
-        workgroupBarrier();
-    }
-    return total;
-}
-
-// Σ_p work[wi(sec, p)].w in block_sum's order, by one workgroup of
-// SUM_GROUP invocations: invocation l adds up blocks l, l + SUM_GROUP, …
-// of WORKGROUP particles into partials[slot], then the block sums are
-// added in sequence (sum_staged); the total is valid in invocation 0
-// only. The per-particle kernels leave their dot-product terms in the w
-// of a vector they write anyway, so they need no workgroup barrier. Call
-// from uniform control flow.
-fn sum_w(sec: u32, slot: u32, lid: u32) -> f32 {
-    for (var b = lid; b < params.partial_count; b += SUM_GROUP) {
-        let start = params.particle_base + b * WORKGROUP;
-        let end = min(start + WORKGROUP, params.particle_base + params.particle_count);
-        var block = 0.0;
-        for (var p = start; p < end; p++) {
-            block += work[wi(sec, p)].w;
-        }
-        set_partial(pi(slot, b), block);
-    }
-    storageBarrier();
-    return sum_staged(STAGED_PARTIALS, slot, params.partial_count, lid);
-}
-
-// CG scalars C_*, after the partials: δ0, δ (current rᵀM⁻¹r: with the
-// coarse levels more than ρ = rᵀP⁻¹r with the block-Jacobi P alone, which
-// decides convergence and is summed where it is tested), α, β.
-fn scalar_index(k: u32) -> u32 {
-    return params.partial_base + P_SLOTS * params.partial_count + k;
-}
-
-// α = δ / cᵀq, cᵀq summed from the w of W_Q (twin: cpu::cg::alpha). A
-// cᵀq that is not positive means c vanished to rounding: CG stops.
-// Invocation 0 stores α or the stop and returns whether CG goes on (the
-// others return false). Call from uniform control flow.
-fn cg_alpha_scalar(lid: u32) -> bool {
-    let cq = sum_w(W_Q, P_CQ, lid);
-    if (lid != 0u) {
-        return false;
-    }
-    let running = finite1(cq) && cq > 0.0;
-    if (running) {
-        set_partial(scalar_index(C_ALPHA), partial(scalar_index(C_DELTA)) / cq);
-    } else {
-        atomicStore(&status[sw(STATUS_CG_STOPPED)], 1u);
-    }
-    return running;
-}
-
-// Whether CG has stopped (converged or broken down; set by the one-group
-// kernels cg_start, cg_alpha and cg_beta), uniform over the workgroup (for
-// those kernels, which have barriers after it).
-fn cg_stopped(lid: u32) -> bool {
-    if (lid == 0u) {
-        shared_flag = atomicLoad(&status[sw(STATUS_CG_STOPPED)]);
-    }
-    return workgroupUniformLoad(&shared_flag) != 0u;
-}
-
-// Whether CG has stopped, for a per-particle kernel (no barrier).
-fn cg_done() -> bool {
-    return atomicLoad(&status[sw(STATUS_CG_STOPPED)]) != 0u;
 }

@@ -11,6 +11,9 @@
 @group(0) @binding(0) var<storage, read> cloths: array<Params>;
 
 var<workgroup> params: Params;
+
+// The parameters are a cloth table's entry (see common/bindings.wgsl).
+const CLOTH_TABLE: bool = true;
 var<workgroup> cloth_steps: u32;
 
 // Copies cloth `w`'s parameters into `params` and returns, uniformly over

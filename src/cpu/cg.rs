@@ -1,24 +1,33 @@
 //! The implicit step's modified preconditioned CG (see [`super::implicit`]
 //! for the method), one function per GPU kernel, called in the order the
 //! GPU records them ([`solve`]): [`init`], with coarse levels
-//! [`update`]`(first)`, [`start`], [`prolong`], then per iteration
-//! [`apply`], [`alpha`], [`update`], [`beta`], [`prolong`].
+//! [`update`]`(first)`, then per iteration [`apply`] and [`update`].
 //!
-//! The particle kernels leave their dot-product terms in the spare `w` of a
-//! vector they write; here they go to the workspace's term arrays
-//! (`delta0_terms`, `rho_terms`, `cq_terms`), and the scalar kernels sum
-//! them with [`block_sum`], the GPU's order. The scalars the GPU keeps in
-//! `partials` and its status words are [`Scalars`].
+//! Two kernels an iteration, and no one-workgroup kernel: each kernel
+//! writes one partial sum per workgroup of the dot-product terms it
+//! produces ([`block_partials`]), and every workgroup of the next kernel
+//! adds all the partials itself, in one fixed order ([`sum_partials`]) —
+//! they read the same bits, so they all find the same α, β and stop
+//! without talking to each other. [`apply`] finds β and the convergence
+//! test from the partials [`update`] (or [`init`]) left, [`update`] finds
+//! α from [`apply`]'s. The particle kernels also leave their terms in the
+//! spare `w` of a vector they write; here they go to the workspace's term
+//! arrays (`delta0_terms`, `rho_terms`, `cq_terms`). The scalars the GPU
+//! keeps in `partials` and its status words are [`Scalars`].
+
+use std::ops::Add;
 
 use super::forces::bending_product;
 use super::implicit::{Filter, SpringBlock};
-use super::{System, Workspace, REDUCTION_BLOCK};
+use super::{System, Workspace};
+use crate::kernel_config::CG_BLOCK;
 use crate::real::{Real, Vec3};
 
 /// The CG scalars between kernels: the GPU's scalar slots of `partials`
-/// (`C_DELTA0`, `C_DELTA`, `C_ALPHA`, `C_BETA`) and its status words
-/// `STATUS_CG_ITERATIONS` and `STATUS_CG_STOPPED`. `rho` is the CPU's
-/// alone (the GPU tests it where it sums it), for the step's residual.
+/// (`C_DELTA0`, `C_DELTA`, `C_ALPHA`, `C_BETA`, `C_DELTA_PREV`) and its
+/// status words `STATUS_CG_ITERATIONS` and `STATUS_CG_STOPPED`. `rho` is
+/// the CPU's alone (the GPU tests it where it sums it), for the step's
+/// residual.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Scalars<R> {
     /// `(Sb)ᵀP⁻¹(Sb)`, the filtered right-hand side's norm.
@@ -27,8 +36,10 @@ pub struct Scalars<R> {
     pub delta: R,
     /// The step along the direction.
     pub alpha: R,
-    /// The direction update's weight (0 before the first iteration).
+    /// The direction update's weight (0 in the first iteration).
     pub beta: R,
+    /// δ of the last completed iteration's start, for the next β.
+    pub delta_prev: R,
     /// `rᵀP⁻¹r` with the block-Jacobi `P`, which decides convergence.
     pub rho: R,
     /// Iterations completed.
@@ -37,34 +48,63 @@ pub struct Scalars<R> {
     pub stopped: bool,
 }
 
-/// `Σ terms(p)` over `n` particles in the GPU's reduction order: a running
-/// sum inside each block of [`REDUCTION_BLOCK`] particles, then the block
-/// sums in sequence (twin: `sum_w` and `reduce_to_partial` then
-/// `sum_partials` in `shaders/common/cg.wgsl`). Summing in the GPU's order
-/// lets the `f32` mirror reproduce the GPU's iterates bit for bit. A
-/// running sum rather than a tree because on the GPU a tree needs a
-/// workgroup barrier per level, which on a CPU adapter costs more than the
-/// additions it saves.
-pub fn block_sum<R: Real>(n: usize, terms: impl FnMut(usize) -> R) -> R {
-    let mut total = R::ZERO;
-    block_partials(n, terms, |_, block| total += block);
-    total
+/// The sum of `values` (a power of two of them) as a pairwise tree of
+/// neighbours: `v[i] += v[i + w]` for `w = 1, 2, 4, …` at every `i` that
+/// is a multiple of `2w`; the result is `v[0]`. The GPU's workgroups sum
+/// in this order (`tree_reduce` in `shaders/common/cg.wgsl`), and a
+/// subgroup's xor butterfly reaches the same bits in every lane.
+pub fn pairwise<T: Copy + Add<Output = T>>(values: &mut [T]) -> T {
+    let n = values.len();
+    debug_assert!(n.is_power_of_two());
+    let mut w = 1;
+    while w < n {
+        for i in (0..n).step_by(2 * w) {
+            values[i] = values[i] + values[i + w];
+        }
+        w *= 2;
+    }
+    values[0]
 }
 
-/// Each block's running sum of `terms(p)` over `n` particles, block by
-/// block: `out(block, sum)` (the GPU's `reduce_to_partial`).
+/// Each block's sum of `terms(p)` over `n` particles, block by block:
+/// `out(block, sum)`, a block being [`CG_BLOCK`] particles (one
+/// workgroup's) summed as a [`pairwise`] tree, zeros past the last
+/// particle (twin: `tree_reduce` in the CG kernels, and
+/// `write_block_partials` on the workgroup path).
 pub fn block_partials<R: Real>(
     n: usize,
     mut terms: impl FnMut(usize) -> R,
     mut out: impl FnMut(usize, R),
 ) {
-    for (b, start) in (0..n).step_by(REDUCTION_BLOCK).enumerate() {
-        let mut block = R::ZERO;
-        for p in start..(start + REDUCTION_BLOCK).min(n) {
-            block += terms(p);
+    let mut lanes = [R::ZERO; CG_BLOCK];
+    for (b, start) in (0..n).step_by(CG_BLOCK).enumerate() {
+        for (k, lane) in lanes.iter_mut().enumerate() {
+            let p = start + k;
+            *lane = if p < n { terms(p) } else { R::ZERO };
         }
-        out(b, block);
+        out(b, pairwise(&mut lanes));
     }
+}
+
+/// The total of `partials` as every workgroup of a CG kernel adds them
+/// (twin: `sum_partials_tree` in `shaders/common/cg.wgsl`): lane `l` of
+/// [`CG_BLOCK`] adds partials `l`, `l + 256`, … in sequence from
+/// zero, then the lanes' sums go through a [`pairwise`] tree. Coalesced
+/// loads, and a handful of additions per lane at any size.
+pub fn sum_partials<R: Real>(partials: &[R]) -> R {
+    let mut lanes = [R::ZERO; CG_BLOCK];
+    for (k, &v) in partials.iter().enumerate() {
+        lanes[k % CG_BLOCK] += v;
+    }
+    pairwise(&mut lanes)
+}
+
+/// `Σ terms(p)` over `n` particles in the GPU's order: [`block_partials`],
+/// then [`sum_partials`].
+pub fn block_sum<R: Real>(n: usize, terms: impl FnMut(usize) -> R) -> R {
+    let mut partials = Vec::with_capacity(n.div_ceil(CG_BLOCK));
+    block_partials(n, terms, |_, sum| partials.push(sum));
+    sum_partials(&partials)
 }
 
 /// `out = S (A p)` over all particles (twin: `apply_a` in
@@ -123,8 +163,10 @@ fn tolerance_sq<R: Real>(sys: &System<R>) -> R {
 /// `r·s`, `s = S P r`, and a zero previous direction and product (the
 /// first iteration has β = 0). With coarse levels `s` and ρ's terms are
 /// left to [`update`]`(first)` (the GPU's ρ term there: 0). Reads `blocks`,
-/// `filter`, `precond`, `dv`, `rhs`; writes `r`, `s`, `c`, `q`,
-/// `rho_terms` (the GPU's w of `W_R`; `W_S`'s w is the filter kind).
+/// `filter`, `precond`, `dv`, `rhs`, `delta0_terms`; writes `r`, `s`, `c`,
+/// `q`, `rho_terms` (the GPU's w of `W_R`; `W_S`'s w is the filter kind)
+/// and resets `cg`. The GPU's partials of δ0 and ρ are the block sums of
+/// `delta0_terms` and `rho_terms` ([`block_partials`]).
 pub fn init<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
     apply_a(sys, &w.blocks, &w.filter, &w.dv, &mut w.q);
     let coarse = w.coarse.is_some();
@@ -139,51 +181,56 @@ pub fn init<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
         w.c[p] = Vec3::ZERO;
         w.q[p] = Vec3::ZERO;
     }
+    w.cg.iterations = 0;
+    w.cg.stopped = false;
 }
 
-/// Twin of `shaders/cg_start.wgsl`: δ0 and ρ summed from their terms, δ =
-/// ρ plus the coarse levels' terms ([`super::coarse::Coarse::level2`], whose
-/// corrections [`prolong`] adds), β = 0, and whether CG is done before its
-/// first iteration. Reads `delta0_terms`, `rho_terms` (and the coarse
-/// levels' `r1`, `term1`, `inv`); writes `cg` (and `z2`, `term2`).
-pub fn start<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
-    let n = w.r.len();
-    let delta0 = block_sum(n, |p| w.delta0_terms[p]);
-    let rho = block_sum(n, |p| w.rho_terms[p]);
-    w.cg.delta0 = delta0;
-    w.cg.delta = coarse_delta(w, rho);
-    w.cg.beta = R::ZERO;
-    w.cg.rho = rho;
-    let running = rho > tolerance_sq(sys) * delta0;
-    w.cg.stopped = !running;
-}
-
-/// δ = rᵀM⁻¹r from ρ = rᵀP⁻¹r: ρ plus the coarse levels' terms, or ρ
-/// without them (twin: `cg_delta` in `shaders/common/coarse.wgsl`).
-fn coarse_delta<R: Real>(w: &mut Workspace<R>, rho: R) -> R {
-    match &mut w.coarse {
-        Some(coarse) => rho + coarse.level2(),
-        None => rho,
+/// ρ = rᵀP⁻¹r and δ = rᵀM⁻¹r of the current residual as [`apply`] sums
+/// them: ρ from the block sums of `rho_terms`, or with coarse levels from
+/// their per-slot partials, plus the coarse terms (twin: `cg_sums` in
+/// `shaders/common/cg.wgsl`).
+pub fn residual_sums<R: Real>(w: &Workspace<R>) -> (R, R) {
+    match &w.coarse {
+        Some(coarse) => {
+            let rho = sum_partials(&coarse.rho_partials);
+            (rho, rho + sum_partials(&coarse.dc_partials))
+        }
+        None => {
+            let rho = block_sum(w.rho_terms.len(), |p| w.rho_terms[p]);
+            (rho, rho)
+        }
     }
 }
 
-/// Twin of `shaders/cg_prolong.wgsl`: with coarse levels, `s += S z` of
-/// each particle's level-2 aggregate ([`super::coarse::Coarse::prolong`]);
-/// nothing without. On a grid the GPU has no such pass: `cg_apply` adds
-/// the correction to each `s` it loads, so there `cg_apply` is the twin
-/// of this followed by [`apply`].
-pub fn prolong<R: Real>(w: &mut Workspace<R>) {
-    if let Some(coarse) = &w.coarse {
-        coarse.prolong(&w.filter, &mut w.s);
-    }
-}
-
-/// Twin of `shaders/cg_apply.wgsl`: the direction `c = s + β c` and its
-/// product `q = S A c = S A s + β q` (the direction update folded into
-/// the product, see `solve`), and cᵀq's terms. Reads `blocks`,
-/// `filter`, `s`, `c`, `q`, `cg.beta`; writes `c`, `q`, `cq_terms` (the
-/// GPU's w of `W_Q`), and `t` (scratch: `S A s`).
+/// Twin of `shaders/cg_apply.wgsl`, CG iteration `cg.iterations`: ρ and δ
+/// summed ([`residual_sums`]; in the first iteration δ0 too), CG stopped
+/// once ρ ≤ tol² δ0; else β = δ / δ_prev (0 in the first iteration), the
+/// direction `c = s + β c` and its product `q = S A c = S A s + β q` (the
+/// direction update folded into the product, see [`solve`]), and cᵀq's
+/// terms. With coarse levels `s` gets each level-2 aggregate's correction
+/// first ([`prolong`], which the GPU adds to each `s` it loads). Reads
+/// `blocks`, `filter`, `s`, `c`, `q`, `rho_terms` (or the coarse
+/// partials), `delta0_terms` (first iteration), `cg`; writes `cg`, and
+/// unless stopped `c`, `q`, `cq_terms` (the GPU's w of `W_Q`) and `t`
+/// (scratch: `S A s`).
 pub fn apply<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
+    let first = w.cg.iterations == 0;
+    let (rho, delta) = residual_sums(w);
+    if first {
+        w.cg.delta0 = block_sum(w.delta0_terms.len(), |p| w.delta0_terms[p]);
+    }
+    w.cg.rho = rho;
+    w.cg.delta = delta;
+    w.cg.beta = if first {
+        R::ZERO
+    } else {
+        delta / w.cg.delta_prev
+    };
+    if !(rho > tolerance_sq(sys) * w.cg.delta0) {
+        w.cg.stopped = true;
+        return;
+    }
+    prolong(w);
     apply_a(sys, &w.blocks, &w.filter, &w.s, &mut w.t);
     let beta = w.cg.beta;
     for p in 0..w.c.len() {
@@ -193,28 +240,39 @@ pub fn apply<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
     }
 }
 
-/// Twin of `shaders/cg_alpha.wgsl`: α = δ / cᵀq. A cᵀq that is not
-/// positive means `c` vanished to rounding (`A` is positive definite on
-/// the filtered subspace): CG stops, the solve as good as it gets. Reads
-/// `cq_terms`, `cg.delta`; writes `cg.alpha` or `cg.stopped`.
-pub fn alpha<R: Real>(w: &mut Workspace<R>) {
-    let cq = block_sum(w.cq_terms.len(), |p| w.cq_terms[p]);
-    if !(cq.is_finite() && cq > R::ZERO) {
-        w.cg.stopped = true;
-        return;
+/// With coarse levels, `s += S z` of each particle's level-2 aggregate
+/// ([`super::coarse::Coarse::prolong`]); nothing without. The GPU adds the
+/// correction to each `s` its `cg_apply` loads.
+pub fn prolong<R: Real>(w: &mut Workspace<R>) {
+    if let Some(coarse) = &w.coarse {
+        coarse.prolong(&w.filter, &mut w.s);
     }
-    w.cg.alpha = w.cg.delta / cq;
 }
 
-/// Twin of `shaders/cg_update.wgsl`: `Δv += α c`, `r −= α q` (not in the
-/// `first` variant, which only preconditions the initial residual), `s =
-/// S P r` with ρ's term `r·P r`; with coarse levels, level 1's correction
-/// added to `s` ([`super::coarse::Coarse::level1`], which the GPU runs one
-/// level-1 aggregate per invocation). Reads `c`, `q`, `precond`, `filter`,
-/// `cg.alpha`; writes `dv`, `r`, `s`, `rho_terms` (the GPU's w of `W_R`)
-/// and the level-1 sums (the GPU's level-1 `W_COARSE_Z`).
+/// Twin of `shaders/cg_update.wgsl`: α = δ / cᵀq, cᵀq from the block sums
+/// of `cq_terms` (not in the `first` variant, which only preconditions
+/// the initial residual). A cᵀq that is not positive means `c` vanished to
+/// rounding (`A` is positive definite on the filtered subspace): CG
+/// stops, the solve as good as it gets. Else `Δv += α c`, `r −= α q`, `s =
+/// S P r` with ρ's term `r·P r`; with coarse levels, both levels'
+/// corrections and sums ([`super::coarse::Coarse::level1`],
+/// [`level2`](super::coarse::Coarse::level2),
+/// [`partials`](super::coarse::Coarse::partials), which the GPU runs one
+/// slot of the level-2-major order per invocation); the iteration
+/// counted. Reads `c`, `q`, `cq_terms`, `precond`, `filter`, `cg`;
+/// writes `dv`, `r`, `s`, `rho_terms` (the GPU's w of `W_R`), the coarse
+/// sums (the GPU's `W_COARSE_Z`) and `cg`.
 pub fn update<R: Real>(w: &mut Workspace<R>, first: bool) {
-    let alpha = w.cg.alpha;
+    let mut alpha = R::ZERO;
+    if !first {
+        let cq = block_sum(w.cq_terms.len(), |p| w.cq_terms[p]);
+        alpha = w.cg.delta / cq;
+        w.cg.alpha = alpha;
+        if !(cq.is_finite() && cq > R::ZERO) {
+            w.cg.stopped = true;
+            return;
+        }
+    }
     for p in 0..w.r.len() {
         if !first {
             w.dv[p] += w.c[p] * alpha;
@@ -226,23 +284,12 @@ pub fn update<R: Real>(w: &mut Workspace<R>, first: bool) {
     }
     if let Some(coarse) = &mut w.coarse {
         coarse.level1(&w.r, &w.filter, &mut w.s);
+        coarse.level2();
+        coarse.partials(&w.rho_terms);
     }
-}
-
-/// Twin of `shaders/cg_beta.wgsl`: ρ summed from its terms, δ_new = ρ
-/// plus the coarse terms, β = δ_new / δ, the iteration counted, and CG
-/// stopped once ρ ≤ tol² δ0. Reads `rho_terms`, `cg` (and the level-1
-/// sums); writes `cg` (and the level-2 `z2`, `term2`).
-pub fn beta<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
-    let rho = block_sum(w.rho_terms.len(), |p| w.rho_terms[p]);
-    let delta = coarse_delta(w, rho);
-    w.cg.beta = delta / w.cg.delta;
-    w.cg.delta = delta;
-    w.cg.rho = rho;
-    w.cg.iterations += 1;
-    let running = rho > tolerance_sq(sys) * w.cg.delta0;
-    if !running {
-        w.cg.stopped = true;
+    if !first {
+        w.cg.delta_prev = w.cg.delta;
+        w.cg.iterations += 1;
     }
 }
 
@@ -261,19 +308,19 @@ pub fn solve<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
     if w.coarse.is_some() {
         update(w, true);
     }
-    start(sys, w);
-    prolong(w);
     for _ in 0..sys.cg_max_iterations {
-        if w.cg.stopped {
-            break;
-        }
         apply(sys, w);
-        alpha(w);
         if w.cg.stopped {
             break;
         }
         update(w, false);
-        beta(sys, w);
-        prolong(w);
+        if w.cg.stopped {
+            break;
+        }
+    }
+    // Cut short by the cap: the residual the step reports is the last
+    // one's, which no apply summed (the GPU reports none).
+    if !w.cg.stopped {
+        w.cg.rho = residual_sums(w).0;
     }
 }

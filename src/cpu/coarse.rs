@@ -34,21 +34,21 @@
 //! at two, each corrected through its diagonal block.
 //!
 //! Everything is summed in a fixed order that the GPU reproduces (twins:
-//! [`Coarse::setup`] of `coarse_setup.wgsl`; [`Coarse::level1`] of the
-//! per-aggregate `cg_update.wgsl`; [`Coarse::level2`] of `cg_coarse` in
-//! `shaders/common/coarse.wgsl`, which `cg_start` and `cg_beta` call;
-//! [`Coarse::prolong`] of `cg_prolong.wgsl`, or on a grid of
-//! `near_correction`, which `cg_apply` adds to each `s` it loads): an
-//! aggregate's particles in row-major order; a level-2
-//! aggregate's residual as the sum of its level-1 aggregates' (row-major);
-//! the coarse terms of `rᵀM⁻¹r` level-2 aggregate by level-2 aggregate,
-//! each its level-1 terms then its own; `s` gets the block-Jacobi term,
-//! then level 1's, then level 2's.
+//! [`Coarse::setup`] of `coarse_setup.wgsl`; [`Coarse::level1`],
+//! [`Coarse::level2`] and [`Coarse::partials`] of the per-slot
+//! `cg_update.wgsl`; [`Coarse::prolong`] of the correction `cg_apply` adds
+//! to each `s` it loads): an aggregate's particles in row-major order; a
+//! level-2 aggregate's residual as the pairwise sum of its level-1
+//! aggregates' in slot order; ρ and the coarse terms of `rᵀM⁻¹r` through a
+//! workgroup's tree of slots; `s` gets the block-Jacobi term, then level
+//! 1's, then level 2's.
 
+use super::cg::pairwise;
 use super::implicit::Filter;
 use super::mat3::Sym3;
 pub use crate::aggregation::Aggregation;
-use crate::aggregation::RATIO;
+use crate::aggregation::SLOTS_PER_LEVEL2;
+use crate::kernel_config::CG_BLOCK;
 use crate::real::{Real, Vec3};
 
 /// The coarse levels' per-step state.
@@ -78,9 +78,14 @@ pub struct Coarse<R> {
     /// The correction `z = D⁻¹ Πᵀr` of each level-2 aggregate (the GPU's
     /// xyz of `W_COARSE_Z` past the level-1 aggregates).
     pub z2: Vec<Vec3<R>>,
-    /// Both levels' terms of `rᵀM⁻¹r` of each level-2 aggregate, its
-    /// level-1 terms then its own (the GPU's w of `W_COARSE_Z` there).
+    /// The term `(Πᵀr)·D⁻¹Πᵀr` of each level-2 aggregate (the GPU's w of
+    /// `W_COARSE_Z` there).
     pub term2: Vec<R>,
+    /// ρ's partial sums, one per workgroup of the per-slot update (the
+    /// GPU's `P_RS`).
+    pub rho_partials: Vec<R>,
+    /// The partial sums of δ's coarse terms (the GPU's `P_DC`).
+    pub dc_partials: Vec<R>,
 }
 
 impl<R: Real> Coarse<R> {
@@ -98,6 +103,8 @@ impl<R: Real> Coarse<R> {
             term1: vec![R::ZERO; agg.count(0)],
             z2: vec![Vec3::ZERO; agg.count(1)],
             term2: vec![R::ZERO; agg.count(1)],
+            rho_partials: vec![R::ZERO; agg.slots().div_ceil(CG_BLOCK)],
+            dc_partials: vec![R::ZERO; agg.slots().div_ceil(CG_BLOCK)],
         }
     }
 
@@ -136,8 +143,7 @@ impl<R: Real> Coarse<R> {
     /// Level 1 of the coarse terms, per level-1 aggregate: `Πᵀr`, its
     /// correction `z = D⁻¹ Πᵀr` added to `s` as `S z` (after the block
     /// Jacobi term already there), and the term `(Πᵀr)·z` of `rᵀM⁻¹r`.
-    /// The GPU does this in its per-aggregate `cg_update`
-    /// (`update_aggregate`).
+    /// The GPU does this in its per-slot `cg_update` (`cg_update_slot`).
     pub fn level1(&mut self, r: &[Vec3<R>], filter: &[Filter<R>], s: &mut [Vec3<R>]) {
         let agg = self.agg;
         for row in 0..agg.down(0) {
@@ -157,42 +163,67 @@ impl<R: Real> Coarse<R> {
         }
     }
 
-    /// Level 2, after [`Coarse::level1`] (twin of `cg_coarse` in
-    /// `shaders/common/coarse.wgsl`): each level-2 aggregate's `Πᵀr` summed
-    /// from its level-1 aggregates', its correction into `z2` and its
-    /// terms into `term2`; returns both levels' terms of `rᵀM⁻¹r`, level-2
-    /// aggregate by level-2 aggregate (its level-1 terms, then its own).
+    /// Level 2, after [`Coarse::level1`]: each level-2 aggregate's `Πᵀr`,
+    /// the [`pairwise`] sum of its level-1 aggregates' in slot order
+    /// ([`Aggregation::slot_aggregate`]; zeros for the slots the grid's
+    /// edge leaves empty), its correction `z = D⁻¹Πᵀr` into `z2` and its
+    /// term `(Πᵀr)·z` of `rᵀM⁻¹r` into `term2`. On the GPU the workgroup
+    /// of the per-slot `cg_update` that holds the level-2 aggregate's slots
+    /// sums them in its reduction tree (`cg_update_slot`).
     /// [`Coarse::prolong`] adds the corrections to `s`.
-    pub fn level2(&mut self) -> R {
+    pub fn level2(&mut self) {
         let agg = self.agg;
-        let mut total = R::ZERO;
-        for row2 in 0..agg.down(1) {
-            for col2 in 0..agg.across(1) {
-                let mut term = R::ZERO;
-                let mut r2 = Vec3::ZERO;
-                for row1 in row2 * RATIO..((row2 + 1) * RATIO).min(agg.down(0)) {
-                    for col1 in col2 * RATIO..((col2 + 1) * RATIO).min(agg.across(0)) {
-                        let a = agg.index(0, row1, col1);
-                        term += self.term1[a];
-                        r2 += self.r1[a];
-                    }
+        for b in 0..agg.count(1) {
+            let mut r1 = [Vec3::ZERO; SLOTS_PER_LEVEL2];
+            for (k, r) in r1.iter_mut().enumerate() {
+                if let Some(a) = agg.slot_aggregate(b * SLOTS_PER_LEVEL2 + k) {
+                    *r = self.r1[a];
                 }
-                let b = agg.index(1, row2, col2);
-                let z = self.inv[b].mul(r2);
-                term += r2.dot(z);
-                let k = b - agg.count(0);
-                self.z2[k] = z;
-                self.term2[k] = term;
-                total += term;
             }
+            let r2 = pairwise(&mut r1);
+            let z = self.inv[agg.count(0) + b].mul(r2);
+            self.z2[b] = z;
+            self.term2[b] = r2.dot(z);
         }
-        total
+    }
+
+    /// The partial sums of ρ and of δ's coarse terms, one per workgroup of
+    /// the per-slot `cg_update` (4 level-2 aggregates' slots), after
+    /// [`Coarse::level2`]: slot by slot, ρ's terms `rho_terms` of the
+    /// slot's particles added in row-major sequence, and the slot's coarse
+    /// terms — its level-1 term, plus its level-2 aggregate's in the
+    /// aggregate's first slot — each through a [`pairwise`] tree of the
+    /// workgroup's slots (twin: `cg_update_slot`'s reductions). Writes
+    /// `rho_partials` and `dc_partials`.
+    pub fn partials(&mut self, rho_terms: &[R]) {
+        let agg = self.agg;
+        let mut rho = [R::ZERO; CG_BLOCK];
+        let mut dc = [R::ZERO; CG_BLOCK];
+        for (g, start) in (0..agg.slots()).step_by(CG_BLOCK).enumerate() {
+            for k in 0..CG_BLOCK {
+                let slot = start + k;
+                (rho[k], dc[k]) = (R::ZERO, R::ZERO);
+                let Some(a) = agg.slot_aggregate(slot).filter(|_| slot < agg.slots()) else {
+                    continue;
+                };
+                let (row, col) = (a / agg.across(0), a % agg.across(0));
+                for p in agg.particles(0, row, col) {
+                    rho[k] += rho_terms[p];
+                }
+                dc[k] = self.term1[a];
+                if slot % SLOTS_PER_LEVEL2 == 0 {
+                    dc[k] += self.term2[slot / SLOTS_PER_LEVEL2];
+                }
+            }
+            self.rho_partials[g] = pairwise(&mut rho);
+            self.dc_partials[g] = pairwise(&mut dc);
+        }
     }
 
     /// Adds each level-2 aggregate's correction `S z` to its particles'
     /// `s` (after the block-Jacobi and level-1 terms already there): twin
-    /// of `shaders/cg_prolong.wgsl`, and of `near_correction`, which the
-    /// grid kernel `cg_apply` adds to each `s` it loads instead.
+    /// of the correction `cg_apply` adds to each `s` it loads
+    /// (`near_correction` on a grid, `coarse_source` elsewhere).
     pub fn prolong(&self, filter: &[Filter<R>], s: &mut [Vec3<R>]) {
         let agg = self.agg;
         for row2 in 0..agg.down(1) {

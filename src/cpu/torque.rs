@@ -10,9 +10,9 @@
 //! [`REDUCTION_BLOCK`](super::REDUCTION_BLOCK) particles per slot), added in sequence: the GPU's
 //! reduction order.
 
-use super::cg::block_partials;
 use super::mat3::Sym3;
 use super::System;
+use super::REDUCTION_BLOCK;
 use crate::real::{Real, Vec3};
 
 /// Slots of the partial sums (twin: `T_*` in `shaders/common/torque.wgsl`):
@@ -29,11 +29,18 @@ fn blocks<R>(partials: &[R]) -> usize {
     partials.len() / SLOTS
 }
 
-/// Each block's sum of `terms(p)` over `n` particles into slot `slot`
-/// (twin: `reduce_to_partial`).
-fn reduce<R: Real>(partials: &mut [R], slot: usize, n: usize, terms: impl FnMut(usize) -> R) {
+/// Each block's running sum of `terms(p)` over `n` particles into slot
+/// `slot` (twin: `reduce_to_partial`, whose invocation 0 adds the block's
+/// values in sequence).
+fn reduce<R: Real>(partials: &mut [R], slot: usize, n: usize, mut terms: impl FnMut(usize) -> R) {
     let b = blocks(partials);
-    block_partials(n, terms, |k, sum| partials[slot * b + k] = sum);
+    for (k, start) in (0..n).step_by(REDUCTION_BLOCK).enumerate() {
+        let mut block = R::ZERO;
+        for p in start..(start + REDUCTION_BLOCK).min(n) {
+            block += terms(p);
+        }
+        partials[slot * b + k] = block;
+    }
 }
 
 /// Slot `slot`'s block sums added in sequence (twin: `sum_partials`).

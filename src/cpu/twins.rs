@@ -17,12 +17,8 @@
 //! | `implicit_prepare` | [`implicit::prepare`] |
 //! | `coarse_setup` | [`Coarse::setup`] |
 //! | `cg_init` | [`cg::init`] |
-//! | `cg_start` | [`cg::start`] |
-//! | `cg_prolong` | [`cg::prolong`] |
-//! | `cg_apply` | [`cg::apply`] (on a grid with coarse levels: [`cg::prolong`] then [`cg::apply`]) |
-//! | `cg_alpha` | [`cg::alpha`] |
+//! | `cg_apply` | [`cg::apply`] (with coarse levels [`cg::prolong`] inside it) |
 //! | `cg_update` | [`cg::update`] |
-//! | `cg_beta` | [`cg::beta`] |
 //! | `implicit_finish` | [`implicit::finish`] |
 //! | `semi_rhs` | [`semi_implicit::rhs`] |
 //! | `filter_dense` | [`DenseFilter::apply`] |
@@ -60,7 +56,8 @@ pub mod implicit {
 /// The CG kernels' twins and their scalars.
 pub mod cg {
     pub use crate::cpu::cg::{
-        alpha, apply, beta, block_partials, init, prolong, start, update, Scalars,
+        apply, block_partials, block_sum, init, pairwise, prolong, residual_sums, sum_partials,
+        update, Scalars,
     };
 }
 

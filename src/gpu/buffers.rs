@@ -57,19 +57,19 @@ pub(super) struct ClothBuffers {
     pub status: wgpu::Buffer,
     pub normals: wgpu::Buffer,
     pub indices: wgpu::Buffer,
-    /// Indirect arguments of each CG iteration's cg_alpha, cg_apply and
-    /// cg_prolong (see [`ClothBuffers::new`]).
-    pub alpha_args: wgpu::Buffer,
-    /// Indirect arguments of each CG iteration's cg_beta and cg_update.
-    pub beta_args: wgpu::Buffer,
-    /// Slots per dispatch in `alpha_args` and `beta_args`.
+    /// Indirect arguments of each CG iteration's cg_apply (see
+    /// `indirect_args`).
+    pub apply_args: wgpu::Buffer,
+    /// Indirect arguments of each CG iteration's cg_update.
+    pub update_args: wgpu::Buffer,
+    /// Slots in `apply_args` and in `update_args`.
     pub arg_slots: u32,
     /// Group 0.
     pub bind_group: wgpu::BindGroup,
     /// Group 0 of the workgroup kernels (on the workgroup path): the
     /// parameters as a cloth table of one.
     pub cloth_group: Option<wgpu::BindGroup>,
-    /// Group 1 of cg_start, cg_alpha and cg_beta ([`ArgsGroup::ALL`]
+    /// Group 1 of cg_init, cg_apply and cg_update ([`ArgsGroup::ALL`]
     /// order).
     pub args_groups: [wgpu::BindGroup; 3],
 }
@@ -118,10 +118,18 @@ fn zeroed(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
 
 impl ClothBuffers {
     /// The buffers a step writes and later steps read: positions,
-    /// velocities, the scratch (warm start, pin goals, snapshots) and the
-    /// status words.
-    pub fn stepped(&self) -> [&wgpu::Buffer; 4] {
-        [&self.x, &self.v, &self.work, &self.status]
+    /// velocities, the scratch (warm start, pin goals, snapshots), the
+    /// status words and CG's indirect arguments (a later solve clears the
+    /// slots the status words say the last one left enabled).
+    pub fn stepped(&self) -> [&wgpu::Buffer; 6] {
+        [
+            &self.x,
+            &self.v,
+            &self.work,
+            &self.status,
+            &self.apply_args,
+            &self.update_args,
+        ]
     }
 
     /// The buffers of `up` on `device`, bound for the kernels of `kernels`.
@@ -185,14 +193,14 @@ impl ClothBuffers {
             )
         });
         let arg_slots = arg_slots(up.cg_max_iterations.max(1));
-        let (alpha_args, beta_args) = indirect_args(device, arg_slots);
+        let (apply_args, update_args) = indirect_args(device, arg_slots);
         let args_groups = ArgsGroup::ALL.map(|g| {
             let entries: Vec<_> = g
                 .bindings()
                 .iter()
                 .map(|&binding| wgpu::BindGroupEntry {
                     binding,
-                    resource: [&alpha_args, &beta_args][binding as usize].as_entire_binding(),
+                    resource: [&apply_args, &update_args][binding as usize].as_entire_binding(),
                 })
                 .collect();
             device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -210,8 +218,8 @@ impl ClothBuffers {
             status,
             normals,
             indices,
-            alpha_args,
-            beta_args,
+            apply_args,
+            update_args,
             arg_slots,
             bind_group,
             cloth_group,
@@ -222,8 +230,8 @@ impl ClothBuffers {
     /// The buffer of indirect arguments `which`.
     pub fn args(&self, which: ArgsBuffer) -> &wgpu::Buffer {
         match which {
-            ArgsBuffer::Alpha => &self.alpha_args,
-            ArgsBuffer::Beta => &self.beta_args,
+            ArgsBuffer::Apply => &self.apply_args,
+            ArgsBuffer::Update => &self.update_args,
         }
     }
 }
@@ -269,34 +277,31 @@ fn status_buffer(device: &wgpu::Device, len: u64) -> Result<wgpu::Buffer> {
     ))
 }
 
-/// `alpha_args` and `beta_args`, every slot cleared (workgroups 0).
+/// `apply_args` and `update_args`, every slot cleared (workgroups 0).
 ///
-/// Each CG iteration's per-particle kernels and scalar kernels are
-/// dispatched indirectly from its slots, which the scalar kernels enable
-/// one step ahead and clear behind them, so a stopped CG dispatches no
-/// workgroup (see `alpha_args` in `shaders/common/cg.wgsl`). A dispatch may
-/// not read its arguments from a buffer its kernel binds: the slots of
-/// what cg_alpha enables (cg_update's and cg_beta's) are in one buffer, of
-/// what cg_beta enables (cg_apply's, cg_alpha's, cg_prolong's) in the
-/// other, and each binds only the other's; cg_start binds both.
+/// Each CG iteration's kernels are dispatched indirectly from their slots,
+/// which the kernels enable one step ahead and clear behind them, so a
+/// stopped CG dispatches no workgroup (see `apply_args` in
+/// `shaders/common/cg.wgsl`). A dispatch may not read its arguments from
+/// a buffer its kernel binds: cg_apply's slots are in one buffer, enabled
+/// by cg_update, which binds it, and cg_update's in the other, enabled by
+/// cg_apply; cg_init binds both.
 fn indirect_args(device: &wgpu::Device, slots: u32) -> (wgpu::Buffer, wgpu::Buffer) {
     let usage = STORAGE | wgpu::BufferUsages::INDIRECT;
-    let [alpha, beta] = args_words(slots).map(|words| {
-        (0..words / 3)
-            .flat_map(|_| [0u32, 1, 1])
-            .collect::<Vec<u32>>()
-    });
+    let cleared: Vec<u32> = (0..args_words(slots) / 3)
+        .flat_map(|_| [0u32, 1, 1])
+        .collect();
     (
         init(
             device,
-            "wgcloth.alpha_args",
-            bytemuck::cast_slice(&alpha),
+            "wgcloth.apply_args",
+            bytemuck::cast_slice(&cleared),
             usage,
         ),
         init(
             device,
-            "wgcloth.beta_args",
-            bytemuck::cast_slice(&beta),
+            "wgcloth.update_args",
+            bytemuck::cast_slice(&cleared),
             usage,
         ),
     )

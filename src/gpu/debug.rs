@@ -34,8 +34,7 @@ pub enum DebugBuffer {
     /// ([`crate::kernel_config::spring_work`]).
     SpringWork,
     /// The reduction partials and CG scalars of `work`
-    /// ([`crate::kernel_config::partials`]), a word each (the `x` of its
-    /// `vec4`).
+    /// ([`crate::kernel_config::partials`]), a `vec4` (four words) each.
     Partials,
     /// `status` ([`crate::kernel_config::status`]).
     Status,
@@ -44,11 +43,11 @@ pub enum DebugBuffer {
     /// The dense semi-implicit filter's words of `model` (to the end of
     /// the buffer).
     Dense,
-    /// `alpha_args`: the slots of cg_alpha, then of cg_apply, then of
-    /// cg_prolong ([`DebugLayout::arg_slots`] each, three words a slot).
-    AlphaArgs,
-    /// `beta_args`: the slots of cg_beta, then of cg_update.
-    BetaArgs,
+    /// `apply_args`: the slots of cg_apply ([`DebugLayout::arg_slots`],
+    /// three words a slot).
+    ApplyArgs,
+    /// `update_args`: the slots of cg_update.
+    UpdateArgs,
 }
 
 impl DebugBuffer {
@@ -65,8 +64,8 @@ impl DebugBuffer {
         DebugBuffer::Status,
         DebugBuffer::VertexNormals,
         DebugBuffer::Dense,
-        DebugBuffer::AlphaArgs,
-        DebugBuffer::BetaArgs,
+        DebugBuffer::ApplyArgs,
+        DebugBuffer::UpdateArgs,
     ];
 }
 
@@ -77,10 +76,10 @@ pub struct DebugLayout {
     pub work_section_words: usize,
     /// Words per section of `spring_work` (four per spring slot).
     pub spring_section_words: usize,
-    /// Words (`f32`) per slot of `partials`: one per reduction block of
-    /// [`WORKGROUP`] particles.
+    /// Entries (`vec4`s) per slot of `partials`: one per reduction block
+    /// of [`WORKGROUP`] particles.
     pub partial_slot_words: usize,
-    /// Slots per dispatch in `alpha_args` and `beta_args`.
+    /// Slots in `apply_args` and in `update_args`.
     pub arg_slots: usize,
 }
 
@@ -98,28 +97,32 @@ impl DebugLayout {
         &words[start..start + self.spring_section_words]
     }
 
-    /// The words of `partials` slot `slot`.
-    pub fn partial_slot<'a>(&self, words: &'a [u32], slot: u32) -> &'a [u32] {
+    /// Component `c` (0 for `x`) of each entry of `partials` slot `slot`,
+    /// within the words of [`DebugBuffer::Partials`].
+    pub fn partial_slot(&self, words: &[u32], slot: u32, c: usize) -> Vec<u32> {
         let start = slot as usize * self.partial_slot_words;
-        &words[start..start + self.partial_slot_words]
+        (start..start + self.partial_slot_words)
+            .map(|e| words[4 * e + c])
+            .collect()
     }
 
-    /// The index in `partials` of CG scalar `k` (see
-    /// [`crate::kernel_config::partials::DELTA0`] and after).
+    /// The index, within the words of [`DebugBuffer::Partials`], of CG
+    /// scalar `k` (see [`crate::kernel_config::partials::DELTA0`] and
+    /// after).
     pub fn cg_scalar(&self, k: u32) -> usize {
-        partials::SLOTS as usize * self.partial_slot_words + k as usize
+        4 * (partials::SLOTS as usize * self.partial_slot_words + k as usize)
     }
 
-    /// The workgroup count (the first word) of slot `k` of dispatch
-    /// `dispatch` (0, 1, 2: see [`DebugBuffer::AlphaArgs`] and
-    /// [`DebugBuffer::BetaArgs`]) within the buffer's `words`.
-    pub fn arg_slot(&self, words: &[u32], dispatch: usize, k: usize) -> u32 {
-        words[3 * (dispatch * self.arg_slots + k)]
+    /// The workgroup count (the first word) of slot `k` within the words
+    /// of [`DebugBuffer::ApplyArgs`] or [`DebugBuffer::UpdateArgs`].
+    pub fn arg_slot(&self, words: &[u32], k: usize) -> u32 {
+        words[3 * k]
     }
 }
 
 /// Where a [`DebugBuffer`] lies: its buffer, first byte, bytes (`None`: to
-/// the end), and whether it holds a word per `vec4` (the partials).
+/// the end), and whether it is read-only (the partials, which run into the
+/// CG scalars and the buffer's end).
 type View<'a> = (&'a wgpu::Buffer, u64, Option<u64>, bool);
 
 impl GpuSolver {
@@ -201,32 +204,28 @@ impl GpuSolver {
             DebugBuffer::Partials => (&b.work, vec4(p.partial_base), None, true),
             DebugBuffer::Status => (&b.status, 0, None, false),
             DebugBuffer::VertexNormals => (&b.normals, 0, None, false),
-            DebugBuffer::AlphaArgs => (&b.alpha_args, 0, None, false),
-            DebugBuffer::BetaArgs => (&b.beta_args, 0, None, false),
+            DebugBuffer::ApplyArgs => (&b.apply_args, 0, None, false),
+            DebugBuffer::UpdateArgs => (&b.update_args, 0, None, false),
         }
     }
 
     /// The words of `buffer` (blocking).
     #[doc(hidden)]
     pub fn debug_read(&self, buffer: DebugBuffer) -> Result<Vec<u32>> {
-        let (b, start, len, strided) = self.view(buffer);
+        let (b, start, len, _) = self.view(buffer);
         let len = len.unwrap_or(b.size() - start);
         let bytes = readback::read_buffers(&self.device, &self.queue, &[(b, start, len)])?;
         let words: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[0]);
-        Ok(if strided {
-            words.iter().step_by(4).copied().collect()
-        } else {
-            words
-        })
+        Ok(words)
     }
 
     /// Writes `words` into `buffer` from its start (takes effect before
     /// the next submitted work). More words than the buffer holds, or a
-    /// write to the partials (a word per `vec4`), is an error.
+    /// write to the partials, is an error.
     #[doc(hidden)]
     pub fn debug_write(&self, buffer: DebugBuffer, words: &[u32]) -> Result<()> {
-        let (b, start, len, strided) = self.view(buffer);
-        let capacity = if strided {
+        let (b, start, len, read_only) = self.view(buffer);
+        let capacity = if read_only {
             0
         } else {
             len.unwrap_or(b.size() - start) / 4

@@ -293,7 +293,7 @@ impl GridBlock {
              past the particles (the general kernels' test).\n\
              fn grid_gather_done(i: u32) -> bool {{\n    \
              if (GRID) {{\n        \
-             if (i < params.grid.w) {{\n            \
+             if (i < {}) {{\n            \
              grid_block(i);\n        \
              }}\n        \
              return true;\n    \
@@ -311,7 +311,18 @@ impl GridBlock {
              fn grid_block(block: u32) {{\n    \
              let o = grid_block_origin(block);\n    \
              let oi = u32(o.x) * params.grid.x + u32(o.y);",
-            self.cols, self.rows, self.cols, self.rows
+            self.cols,
+            self.rows,
+            self.cols,
+            self.rows,
+            // One particle per invocation: as many invocations as
+            // particles, whatever block the solver's other kernels take
+            // (the CG kernels always gather this way).
+            if *self == GridBlock::ONE {
+                "params.particle_count"
+            } else {
+                "params.grid.w"
+            }
         );
         for (k, &(dr, dc)) in points.iter().enumerate() {
             let _ = writeln!(

@@ -29,22 +29,16 @@ pub enum Kernel {
     ImplicitPrepare,
     /// Per aggregate: the coarse levels' diagonal blocks.
     CoarseSetup,
-    /// Per level-1 aggregate: adds the coarse correction to the search
-    /// direction's source.
-    CgProlong,
-    /// Per particle: CG's initial residual.
+    /// Per particle: CG's initial residual, the partial sums of δ0 and
+    /// ρ, the first iteration's slot.
     CgInit,
-    /// One workgroup: δ0, the convergence test's start, the first slots.
-    CgStart,
-    /// Per particle: q = A c.
+    /// Per particle: the convergence test and β from the partials, then
+    /// c = s + β c, q = A c and cᵀq's partial sums.
     CgApply,
-    /// One workgroup: α.
-    CgAlpha,
-    /// Per particle (per level-1 aggregate with coarse levels): the CG
-    /// update of Δv, r and s.
+    /// Per particle (per slot of the level-2-major order of the level-1
+    /// aggregates with coarse levels): α from the partials, then the CG
+    /// update of Δv, r and s and ρ's partial sums.
     CgUpdate,
-    /// One workgroup: β and the convergence test.
-    CgBeta,
     /// Per particle: the implicit step's end (with self-collision, its
     /// stages before and after it: [`Variant::ImplicitPredict`],
     /// [`Variant::ImplicitProject`]).
@@ -120,13 +114,9 @@ kernels! {
     ImplicitSprings = "implicit_springs",
     ImplicitPrepare = "implicit_prepare",
     CoarseSetup = "coarse_setup",
-    CgProlong = "cg_prolong",
     CgInit = "cg_init",
-    CgStart = "cg_start",
     CgApply = "cg_apply",
-    CgAlpha = "cg_alpha",
     CgUpdate = "cg_update",
-    CgBeta = "cg_beta",
     ImplicitFinish = "implicit_finish",
     SelfCollisionCount = "self_collision_count",
     SelfCollisionScan = "self_collision_scan",
@@ -152,34 +142,34 @@ impl std::fmt::Display for Kernel {
 }
 
 /// The buffers a kernel that writes indirect dispatch arguments binds as
-/// its group 1 (see `alpha_args` in `shaders/common/cg.wgsl`): a kernel
-/// may not bind the buffer it is dispatched from, so cg_alpha and cg_beta
-/// each bind only the other's.
+/// its group 1 (see `apply_args` in `shaders/common/cg.wgsl`): a kernel
+/// may not bind the buffer it is dispatched from, so cg_apply and
+/// cg_update each bind only the other's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ArgsGroup {
-    /// cg_start: `alpha_args`, `beta_args`.
+    /// cg_init: `apply_args`, `update_args`.
     Start,
-    /// cg_alpha: `beta_args`.
-    Alpha,
-    /// cg_beta: `alpha_args`.
-    Beta,
+    /// cg_apply: `update_args`.
+    Apply,
+    /// cg_update: `apply_args`.
+    Update,
 }
 
 impl ArgsGroup {
     /// Every group, in the order the solver stores them.
-    pub const ALL: [ArgsGroup; 3] = [ArgsGroup::Start, ArgsGroup::Alpha, ArgsGroup::Beta];
+    pub const ALL: [ArgsGroup; 3] = [ArgsGroup::Start, ArgsGroup::Apply, ArgsGroup::Update];
 
     /// Its index in [`ArgsGroup::ALL`].
     pub const fn index(self) -> usize {
         self as usize
     }
 
-    /// The group-1 bindings: 0 `alpha_args`, 1 `beta_args`.
+    /// The group-1 bindings: 0 `apply_args`, 1 `update_args`.
     pub const fn bindings(self) -> &'static [u32] {
         match self {
             ArgsGroup::Start => &[0, 1],
-            ArgsGroup::Alpha => &[1],
-            ArgsGroup::Beta => &[0],
+            ArgsGroup::Apply => &[1],
+            ArgsGroup::Update => &[0],
         }
     }
 }
@@ -198,11 +188,31 @@ impl Kernel {
     /// The group 1 of a kernel that writes indirect dispatch arguments.
     pub const fn args_group(self) -> Option<ArgsGroup> {
         match self {
-            Kernel::CgStart => Some(ArgsGroup::Start),
-            Kernel::CgAlpha => Some(ArgsGroup::Alpha),
-            Kernel::CgBeta => Some(ArgsGroup::Beta),
+            Kernel::CgInit => Some(ArgsGroup::Start),
+            Kernel::CgApply => Some(ArgsGroup::Apply),
+            Kernel::CgUpdate => Some(ArgsGroup::Update),
             _ => None,
         }
+    }
+
+    /// Invocations per workgroup of a direct or slot launch: the CG
+    /// kernels' [`CG_GROUP`](crate::kernel_config::CG_GROUP) (the block of
+    /// their reductions), else [`WORKGROUP`](crate::kernel_config::WORKGROUP).
+    /// The workgroup kernels are launched a workgroup per cloth.
+    pub const fn workgroup_size(self) -> u32 {
+        match self {
+            Kernel::CgInit | Kernel::CgApply | Kernel::CgUpdate => crate::kernel_config::CG_GROUP,
+            _ => crate::kernel_config::WORKGROUP,
+        }
+    }
+
+    /// Whether the kernel's grid gather takes the solver's block shape
+    /// ([`GridBlock`](super::GridBlock)). The CG kernels gather one
+    /// particle per invocation: each workgroup's partial sums then cover
+    /// the particles of one of the CPU mirror's reduction blocks whatever
+    /// the shape.
+    pub const fn takes_grid_block(self) -> bool {
+        !matches!(self, Kernel::CgInit | Kernel::CgApply)
     }
 }
 
@@ -351,22 +361,14 @@ impl Variant {
 /// How a dispatch finds its workgroup count.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Launch {
-    /// ⌈items / WORKGROUP⌉ workgroups (one workgroup for the CG scalar
-    /// kernels' `items` of [`WORKGROUP`](crate::kernel_config::WORKGROUP)).
+    /// ⌈items / [`Kernel::workgroup_size`]⌉ workgroups.
     Direct,
-    /// Indirectly from CG iteration `k`'s cg_apply slot of `alpha_args`
-    /// (its workgroups while the iteration is due, else 0; see
+    /// Indirectly from CG iteration `k`'s slot of `apply_args` (its
+    /// workgroups while the iteration is due, else 0; see
     /// `shaders/common/cg.wgsl`).
     ApplySlot(u32),
-    /// Indirectly from CG iteration `k`'s cg_alpha slot of `alpha_args`.
-    AlphaSlot(u32),
-    /// Indirectly from the cg_prolong slot of `alpha_args` before CG
-    /// iteration `k`'s cg_apply.
-    ProlongSlot(u32),
-    /// Indirectly from CG iteration `k`'s cg_update slot of `beta_args`.
+    /// Indirectly from CG iteration `k`'s slot of `update_args`.
     UpdateSlot(u32),
-    /// Indirectly from CG iteration `k`'s cg_beta slot of `beta_args`.
-    BetaSlot(u32),
     /// One workgroup per cloth of the cloth table, `n` cloths (the
     /// workgroup kernels, [`Kernel::steps_cloths`]).
     Cloths(u32),
@@ -375,40 +377,36 @@ pub enum Launch {
 /// Which buffer of indirect arguments a [`Launch`] reads.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum ArgsBuffer {
-    /// `alpha_args`.
-    Alpha,
-    /// `beta_args`.
-    Beta,
+    /// `apply_args`.
+    Apply,
+    /// `update_args`.
+    Update,
 }
 
 impl Launch {
-    /// The buffer and byte offset of an indirect launch's arguments, with
-    /// `slots` slots per dispatch in each buffer (see
-    /// [`args_words`]); `None` for a direct one.
-    pub(crate) fn args(self, slots: u32) -> Option<(ArgsBuffer, u64)> {
-        let at = |region: u32, k: u32| u64::from(region * slots + k) * 12;
+    /// The buffer and byte offset of an indirect launch's arguments;
+    /// `None` for a direct one.
+    pub(crate) fn args(self) -> Option<(ArgsBuffer, u64)> {
+        let at = |k: u32| u64::from(k) * 12;
         match self {
             Launch::Direct | Launch::Cloths(_) => None,
-            Launch::AlphaSlot(k) => Some((ArgsBuffer::Alpha, at(0, k))),
-            Launch::ApplySlot(k) => Some((ArgsBuffer::Alpha, at(1, k))),
-            Launch::ProlongSlot(k) => Some((ArgsBuffer::Alpha, at(2, k))),
-            Launch::BetaSlot(k) => Some((ArgsBuffer::Beta, at(0, k))),
-            Launch::UpdateSlot(k) => Some((ArgsBuffer::Beta, at(1, k))),
+            Launch::ApplySlot(k) => Some((ArgsBuffer::Apply, at(k))),
+            Launch::UpdateSlot(k) => Some((ArgsBuffer::Update, at(k))),
         }
     }
 }
 
-/// Slots per dispatch in `alpha_args` and `beta_args` for at most
+/// Slots in `apply_args` and `update_args` for at most
 /// `cg_max_iterations` recorded CG iterations: one per iteration and one
-/// more (the cg_prolong after the last).
+/// more (the one the last recorded iteration enables).
 pub(crate) const fn arg_slots(cg_max_iterations: u32) -> u32 {
     cg_max_iterations + 1
 }
 
-/// `u32` words of `alpha_args` (three dispatches) and `beta_args` (two)
-/// with `slots` slots per dispatch, three words each.
-pub(crate) const fn args_words(slots: u32) -> [u32; 2] {
-    [9 * slots, 6 * slots]
+/// `u32` words of `apply_args` and of `update_args` with `slots` slots,
+/// three words each.
+pub(crate) const fn args_words(slots: u32) -> u32 {
+    3 * slots
 }
 
 /// One entry of a step's plan: a kernel variant over `items` invocations.
@@ -418,8 +416,8 @@ pub struct Dispatch {
     pub kernel: Kernel,
     /// Its variant.
     pub variant: Variant,
-    /// Invocations (particles, springs, grid blocks, aggregates; the CG
-    /// scalar kernels: one workgroup's worth).
+    /// Invocations (particles, springs, grid blocks, slots of aggregates;
+    /// a workgroup kernel: one workgroup's worth).
     pub items: u32,
     /// How its workgroup count is found.
     pub launch: Launch,

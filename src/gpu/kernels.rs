@@ -99,19 +99,12 @@ impl Features {
     }
 }
 
-/// The scalar kernels' workgroup size on a device with `limits`:
-/// [`SUM_GROUP`], or the largest workgroup the device allows. Each scalar
-/// kernel sums a term per particle as the CPU mirror does — block sums of
-/// [`WORKGROUP`] particles, then the block sums in sequence — with its
-/// invocations sharing the blocks and the block sums staged through
-/// workgroup memory before invocation 0 adds them (`sum_w` in
-/// `shaders/common/cg.wgsl`). The same order, so the same bits, for every
-/// width. Wide because on a GPU a workgroup of [`WORKGROUP`] with
-/// invocation 0 loading a 257² cloth's ~1000 block sums one by one from
-/// storage would be bound by memory latency (reasoned from the arithmetic).
-/// A CPU adapter gains nothing from the width and loses little (the staging
-/// barriers), so every adapter runs the same form: the code CI runs is the
-/// code a GPU runs.
+/// The one-workgroup kernels' workgroup size on a device with `limits`:
+/// [`SUM_GROUP`], or the largest workgroup the device allows (the
+/// workgroup path's `cloth_*` kernels, which step a cloth per workgroup,
+/// and self-collision's scan). Their sums follow the CPU mirror's order
+/// whatever the width: the CG reductions' trees span [`WORKGROUP`] lanes,
+/// the further invocations idle through them.
 pub fn sum_group(limits: &wgpu::Limits) -> u32 {
     SUM_GROUP
         .min(limits.max_compute_invocations_per_workgroup)
@@ -394,8 +387,9 @@ impl GpuKernels {
         // wgpu on this thread), then the pipelines, which is where the
         // driver spends its time.
         for &(kernel, _, features) in keys {
-            if let Entry::Vacant(e) = built.modules.entry((kernel, features.block)) {
-                e.insert(self.module(kernel, features.block)?);
+            let block = module_block(kernel, features.block);
+            if let Entry::Vacant(e) = built.modules.entry((kernel, block)) {
+                e.insert(self.module(kernel, block)?);
             }
         }
         let modules = &built.modules;
@@ -409,7 +403,7 @@ impl GpuKernels {
                     return Ok(out);
                 };
                 let module = modules
-                    .get(&(key.0, key.2.block))
+                    .get(&(key.0, module_block(key.0, key.2.block)))
                     .ok_or_else(|| Error::Gpu(format!("no shader module for {}", key.0)))?;
                 out.push((key, self.compile(module, key)?));
             }
@@ -512,11 +506,22 @@ impl GpuKernels {
     }
 }
 
+/// The grid block `kernel`'s module is composed for, in a solver of
+/// `block`: its own unless the kernel gathers one particle per invocation
+/// whatever the shape ([`Kernel::takes_grid_block`]).
+fn module_block(kernel: Kernel, block: GridBlock) -> GridBlock {
+    if kernel.takes_grid_block() {
+        block
+    } else {
+        GridBlock::ONE
+    }
+}
+
 /// The kernel whose group 1 `group` is.
 fn args_kernel(group: ArgsGroup) -> Kernel {
     match group {
-        ArgsGroup::Start => Kernel::CgStart,
-        ArgsGroup::Alpha => Kernel::CgAlpha,
-        ArgsGroup::Beta => Kernel::CgBeta,
+        ArgsGroup::Start => Kernel::CgInit,
+        ArgsGroup::Apply => Kernel::CgApply,
+        ArgsGroup::Update => Kernel::CgUpdate,
     }
 }

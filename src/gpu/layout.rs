@@ -193,11 +193,14 @@ const _: () = assert!(
     std::mem::size_of::<GpuParams>()
         == 384 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES + 64 * MAX_MESH_COLLIDERS
 );
-// A workgroup kernel's copy of its cloth's parameters, its staging,
-// self-collision scan and reduction words and its shared words fit the memory it is chosen for.
+// A workgroup kernel's copy of its cloth's parameters, its self-collision
+// scan, the torque's reduction words, the CG reductions' tree (a vec4 per
+// lane, and its total) and its shared words fit the memory it is chosen
+// for.
 const _: () = assert!(
     std::mem::size_of::<GpuParams>()
-        + 4 * (2 * crate::kernel_config::SUM_GROUP + crate::kernel_config::WORKGROUP) as usize
+        + 4 * (crate::kernel_config::SUM_GROUP + crate::kernel_config::WORKGROUP) as usize
+        + 16 * (crate::kernel_config::WORKGROUP + 1) as usize
         + 64
         <= crate::kernel_config::WORKGROUP_STEP_SHARED_BYTES as usize
 );

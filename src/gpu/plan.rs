@@ -28,6 +28,7 @@
 use super::kernel::{Dispatch, FixupPhase, Kernel, Launch, RespondPass, Variant};
 use super::kernels::Features;
 use super::path::StepPath;
+use crate::aggregation::SLOTS_PER_LEVEL2;
 use crate::kernel_config::{SUM_GROUP, WORKGROUP};
 use crate::params::Integrator;
 
@@ -65,8 +66,8 @@ pub(super) struct PlanInputs {
 pub(super) enum Part<T> {
     /// Recorded once.
     Once(T),
-    /// Recorded once per CG iteration, in order; the alpha and beta slots
-    /// launch from the iteration's slot.
+    /// Recorded once per CG iteration, in order; each launches from the
+    /// iteration's slot.
     CgIterations(Vec<T>),
 }
 
@@ -208,16 +209,11 @@ impl<P> Plan<(Dispatch, P)> {
 }
 
 /// A dispatch of the CG iterations in iteration `k`: the plan's slot
-/// launches count from their iteration (the cg_prolong at an iteration's
-/// end launches from the next one's slot, as it prepares that one's
-/// cg_apply), so each launches from its own.
+/// launches count from their iteration, so each launches from its own.
 pub(super) fn in_iteration(d: Dispatch, k: u32) -> Dispatch {
     match d.launch {
-        Launch::AlphaSlot(j) => d.launched(Launch::AlphaSlot(j + k)),
-        Launch::BetaSlot(j) => d.launched(Launch::BetaSlot(j + k)),
         Launch::ApplySlot(j) => d.launched(Launch::ApplySlot(j + k)),
         Launch::UpdateSlot(j) => d.launched(Launch::UpdateSlot(j + k)),
-        Launch::ProlongSlot(j) => d.launched(Launch::ProlongSlot(j + k)),
         Launch::Direct | Launch::Cloths(_) => d,
     }
 }
@@ -346,47 +342,38 @@ fn step(i: &PlanInputs) -> Vec<Part<Dispatch>> {
     plan
 }
 
-/// The CG solve.
+/// The CG solve: cg_init, with coarse levels the first cg_update, then
+/// two dispatches per iteration, cg_apply and cg_update.
 ///
-/// The per-particle kernels leave their dot-product terms in their output
-/// vectors; δ0, α, β and the convergence test are each summed once, by a
-/// one-workgroup kernel — no workgroup barrier in any per-particle pass.
-/// With coarse levels the scalar kernels also restrict the residual and
-/// solve the level-2 aggregates' 3×3 systems, and the level-2 corrections
-/// are added to the search direction's source: by cg_apply as it loads it
-/// on a grid, else by a cg_prolong pass. With coarse levels cg_update and
-/// cg_prolong take a level-1 aggregate per invocation, and
-/// [`Variant::CgFirst`] preconditions the initial residual.
+/// No one-workgroup kernel: each kernel writes a partial sum per
+/// workgroup of the dot-product terms it produces, and every workgroup
+/// of the next one adds all of them in the same fixed order, so they
+/// agree on α, β and the stop without communicating (see
+/// `shaders/common/cg.wgsl` and [`crate::cpu`]'s `cg`). cg_init and
+/// cg_apply gather one particle per invocation on a grid too, so that a
+/// workgroup's partials cover one reduction block; with coarse levels
+/// cg_update takes a slot of the level-2-major order of the level-1
+/// aggregates per invocation, and cg_apply adds the level-2 corrections to
+/// each `s` it loads.
 ///
 /// The per-iteration kernels are dispatched indirectly, each from its
-/// iteration's slot (see `alpha_args` in `shaders/common/cg.wgsl`): a
-/// dispatch whose invocations all return at once still runs its
-/// workgroups (on a CPU adapter, the masked-off code too), while an
-/// indirect dispatch of zero workgroups runs none.
+/// iteration's slot: a dispatch whose invocations all return at once
+/// still runs its workgroups (on a CPU adapter, the masked-off code too),
+/// while an indirect dispatch of zero workgroups runs none.
 fn cg(i: &PlanInputs, plan: &mut Vec<Part<Dispatch>>) {
-    let (n, gather) = (i.particles, i.gather);
-    let one = WORKGROUP;
-    let coarse = i.features.coarse;
-    let prolong = coarse && !i.features.grid;
-    let update = if coarse { i.aggregates[0] } else { n };
-    let prolong_pass = Dispatch::direct(Kernel::CgProlong, update).launched(Launch::ProlongSlot(0));
-    plan.push(Part::Once(Dispatch::direct(Kernel::CgInit, gather)));
-    if coarse {
+    let n = i.particles;
+    let update = if i.features.coarse {
+        i.aggregates[1] * SLOTS_PER_LEVEL2 as u32
+    } else {
+        n
+    };
+    plan.push(Part::Once(Dispatch::direct(Kernel::CgInit, n)));
+    if i.features.coarse {
         let first = Dispatch::direct(Kernel::CgUpdate, update).of(Variant::CgFirst);
         plan.push(Part::Once(first));
     }
-    plan.push(Part::Once(Dispatch::direct(Kernel::CgStart, one)));
-    if prolong {
-        plan.push(Part::Once(prolong_pass));
-    }
-    let mut iteration = vec![
-        Dispatch::direct(Kernel::CgApply, gather).launched(Launch::ApplySlot(0)),
-        Dispatch::direct(Kernel::CgAlpha, one).launched(Launch::AlphaSlot(0)),
+    plan.push(Part::CgIterations(vec![
+        Dispatch::direct(Kernel::CgApply, n).launched(Launch::ApplySlot(0)),
         Dispatch::direct(Kernel::CgUpdate, update).launched(Launch::UpdateSlot(0)),
-        Dispatch::direct(Kernel::CgBeta, one).launched(Launch::BetaSlot(0)),
-    ];
-    if prolong {
-        iteration.push(prolong_pass.launched(Launch::ProlongSlot(1)));
-    }
-    plan.push(Part::CgIterations(iteration));
+    ]));
 }

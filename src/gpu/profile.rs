@@ -435,6 +435,6 @@ mod tests {
             p.stride
         );
         // A kernel never dispatched took no time.
-        assert_eq!(p.median_us(Kernel::CgBeta), Some(0.0));
+        assert_eq!(p.median_us(Kernel::CgUpdate), Some(0.0));
     }
 }

@@ -53,6 +53,7 @@ pub const COMMON: &[(&str, &str)] = &[
     wgsl!("common/physics"),
     wgsl!("common/bending"),
     wgsl!("common/cg"),
+    wgsl!("common/coarse_layout"),
     wgsl!("common/coarse"),
     wgsl!("common/implicit"),
     wgsl!("common/apply_block"),

@@ -168,7 +168,7 @@ pub struct GpuSolver {
 /// mirror takes, so `step` never depends on the budget.
 #[derive(Debug)]
 pub(super) struct Rewind {
-    /// Copies of `x`, `v`, `work` and `status`, in that order.
+    /// Copies of `ClothBuffers::stepped`, in its order.
     copies: Vec<wgpu::Buffer>,
 }
 
@@ -630,8 +630,8 @@ impl GpuSolver {
         .await
     }
 
-    /// Records `d` with `pipeline` (the CG iterations' scalar kernels:
-    /// launched from the slot of CG iteration `iteration`).
+    /// Records `d` with `pipeline` (the CG iterations' kernels: launched
+    /// from the slot of CG iteration `iteration`).
     pub(super) fn dispatch(
         &self,
         pass: &mut wgpu::ComputePass<'_>,
@@ -647,19 +647,17 @@ impl GpuSolver {
         }
         let launch = plan::in_iteration(*d, iteration).launch;
         match launch {
-            Launch::Direct => pass.dispatch_workgroups(d.items.div_ceil(WORKGROUP), 1, 1),
+            Launch::Direct => {
+                pass.dispatch_workgroups(d.items.div_ceil(d.kernel.workgroup_size()), 1, 1)
+            }
             Launch::Cloths(n) => {
                 if let Some(group) = &self.buffers.cloth_group {
                     pass.set_bind_group(0, group, &[]);
                 }
                 pass.dispatch_workgroups(n, 1, 1)
             }
-            Launch::ApplySlot(_)
-            | Launch::AlphaSlot(_)
-            | Launch::ProlongSlot(_)
-            | Launch::UpdateSlot(_)
-            | Launch::BetaSlot(_) => {
-                if let Some((buffer, offset)) = launch.args(self.buffers.arg_slots) {
+            Launch::ApplySlot(_) | Launch::UpdateSlot(_) => {
+                if let Some((buffer, offset)) = launch.args() {
                     pass.dispatch_workgroups_indirect(self.buffers.args(buffer), offset)
                 }
             }

@@ -140,8 +140,6 @@ impl Kernel {
             Kernel::CoarseSetup => {
                 const { &[term(Particle, 4 * VEC4, 0), term(Aggregate, 0, 2 * VEC4)] }
             }
-            // s; s; the level-2 correction.
-            Kernel::CgProlong => const { &[term(Particle, VEC4, VEC4), term(Aggregate, VEC4, 0)] },
             // The right-hand side, Δv; r, c, q, s; A Δv's spring blocks.
             Kernel::CgInit => {
                 const {
@@ -152,24 +150,28 @@ impl Kernel {
                     ]
                 }
             }
-            // The terms of δ0 and ρ.
-            Kernel::CgStart => const { &[term(Particle, 2 * W, 0)] },
-            // c, s; q, c; the spring blocks.
+            // s, c, q; c, q; the spring blocks; with coarse levels the
+            // level-2 corrections.
             Kernel::CgApply => {
                 const {
                     &[
-                        term(Particle, 2 * VEC4, 2 * VEC4),
+                        term(Particle, 3 * VEC4, 2 * VEC4),
                         term(AdjacencyRow, OFFSET, 0),
                         term(Spring, 2 * VEC4 + ADJACENCY, 0),
+                        term(Aggregate, VEC4, 0),
                     ]
                 }
             }
-            // The terms of cᵀq.
-            Kernel::CgAlpha => const { &[term(Particle, W, 0)] },
-            // Δv, r, s, q, c; Δv, r, s.
-            Kernel::CgUpdate => const { &[term(Particle, 5 * VEC4, 3 * VEC4)] },
-            // The terms of ρ.
-            Kernel::CgBeta => const { &[term(Particle, W, 0)] },
+            // Δv, r, c, q, the preconditioner's two blocks; Δv, r, s;
+            // with coarse levels each aggregate's inverse and sums.
+            Kernel::CgUpdate => {
+                const {
+                    &[
+                        term(Particle, 6 * VEC4, 3 * VEC4),
+                        term(Aggregate, 2 * VEC4, VEC4),
+                    ]
+                }
+            }
             // x, v, Δv, the filter, the right-hand side, z, the clock; x,
             // v, the clock.
             Kernel::ImplicitFinish => const { &[term(Particle, 7 * VEC4, 3 * VEC4)] },
