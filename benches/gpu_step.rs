@@ -8,8 +8,10 @@
 //! the grid kernels against the general ones at 129²; what skipping saves
 //! at 65²; the workgroup path (one workgroup steps the cloth, one dispatch
 //! per step) against the multi-dispatch path and the CPU at the sizes it
-//! takes (15², 33² of the default sizes); then criterion times the GPU step (`iter_custom`: submit plus
-//! wait) at the same sizes. The adapter is the default one
+//! takes (15², 33² of the default sizes); the host (CPU) time to record a
+//! step, multi-dispatch against the automatic path (wgpu validates and
+//! tracks each dispatch as it is recorded); then criterion times the GPU
+//! step (`iter_custom`: submit plus wait) at the same sizes. The adapter is the default one
 //! (`WGPU_ADAPTER_NAME` picks another). `WGCLOTH_BENCH_QUICK=1` shortens
 //! the run; `WGCLOTH_BENCH_SIZES=33,65` picks sizes (on lavapipe the 257²
 //! semi-implicit step takes over a second: leave it out for a short run).
@@ -371,6 +373,87 @@ One workgroup per cloth against multi-dispatch and the CPU (f32), ms per step"
     }
 }
 
+/// Host seconds per step to record `batch` steps: `encode_steps` into a
+/// fresh encoder plus `finish`, neither submitted nor waited on (the
+/// solver's count of recorded steps runs ahead of the device's; it is
+/// dropped after).
+fn recording_once(ctx: &GpuContext, g: &mut GpuSolver, batch: u32) -> f64 {
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    let t = Instant::now();
+    g.encode_steps(&mut encoder, batch);
+    let commands = encoder.finish();
+    let elapsed = t.elapsed();
+    drop(commands);
+    elapsed.as_secs_f64() / f64::from(batch)
+}
+
+/// The host's cost of recording a step (no submit, no wait) on the
+/// multi-dispatch path and on the path the solver picks (the workgroup
+/// path where its cost model expects it faster): median µs per step,
+/// dispatches per step and µs per dispatch, and the automatic path's time
+/// over multi-dispatch's. The two solvers' recordings alternate, so a
+/// change in the host's load falls on both; recording is cheap next to a
+/// step, so more are taken than steps are timed elsewhere.
+fn recording_table(ctx: &GpuContext) {
+    println!(
+        "\nRecording a step on the CPU (encode_steps + finish, no submit), median µs per step; GPU: {}",
+        ctx.describe()
+    );
+    println!(
+        "{:>6} {:>14} {:>9} {:>6} {:>8} {:>9} {:>9} {:>6} {:>8} {:>10}",
+        "size",
+        "integrator",
+        "multi µs",
+        "disp",
+        "µs/disp",
+        "auto path",
+        "auto µs",
+        "disp",
+        "µs/disp",
+        "auto/multi"
+    );
+    let samples = if common::quick() { 11 } else { 31 };
+    for n in sizes() {
+        for integrator in Integrator::ALL {
+            let (model, params) = scene(integrator, n);
+            // The batches the other tables submit: even, so single-pass
+            // explicit steps record no seed dispatch.
+            let batch = if integrator == Integrator::Explicit {
+                20
+            } else {
+                2
+            };
+            let mut multi = gpu_solver_on(ctx, &model, &params, StepPath::MultiDispatch);
+            let mut auto = gpu_solver(ctx, &model, &params);
+            let (mut t_multi, mut t_auto) = (Vec::new(), Vec::new());
+            for _ in 0..samples {
+                t_multi.push(recording_once(ctx, &mut multi, batch));
+                t_auto.push(recording_once(ctx, &mut auto, batch));
+            }
+            let (t_multi, t_auto) = (common::median_of(t_multi), common::median_of(t_auto));
+            let d_multi = multi.tuning().dispatches_per_step();
+            let d_auto = auto.tuning().dispatches_per_step();
+            let path = match auto.tuning().step_path() {
+                StepPath::Workgroup => "workgroup",
+                StepPath::MultiDispatch => "multi",
+            };
+            println!(
+                "{:>6} {:>14} {:>9.1} {:>6.0} {:>8.2} {:>9} {:>9.1} {:>6.0} {:>8.2} {:>9.2}×",
+                format!("{n}²"),
+                integrator.as_str(),
+                t_multi * 1e6,
+                d_multi,
+                t_multi * 1e6 / d_multi,
+                path,
+                t_auto * 1e6,
+                d_auto,
+                t_auto * 1e6 / d_auto,
+                t_auto / t_multi
+            );
+        }
+    }
+}
+
 fn gpu_step(c: &mut Criterion) {
     let ctx = GpuContext::new(None).unwrap_or_else(|e| panic!("{e}"));
     common::gpu_step_group(c, &ctx, "gpu_step", &sizes(), |integrator, n| {
@@ -389,6 +472,7 @@ fn main() {
             grid_table(&ctx);
             skipping_table(&ctx);
             workgroup_table(&ctx);
+            recording_table(&ctx);
         }
         Err(e) => panic!("the GPU benchmark needs an adapter: {e}"),
     }

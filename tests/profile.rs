@@ -1,7 +1,8 @@
 //! The GPU profiler (`wgcloth run --profile`): it lists every kernel the
 //! step plan records, its times add up, its bytes follow the traffic
-//! table, it changes no result, and an adapter without timestamps is said
-//! to have none. On lavapipe in CI.
+//! table, it changes no result, an adapter without timestamps is said to
+//! have none, and the host's time to record a step is reported. On
+//! lavapipe in CI.
 
 mod cli_common;
 
@@ -287,6 +288,102 @@ fn without_timestamps_the_profile_says_so_and_still_counts_bytes() {
     // total, dispatches, time, share, read, written, bandwidth.
     assert_eq!(total[2], "—", "an invented time: {text}");
     assert_ne!(total[4], "0", "no bytes read: {text}");
+}
+
+/// `--profile`'s `recording (CPU)   X µs/step over N dispatches (Y µs
+/// each)` line as (X, N, Y).
+fn recording_line(out: &str) -> (f64, f64, f64) {
+    let line = out.lines().find(|l| l.starts_with("recording (CPU) "));
+    let line = line.unwrap_or_else(|| panic!("no recording line in\n{out}"));
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let number = |at: usize, what: &str| -> f64 {
+        let word = words.get(at).map(|w| w.trim_start_matches('('));
+        match word.map(str::parse::<f64>) {
+            Some(Ok(x)) => x,
+            _ => panic!("no {what} in the recording line {line:?}"),
+        }
+    };
+    let noun = words.get(6).copied();
+    assert!(matches!(noun, Some("dispatch" | "dispatches")), "{line:?}");
+    assert_eq!(
+        (words.get(3), words.get(4), words.get(8)),
+        (Some(&"µs/step"), Some(&"over"), Some(&"µs")),
+        "{line:?}"
+    );
+    (
+        number(2, "µs per step"),
+        number(5, "dispatches"),
+        number(7, "µs per dispatch"),
+    )
+}
+
+/// How far the printed µs per dispatch may be from the printed µs per
+/// step over the printed dispatches: half a unit of the last printed digit
+/// of each (two decimals per step, divided by the dispatches; three per
+/// dispatch).
+fn printed_rounding(dispatches: f64) -> f64 {
+    0.005 / dispatches + 0.0005
+}
+
+#[test]
+fn the_cli_profile_reports_the_host_time_to_record_a_step() {
+    // Explicit, an even number of steps: every recorded step has the
+    // table's dispatches (no CG budget to adapt, no seed dispatch).
+    for timing in ["inside-passes", "none"] {
+        let text = run_profile(&[
+            "--integrator",
+            "explicit",
+            "--steps",
+            "4",
+            "--profile-timestamps",
+            timing,
+        ]);
+        let (per_step, dispatches, each) = recording_line(&text);
+        assert!(
+            per_step.is_finite() && per_step > 0.0,
+            "{timing}: {per_step} µs per step:\n{text}"
+        );
+        let total = text.lines().find(|l| l.starts_with("total "));
+        let total = total.unwrap_or_else(|| panic!("no total row in\n{text}"));
+        let table: Option<f64> = total.split_whitespace().nth(1).and_then(|w| w.parse().ok());
+        assert_eq!(Some(dispatches), table, "{timing}: dispatches:\n{text}");
+        assert!(
+            (each - per_step / dispatches).abs() <= printed_rounding(dispatches),
+            "{timing}: {each} µs each is not {per_step} µs over {dispatches}:\n{text}"
+        );
+    }
+}
+
+#[test]
+fn a_profile_has_the_recording_cost_of_its_steps_and_none_before() {
+    // Explicit with fix-up passes on the multi-dispatch path, in even
+    // batches: every submit records the step plan's dispatches per step
+    // (no CG budget to adapt, no seed dispatch).
+    let (model, params) = scene("hanging", Integrator::Explicit);
+    for timing in [Timestamps::None, best()] {
+        let mut g = multi_dispatch(&model, &params);
+        let mut profiler = Profiler::new(timing);
+        assert_eq!(g.profile(&profiler).recording, None, "{timing:?}");
+        for n in [2, 4, 6] {
+            g.step_profiled(n, &mut profiler).expect("profiled steps");
+        }
+        let cost = g.profile(&profiler).recording;
+        let cost = cost.unwrap_or_else(|| panic!("{timing:?}: no recording cost"));
+        assert!(
+            cost.micros_per_step.is_finite() && cost.micros_per_step > 0.0,
+            "{timing:?}: {cost:?}"
+        );
+        let planned = g.tuning().step_plan().len() as f64;
+        assert!(planned > 1.0, "{timing:?}: {planned} dispatches per step");
+        assert_eq!(cost.dispatches_per_step, planned, "{timing:?}");
+        assert_eq!(
+            cost.micros_per_dispatch(),
+            Some(cost.micros_per_step / planned),
+            "{timing:?}"
+        );
+        // Timing the recording records no step of its own.
+        assert_eq!(g.steps_recorded(), 12, "{timing:?}");
+    }
 }
 
 #[test]

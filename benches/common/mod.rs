@@ -89,7 +89,11 @@ pub fn gpu_step_group(
 
 /// The median of `samples` calls of `time` (each returning seconds).
 pub fn median(samples: usize, mut time: impl FnMut() -> f64) -> f64 {
-    let mut times: Vec<f64> = (0..samples).map(|_| time()).collect();
+    median_of((0..samples).map(|_| time()).collect())
+}
+
+/// The median of `times` (the upper middle one for an even count).
+pub fn median_of(mut times: Vec<f64>) -> f64 {
     times.sort_by(f64::total_cmp);
     times[times.len() / 2]
 }

@@ -1,11 +1,12 @@
 //! The table `wgcloth run --profile` prints after the summary: per kernel
 //! of the step plan, dispatches, median GPU time, share of the step, bytes
 //! read and written and the bandwidth achieved, all per step; then the
-//! step's totals.
+//! step's totals, and the host's time to record a step (which the GPU's
+//! timestamps do not see).
 
 use std::fmt::{self, Display, Formatter};
 
-use wgcloth::gpu::{Profile, Timestamps};
+use wgcloth::gpu::{Profile, RecordingCost, Timestamps};
 
 /// Width of the kernel column (the longest kernel name, `semi_cg_prepare`
 /// and `implicit_prepare`, fits with room).
@@ -60,8 +61,36 @@ impl Display for Table<'_> {
                 "no GPU times: the adapter has no timestamp queries; bytes and dispatches only"
             )?;
         }
-        Ok(())
+        recording(f, p.recording)
     }
+}
+
+/// `recording (CPU)   X µs/step over N dispatches (Y µs each)` (`1
+/// dispatch` in the singular): the host time to record a step and the
+/// dispatches it recorded; `—` before any step.
+fn recording(f: &mut Formatter<'_>, cost: Option<RecordingCost>) -> fmt::Result {
+    let label = "recording (CPU)";
+    let Some(cost) = cost else {
+        return writeln!(f, "{label:<21} — (no steps profiled)");
+    };
+    let d = cost.dispatches_per_step;
+    // A whole count as one; an odd batch of single-pass explicit steps
+    // records one seed dispatch more, a fraction per step.
+    let dispatches = if d == 1.0 {
+        "1 dispatch".to_string()
+    } else if d.fract() == 0.0 {
+        format!("{d:.0} dispatches")
+    } else {
+        format!("{d:.2} dispatches")
+    };
+    let each = cost
+        .micros_per_dispatch()
+        .map_or("—".to_string(), |t| format!("{t:.3}"));
+    writeln!(
+        f,
+        "{label:<21} {:.2} µs/step over {dispatches} ({each} µs each)",
+        cost.micros_per_step
+    )
 }
 
 /// One line of the table; `—` where there is no time.

@@ -69,7 +69,7 @@ pub use kernels::SourcePatch;
 #[doc(hidden)]
 pub use kernels::{sum_group, Features};
 #[doc(hidden)]
-pub use profile::{Profile, ProfileRow, Profiler, Timestamps};
+pub use profile::{Profile, ProfileRow, Profiler, RecordingCost, Timestamps};
 #[doc(hidden)]
 pub use traffic::{Term, Unit, UnitCounts};
 pub use tuning::{GpuTuning, GpuTuningMut};

@@ -12,6 +12,14 @@
 //! (which adds the passes' own cost to each kernel); without timestamp
 //! queries the steps run unprofiled and only bytes and dispatch counts are
 //! reported.
+//!
+//! Each profiled submit also times, on the host, the recording of its steps
+//! as [`GpuSolver::step`] records them (`encode_steps` into an encoder of its
+//! own and `finish`), then drops that recording unsubmitted: wgpu validates
+//! and tracks every dispatch on the CPU, a cost the GPU's timestamps do not
+//! see and that falls with the dispatches per step.
+
+use std::time::Instant;
 
 use super::errors::guarded;
 use super::kernel::{Dispatch, Kernel};
@@ -81,6 +89,12 @@ pub struct Profiler {
     stride: u64,
     /// Steps profiled.
     steps: u64,
+    /// Per kept submit: its host recording cost.
+    recording: Vec<RecordingCost>,
+    /// Submits kept: every `recording_stride`-th timed one.
+    recording_stride: u64,
+    /// Submits whose recording was timed.
+    submits: u64,
 }
 
 impl Profiler {
@@ -93,6 +107,9 @@ impl Profiler {
             kept: 0,
             stride: 1,
             steps: 0,
+            recording: Vec::new(),
+            recording_stride: 1,
+            submits: 0,
         }
     }
 
@@ -128,15 +145,41 @@ impl Profiler {
         if self.kept == KEPT_STEPS {
             // Keep every other step from here on, and of those kept.
             for (_, times) in &mut self.samples {
-                let mut k = 0;
-                times.retain(|_| {
-                    k += 1;
-                    k % 2 == 1
-                });
+                keep_every_other(times);
             }
             self.kept = KEPT_STEPS / 2;
             self.stride *= 2;
         }
+    }
+
+    /// Adds one submit's host recording cost, keeping an evenly spaced
+    /// sample of at most [`KEPT_STEPS`] submits as [`Profiler::add_step`]
+    /// does of steps.
+    fn add_recording(&mut self, cost: RecordingCost) {
+        let keep = self.submits.is_multiple_of(self.recording_stride);
+        self.submits += 1;
+        if !keep {
+            return;
+        }
+        self.recording.push(cost);
+        if self.recording.len() == KEPT_STEPS {
+            keep_every_other(&mut self.recording);
+            self.recording_stride *= 2;
+        }
+    }
+
+    /// The kept submit of median recording time per step (the mean of the
+    /// two middle ones for an even count); `None` before any.
+    fn median_recording(&self) -> Option<RecordingCost> {
+        let mut costs = self.recording.clone();
+        median(
+            &mut costs,
+            |c| c.micros_per_step,
+            |a, b| RecordingCost {
+                micros_per_step: 0.5 * (a.micros_per_step + b.micros_per_step),
+                dispatches_per_step: 0.5 * (a.dispatches_per_step + b.dispatches_per_step),
+            },
+        )
     }
 
     /// `kernel`'s median GPU time per kept step \[µs\] (`None` without
@@ -151,14 +194,55 @@ impl Profiler {
             .find(|s| s.0 == kernel)
             .map_or_else(Vec::new, |s| s.1.clone());
         times.resize(self.kept, 0.0);
-        times.sort_by(f64::total_cmp);
-        let mid = times.len() / 2;
-        let median = if times.len() % 2 == 1 {
-            times[mid]
-        } else {
-            0.5 * (times[mid - 1] + times[mid])
-        };
+        let median = median(&mut times, |t| *t, |a, b| 0.5 * (a + b))?;
         Some(median / 1000.0)
+    }
+}
+
+/// Drops every second entry of `v` (keeps the first, third, …): halves an
+/// evenly spaced sample and keeps it evenly spaced.
+fn keep_every_other<T>(v: &mut Vec<T>) {
+    let mut k = 0;
+    v.retain(|_| {
+        k += 1;
+        k % 2 == 1
+    });
+}
+
+/// The median of `values` ordered by `key`: the middle one, or the `mean`
+/// of the two middle ones for an even count; `None` for none. Sorts
+/// `values`.
+fn median<T: Copy>(
+    values: &mut [T],
+    key: impl Fn(&T) -> f64,
+    mean: impl Fn(T, T) -> T,
+) -> Option<T> {
+    values.sort_by(|a, b| key(a).total_cmp(&key(b)));
+    let mid = values.len() / 2;
+    match values.len() {
+        0 => None,
+        len if len % 2 == 1 => Some(values[mid]),
+        _ => Some(mean(values[mid - 1], values[mid])),
+    }
+}
+
+/// The host's cost of recording steps: [`GpuSolver::encode_steps`] into an
+/// encoder of its own plus [`wgpu::CommandEncoder::finish`], with no submit
+/// and no wait. wgpu validates and tracks each dispatch on the CPU, so it
+/// grows with the dispatches per step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RecordingCost {
+    /// Host time to record one step \[µs\].
+    pub micros_per_step: f64,
+    /// Dispatches recorded per step (an odd number of single-pass explicit
+    /// steps adds the one `explicit_seed` dispatch to their count).
+    pub dispatches_per_step: f64,
+}
+
+impl RecordingCost {
+    /// Host time to record one dispatch \[µs\]; `None` without dispatches.
+    pub fn micros_per_dispatch(&self) -> Option<f64> {
+        (self.dispatches_per_step > 0.0).then(|| self.micros_per_step / self.dispatches_per_step)
     }
 }
 
@@ -200,6 +284,11 @@ pub struct Profile {
     pub steps: u64,
     /// One row per kernel of the step plan, in order of first dispatch.
     pub rows: Vec<ProfileRow>,
+    /// The host's cost of recording a step, from the profiled submit of
+    /// median recording time per step (the mean of the two middle ones for
+    /// an even count; over an evenly spaced sample of the submits beyond
+    /// 8 192); `None` before any profiled step.
+    pub recording: Option<RecordingCost>,
 }
 
 impl Profile {
@@ -260,6 +349,12 @@ impl GpuSolver {
                 got: format!("{:?}", profiler.timestamps),
             });
         }
+        // Timed before the steps, so with the CG budget they record. A
+        // browser has no clock for `Instant` (and cannot run profiled steps,
+        // which wait on the device).
+        if n > 0 && !cfg!(target_arch = "wasm32") {
+            profiler.add_recording(self.time_recording(n)?);
+        }
         if profiler.timestamps == Timestamps::None {
             profiler.steps += u64::from(n);
             return self.step(n);
@@ -285,6 +380,34 @@ impl GpuSolver {
         }
         self.steps_recorded += u64::from(n);
         self.check()
+    }
+
+    /// Records `n` steps (`n` > 0) as [`GpuSolver::step`] does, into an
+    /// encoder of their own, timing `encode_steps` and `finish` on the
+    /// host, and drops the commands unsubmitted: the device and the count
+    /// of recorded steps are as before.
+    fn time_recording(&mut self, n: u32) -> Result<RecordingCost> {
+        let device = self.device.clone();
+        let steps_recorded = self.steps_recorded;
+        let cost = guarded(&device, "timing the recording of steps", None, || {
+            let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("wgcloth.profile.recording"),
+            });
+            let start = Instant::now();
+            self.encode_steps(&mut encoder, n);
+            let commands = encoder.finish();
+            let elapsed = start.elapsed();
+            // Dropped, not submitted: only the recording was wanted.
+            drop(commands);
+            let (dispatches, _) = self.recorded.get();
+            Ok(RecordingCost {
+                micros_per_step: elapsed.as_secs_f64() * 1e6 / f64::from(n),
+                dispatches_per_step: f64::from(dispatches) / f64::from(n),
+            })
+        });
+        // The steps were never submitted: they did not happen.
+        self.steps_recorded = steps_recorded;
+        cost
     }
 
     /// Records, submits and times `entries` in one encoder: each entry's
@@ -380,6 +503,7 @@ impl GpuSolver {
             timestamps: profiler.timestamps,
             steps: profiler.steps,
             rows,
+            recording: profiler.median_recording(),
         }
     }
 
@@ -436,5 +560,40 @@ mod tests {
         );
         // A kernel never dispatched took no time.
         assert_eq!(p.median_us(Kernel::CgUpdate), Some(0.0));
+    }
+
+    #[test]
+    fn recording_costs_keep_a_bounded_sample_and_the_median_submit() {
+        let cost = |us: f64, dispatches: f64| RecordingCost {
+            micros_per_step: us,
+            dispatches_per_step: dispatches,
+        };
+        let mut p = Profiler::new(Timestamps::None);
+        assert_eq!(p.median_recording(), None);
+        // An even count: the mean of the two middle submits, each its
+        // time with its own dispatches.
+        for (us, d) in [(9.0, 30.0), (1.0, 10.0), (3.0, 20.0), (5.0, 40.0)] {
+            p.add_recording(cost(us, d));
+        }
+        assert_eq!(p.median_recording(), Some(cost(4.0, 30.0)));
+        // Submit i takes i µs per step: the sample stays bounded and its
+        // median is within one stride of the run's.
+        let mut p = Profiler::new(Timestamps::None);
+        let submits = 3 * KEPT_STEPS as u64 + 5;
+        for i in 0..submits {
+            p.add_recording(cost(i as f64, 1.0));
+        }
+        assert!(
+            p.recording.len() <= KEPT_STEPS,
+            "kept {}",
+            p.recording.len()
+        );
+        let median = p.median_recording().map_or(f64::NAN, |c| c.micros_per_step);
+        let whole = (submits - 1) as f64 / 2.0;
+        assert!(
+            (median - whole).abs() <= p.recording_stride as f64,
+            "median {median} µs, the run's {whole} µs, stride {}",
+            p.recording_stride
+        );
     }
 }
