@@ -703,6 +703,79 @@ fn verbose_shows_the_step_path_and_the_passes() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// Dispatches outside the CG iterations of a plain pinned sheet's
+/// implicit step (issue #41: at most eight; it records five).
+const SHEET_OUTSIDE_MAX: u32 = 8;
+/// Dispatches per CG iteration run that a step may record: two per
+/// iteration and, past convergence, empty ones for at most a quarter more
+/// iterations (issue #41).
+const SHEET_PER_ITERATION_MAX: f64 = 2.5;
+
+/// `--verbose` on the multi-dispatch path: a plain 129² sheet pinned at
+/// two corners records two dispatches per CG iteration, at most eight
+/// outside them, and in all at most 2.5 per iteration run plus eight —
+/// the budget's empty iterations past convergence a quarter at most.
+#[test]
+fn verbose_counts_two_dispatches_per_cg_iteration() {
+    let dir = TempDir::new("sheet");
+    let scene = dir.write(
+        "sheet.toml",
+        "[simulation]\nintegrator = \"implicit\"\ndt = 0.02\n\
+         [cloth]\nresolution = [129, 129]\nsize = [4.0, 4.0]\n\
+         origin = [-2.0, 1.0, -2.0]\norientation = \"horizontal\"\nmass = 4.6\n\
+         pins = [\"top-left\", \"top-right\"]\n\
+         [springs.stretch]\nstiffness = 30.0\ndamping = 0.02\n\
+         [springs.shear]\nstiffness = 10.0\ndamping = 0.01\n\
+         [springs.bend]\nstiffness = 2.0\ndamping = 0.002\n\
+         [implicit]\ntolerance = 1e-3\n",
+    );
+    let out = wgcloth(&[
+        "run",
+        path_str(&scene),
+        "--backend",
+        "gpu",
+        "--steps",
+        "10",
+        "--step-path",
+        "multi-dispatch",
+        "--verbose",
+    ]);
+    assert_status(&out, 0);
+    let text = stdout(&out);
+    let number = |prefix: &str, after: &str| -> f64 {
+        text.lines()
+            .find_map(|l| l.strip_prefix(prefix))
+            .and_then(|rest| rest.split(after).next())
+            .and_then(|n| n.trim().parse().ok())
+            .unwrap_or_else(|| panic!("no `{prefix}` in:\n{text}"))
+    };
+    let total = number("dispatches per step: ", "\n");
+    let per = number("dispatches per CG iteration: ", "(");
+    let budget = number("dispatches per CG iteration: 2 (", "iterations");
+    let outside = text
+        .lines()
+        .find_map(|l| l.split("per step, ").nth(1))
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse::<u32>().ok())
+        .unwrap_or_else(|| panic!("no count of dispatches outside CG in:\n{text}"));
+    let run = number("CG iterations         last ", ",");
+    let most = text
+        .lines()
+        .filter(|l| l.starts_with("CG iterations"))
+        .find_map(|l| l.split("max ").nth(1))
+        .and_then(|r| r.split(' ').next())
+        .and_then(|n| n.parse::<f64>().ok())
+        .unwrap_or_else(|| panic!("no CG maximum in:\n{text}"));
+    assert_eq!(per, 2.0, "{text}");
+    assert!(outside <= SHEET_OUTSIDE_MAX, "{text}");
+    assert_eq!(total, 2.0 * budget + f64::from(outside), "{text}");
+    assert!(run > 0.0 && most >= run, "{text}");
+    assert!(
+        total <= SHEET_PER_ITERATION_MAX * most + f64::from(SHEET_OUTSIDE_MAX),
+        "{total} dispatches per step for at most {most} CG iterations:\n{text}"
+    );
+}
+
 /// A grid of a `[material]` runs the general kernels on the GPU (a
 /// per-spring `spring_forces` pass), and `--verbose` says why; the CPU
 /// runs it too.

@@ -170,8 +170,8 @@ fn the_plan_names_kernels_and_variants() {
     );
 }
 
-/// The CG iterations launch their scalar kernels and their per-particle
-/// ones from the iteration's slots.
+/// The CG iterations launch their two kernels from the iteration's slots;
+/// CG's start is launched directly.
 #[test]
 fn cg_iterations_launch_from_their_slots() {
     let p = base(Integrator::Implicit);
@@ -186,10 +186,6 @@ fn cg_iterations_launch_from_their_slots() {
             .collect()
     };
     let budget = g.tuning().cg_budget();
-    let alpha: Vec<Launch> = (0..budget).map(Launch::AlphaSlot).collect();
-    let beta: Vec<Launch> = (0..budget).map(Launch::BetaSlot).collect();
-    assert_eq!(launches(Kernel::CgAlpha), alpha);
-    assert_eq!(launches(Kernel::CgBeta), beta);
     let apply: Vec<Launch> = (0..budget).map(Launch::ApplySlot).collect();
     let update: Vec<Launch> = (0..budget).map(Launch::UpdateSlot).collect();
     assert_eq!(launches(Kernel::CgApply), apply);
@@ -201,7 +197,8 @@ fn cg_iterations_launch_from_their_slots() {
         .map(|d| d.launch)
         .collect();
     assert_eq!(iterations, update);
-    assert_eq!(launches(Kernel::CgStart), [Launch::Direct]);
+    assert_eq!(launches(Kernel::CgInit), [Launch::Direct]);
+    assert_eq!(g.tuning().dispatches_per_cg_iteration(), 2);
 }
 
 /// A step run through the debug API in pieces — one dispatch at a time

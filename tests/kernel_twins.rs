@@ -32,11 +32,18 @@ use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
 use wgcloth::real::Vec3;
 use wgcloth::Params;
 
-/// Columns and rows of the test cloths: 132 particles, three reduction
-/// blocks of 64, so the sums cross block boundaries and end in a partial
-/// block.
-const NX: usize = 12;
-const NY: usize = 11;
+/// Columns and rows of the test cloths: 621 particles, three of CG's
+/// reduction blocks of 256 (and ten of the torque's 64), so the sums cross
+/// block boundaries and end in a partial block.
+const NX: usize = 27;
+const NY: usize = 23;
+
+/// Columns and rows of the coarse levels' test cloth: 5 × 4 level-2
+/// aggregates of 16 slots, 320 slots, so the per-slot update's partial
+/// sums span two workgroups, the last partial; the last row and column of
+/// aggregates are cut short.
+const COARSE_NX: usize = 70;
+const COARSE_NY: usize = 50;
 
 /// Steps both solvers take before a kernel is compared: enough for the
 /// busy scene's cloth to sag, swing in the wind and, implicitly, start
@@ -68,7 +75,7 @@ fn general(integrator: Integrator, pinned: bool) -> Twins {
 fn coarse(specialised: bool) -> Twins {
     let mut p = params(Integrator::Implicit);
     p.implicit.coarse_levels = true;
-    let model = grid(NX, NY, corners(), &p);
+    let model = grid(COARSE_NX, COARSE_NY, corners(), &p);
     Twins::new(&model, &p, specialised, WARM_STEPS)
 }
 

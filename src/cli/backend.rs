@@ -68,6 +68,12 @@ pub trait Solver {
     fn passes(&self) -> Vec<(&'static str, u32, u32)> {
         Vec::new()
     }
+    /// Dispatches per CG iteration, CG iterations recorded per step and
+    /// the budget's hits so far (`--verbose`); `None` where a step records
+    /// no CG iterations.
+    fn cg_recording(&self) -> Option<(u32, u32, u64)> {
+        None
+    }
     /// How the GPU records a step and why (`--verbose`); `None` for the
     /// CPU.
     fn step_path(&self) -> Option<String> {
@@ -301,6 +307,13 @@ impl Solver for Gpu {
 
     fn passes(&self) -> Vec<(&'static str, u32, u32)> {
         self.solver.tuning().describe_step()
+    }
+
+    fn cg_recording(&self) -> Option<(u32, u32, u64)> {
+        let tuning = self.solver.tuning();
+        let per = tuning.dispatches_per_cg_iteration();
+        let hits = self.status.and_then(|s| s.cg_budget_hits).unwrap_or(0);
+        (per > 0).then(|| (per, tuning.cg_budget(), hits))
     }
 
     fn step_path(&self) -> Option<String> {

@@ -121,6 +121,15 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
             }
         }
         print_passes(&summary.outcome.passes, summary.outcome.backend)?;
+        if let Some((per, budget, hits)) = summary.outcome.cg_recording {
+            let total: u32 = summary.outcome.passes.iter().map(|p| p.1).sum();
+            let outside = total.saturating_sub(per * budget);
+            outln!(
+                "dispatches per CG iteration: {per} ({budget} iterations recorded per step, \
+                 {outside} dispatches outside them)"
+            )?;
+            outln!("CG budget hits        {hits} (checks that found a step cut short by the budget; its steps were run again with a larger one)")?;
+        }
     }
     if let Some(profile) = &summary.outcome.profile {
         out!("{}", profile::Table(profile))?;
@@ -306,6 +315,7 @@ impl Run<'_> {
 
         let (steps, time, device) = (solver.steps(), solver.time(), solver.device());
         let passes = solver.passes();
+        let cg_recording = solver.cg_recording();
         let step_path = solver.step_path();
         let profile = solver.profile();
         let stats = solver.stats(self.params);
@@ -322,6 +332,7 @@ impl Run<'_> {
         commit_all(outputs)?;
         Ok(Outcome {
             passes,
+            cg_recording,
             step_path,
             profile,
             backend: S::BACKEND,

@@ -34,6 +34,10 @@ pub struct Summary<'a> {
 pub struct Outcome {
     /// The passes of one step (see `Solver::passes`), as last recorded.
     pub passes: Vec<(&'static str, u32, u32)>,
+    /// Dispatches per CG iteration, the iterations a step records and the
+    /// budget's hits (see
+    /// `Solver::cg_recording`).
+    pub cg_recording: Option<(u32, u32, u64)>,
     /// How the GPU records a step, and why (see `Solver::step_path`).
     pub step_path: Option<String>,
     /// Each kernel's GPU time and bytes per step (`--profile`).
@@ -362,6 +366,7 @@ mod tests {
             wall: Duration::from_secs(2),
             outcome: Outcome {
                 passes: Vec::new(),
+                cg_recording: None,
                 step_path: None,
                 profile: None,
                 backend: "gpu",

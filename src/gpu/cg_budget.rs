@@ -1,12 +1,17 @@
 //! How many CG iterations each recorded step contains.
 //!
-//! CG stops on the device, and iterations past convergence do no work,
-//! but every recorded dispatch still costs its recording and launch, so a
-//! budget of 200 for a solve that takes 30 would dominate the step. At each status check the budget becomes twice the
-//! largest count any step needed since the last check, plus
-//! [`CgBudget::MARGIN`] (at most the configured maximum). A window in
-//! which some step used the whole budget restores the maximum and counts
-//! a hit (such a step stopped with its residual above the tolerance).
+//! CG stops on the device, and iterations past convergence launch no
+//! workgroup, but every recorded iteration still costs two empty
+//! indirect dispatches (their recording and launch), so a budget of 200
+//! for a solve that takes 30 would dominate the step. At each status
+//! check the budget becomes the largest count any step needed since the
+//! last check plus a quarter of it ([`CgBudget::after`]; at most the
+//! configured maximum): the empty dispatches then stay within a quarter
+//! of the iterations run. A window in which some step used the whole
+//! budget doubles it (at most to the maximum) and counts a hit (such a
+//! step stopped with its residual above the tolerance;
+//! [`GpuSolver::step`](super::GpuSolver::step) runs it again with the
+//! larger budget until no step is cut short).
 
 /// The CG iteration budget of a solver and its rule.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -23,9 +28,13 @@ pub(super) struct CgBudget {
 }
 
 impl CgBudget {
-    /// Iterations added to twice the largest count seen: a tighter margin
-    /// cuts solves short as a cloth starts to move, for little gain.
-    pub const MARGIN: u32 = 16;
+    /// The budget after a window whose steps needed at most `used`
+    /// iterations: `used` and a quarter more, rounded down, at least one
+    /// more (a count that grows by more than that within a window is a
+    /// hit).
+    pub fn after(used: u32) -> u32 {
+        used + (used / 4).max(1)
+    }
 
     /// A budget of `max` iterations, adaptive.
     pub fn new(max: u32) -> CgBudget {
@@ -72,9 +81,9 @@ impl CgBudget {
             self.hits += 1;
         }
         self.current = if exhausted {
-            self.max
+            (2 * self.current).min(self.max)
         } else {
-            (2 * used + Self::MARGIN).min(self.max)
+            Self::after(used).min(self.max)
         };
         true
     }
@@ -89,14 +98,17 @@ mod tests {
         let mut b = CgBudget::new(200);
         assert_eq!(b.current(), 200);
         assert!(b.update(30));
-        assert_eq!(b.current(), 2 * 30 + CgBudget::MARGIN);
-        // A window that used the whole reduced budget: back to the maximum,
-        // counted.
+        assert_eq!(b.current(), 30 + 7);
+        // A window that used the whole reduced budget: doubled, counted,
+        // then doubled up to the maximum.
         assert!(b.update(b.current()));
-        assert_eq!((b.current(), b.hits()), (200, 1));
+        assert_eq!((b.current(), b.hits()), (74, 1));
+        assert!(b.update(74));
+        assert!(b.update(148));
+        assert_eq!((b.current(), b.hits()), (200, 3));
         // Using the whole maximum is no hit (there was nothing more).
         assert!(b.update(200));
-        assert_eq!((b.current(), b.hits()), (200, 1));
+        assert_eq!((b.current(), b.hits()), (200, 3));
         // A window without CG changes nothing.
         assert!(!b.update(0));
         assert_eq!(b.current(), 200);
@@ -108,7 +120,7 @@ mod tests {
     fn a_fixed_budget_stays_at_the_maximum() {
         let mut b = CgBudget::new(50);
         b.update(3);
-        assert_eq!(b.current(), 3 * 2 + CgBudget::MARGIN);
+        assert_eq!(b.current(), 3 + 1);
         b.set_adaptive(false);
         assert_eq!(b.current(), 50);
         assert!(!b.update(3));

@@ -183,6 +183,17 @@ impl<T> Plan<T> {
         }
     }
 
+    /// Entries recorded per CG iteration of a step (0: no CG).
+    pub fn per_cg_iteration(&self) -> u32 {
+        self.steps[0]
+            .iter()
+            .map(|p| match p {
+                Part::CgIterations(ts) => ts.len() as u32,
+                Part::Once(_) => 0,
+            })
+            .sum()
+    }
+
     /// Every entry of the plan, once each (for compiling its pipelines).
     pub fn entries(&self) -> impl Iterator<Item = &T> {
         let parts = self.steps.iter().flatten().flat_map(|p| match p {
@@ -376,4 +387,113 @@ fn cg(i: &PlanInputs, plan: &mut Vec<Part<Dispatch>>) {
         Dispatch::direct(Kernel::CgApply, n).launched(Launch::ApplySlot(0)),
         Dispatch::direct(Kernel::CgUpdate, update).launched(Launch::UpdateSlot(0)),
     ]));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::aggregation::Aggregation;
+
+    /// A plain sheet of `side × side` particles pinned at two corners, on
+    /// the multi-dispatch path: grid kernels, pins (a filter), damped
+    /// springs, no collider, wind or fix-up; coarse levels for implicit.
+    fn sheet(integrator: Integrator, side: u32) -> PlanInputs {
+        let n = side * side;
+        let agg = Aggregation::for_grid(Some((side as usize, side as usize)))
+            .filter(|_| integrator == Integrator::Implicit);
+        PlanInputs {
+            integrator,
+            features: Features {
+                filter: true,
+                damping: true,
+                grid: true,
+                coarse: agg.is_some(),
+                constant_blocks: integrator == Integrator::SemiImplicit,
+                ..Features::default()
+            },
+            particles: n,
+            spring_slots: 6 * n,
+            gather: n,
+            aggregates: agg.map_or([0, 0], |a| [a.count(0) as u32, a.count(1) as u32]),
+            filter_count: 0,
+            torque: false,
+            fixup_iterations: 0,
+            self_collision_passes: 0,
+            path: StepPath::MultiDispatch,
+        }
+    }
+
+    /// The kernels of a step outside the CG iterations, and those of one
+    /// iteration.
+    fn shape(plan: &Plan<Dispatch>) -> (Vec<(Kernel, Variant)>, Vec<Kernel>) {
+        let mut outside = Vec::new();
+        let mut iteration = Vec::new();
+        for part in &plan.steps[0] {
+            match part {
+                Part::Once(d) => outside.push(d.pipeline()),
+                Part::CgIterations(ds) => iteration = ds.iter().map(|d| d.kernel).collect(),
+            }
+        }
+        (outside, iteration)
+    }
+
+    /// The plan: at most eight dispatches outside the iterations
+    /// for a plain pinned sheet and two per CG iteration, at every size;
+    /// adding a dispatch to either fails here.
+    #[test]
+    fn a_plain_pinned_sheet_records_two_dispatches_per_cg_iteration() {
+        for side in [15, 33, 65, 129, 257, 513] {
+            let plan = Plan::new(&sheet(Integrator::Implicit, side));
+            let (outside, iteration) = shape(&plan);
+            assert_eq!(
+                outside,
+                [
+                    (Kernel::ImplicitPrepare, Variant::Plain),
+                    (Kernel::CoarseSetup, Variant::Plain),
+                    (Kernel::CgInit, Variant::Plain),
+                    (Kernel::CgUpdate, Variant::CgFirst),
+                    (Kernel::ImplicitFinish, Variant::Plain),
+                ],
+                "implicit {side}²"
+            );
+            assert_eq!(iteration, [Kernel::CgApply, Kernel::CgUpdate], "{side}²");
+            assert_eq!(plan.per_cg_iteration(), 2);
+            let plan = Plan::new(&sheet(Integrator::SemiImplicit, side));
+            let (outside, iteration) = shape(&plan);
+            assert_eq!(
+                outside,
+                [
+                    (Kernel::SemiRhs, Variant::KeepDv),
+                    (Kernel::SemiCgPrepare, Variant::Plain),
+                    (Kernel::CgInit, Variant::Plain),
+                    (Kernel::SemiIntegrate, Variant::Plain),
+                    (Kernel::FinishStep, Variant::Plain),
+                ],
+                "semi-implicit {side}²"
+            );
+            assert_eq!(iteration, [Kernel::CgApply, Kernel::CgUpdate], "{side}²");
+        }
+    }
+
+    /// The CG kernels gather one particle per invocation whatever the
+    /// grid block (their partial sums cover CG blocks of particles), and
+    /// a coarse cg_update takes one invocation per slot of the
+    /// level-2-major order.
+    #[test]
+    fn the_cg_kernels_take_a_particle_or_a_slot_per_invocation() {
+        let mut inputs = sheet(Integrator::Implicit, 37);
+        inputs.gather = 100;
+        let plan = Plan::new(&inputs);
+        let mut seen = 0;
+        plan.for_each_in_step(0, 1, |d, _| {
+            let want = match d.kernel {
+                Kernel::CgInit | Kernel::CgApply => 37 * 37,
+                Kernel::CgUpdate => 9 * 16,
+                _ => return,
+            };
+            seen += 1;
+            assert_eq!(d.items, want, "{:?}", d.kernel);
+        });
+        assert_eq!(seen, 4);
+    }
 }

@@ -745,7 +745,8 @@ impl GpuSolver {
     /// [`GpuSolver::step`] as a future, for a browser's event loop.
     pub async fn step_async(&mut self, n: u32) -> Result<StepStats> {
         // Below its maximum, the CG budget may cut a step short: keep what
-        // the steps change, to run them again with the maximum if it did.
+        // the steps change, to run them again with a larger budget if it
+        // did.
         let rewind = self.cg.current() < self.cg.max();
         let before = if rewind {
             Before::Save
@@ -753,17 +754,19 @@ impl GpuSolver {
             Before::Nothing
         };
         self.submit_steps("stepping", n, before).await?;
-        let hits = self.cg.hits();
-        let stats = self.check_async().await?;
-        if !rewind || self.cg.hits() == hits {
-            return Ok(stats);
+        let mut hits = self.cg.hits();
+        let mut stats = self.check_async().await?;
+        // A step stopped at the budget: the check has doubled it (at most
+        // to the maximum, where no step is cut short); run the steps again
+        // from where they started until none is.
+        while rewind && self.cg.hits() != hits {
+            hits = self.cg.hits();
+            self.steps_recorded -= u64::from(n);
+            self.submit_steps("stepping again with a larger CG budget", n, Before::Restore)
+                .await?;
+            stats = self.check_async().await?;
         }
-        // A step stopped at the budget: the check has restored the
-        // maximum; run the steps again from where they started.
-        self.steps_recorded -= u64::from(n);
-        self.submit_steps("stepping again with the full CG budget", n, Before::Restore)
-            .await?;
-        self.check_async().await
+        Ok(stats)
     }
 
     /// Records `n` steps, after what `before` says, in an encoder of their
@@ -797,12 +800,12 @@ impl GpuSolver {
     /// was not finite.
     ///
     /// It also sets the CG iteration budget — how many iterations each
-    /// recorded step contains — to twice the largest count any step needed
-    /// since the last check, plus a margin (at most the configured
-    /// maximum; see `src/gpu/cg_budget.rs`). A window in which some step
-    /// used the whole budget restores the full maximum and is counted in
+    /// recorded step contains — to the largest count any step needed since
+    /// the last check and a quarter more (at most the configured maximum;
+    /// see `src/gpu/cg_budget.rs`). A window in which some step used the
+    /// whole budget doubles it and is counted in
     /// [`StepStats::cg_budget_hits`] (such a step stopped with its residual
-    /// above the tolerance). With no check in between, or with
+    /// above the tolerance; [`GpuSolver::step`] runs it again). With no check in between, or with
     /// [`GpuTuningMut::set_adaptive_cg_budget`](super::GpuTuningMut::set_adaptive_cg_budget)`(false)`,
     /// the budget never changes and every step may use the full maximum.
     ///
@@ -845,6 +848,10 @@ impl GpuSolver {
     /// [`GpuSolver::check`]).
     pub(super) fn cg_budget(&self) -> u32 {
         self.cg.current()
+    }
+
+    pub(super) fn dispatches_per_cg_iteration(&self) -> u32 {
+        self.prepared.steps.per_cg_iteration()
     }
 
     fn decode_status(&self, bytes: &[u8]) -> Result<StepStats> {

@@ -60,6 +60,14 @@ impl GpuTuning<'_> {
         self.solver.cg_budget()
     }
 
+    /// Dispatches recorded per CG iteration (two on the multi-dispatch
+    /// path, `cg_apply` and `cg_update`; 0 where a step records no CG
+    /// iterations: no CG, or the workgroup path, whose one dispatch runs
+    /// them all).
+    pub fn dispatches_per_cg_iteration(&self) -> u32 {
+        self.solver.dispatches_per_cg_iteration()
+    }
+
     /// Compute dispatches per step in the last
     /// [`GpuSolver::encode_steps`] call (all in one compute pass of one
     /// encoder, one submit).
