@@ -1,12 +1,15 @@
 // Semi-implicit step with the scalable filter: set up CG on the constant
 // matrix A = M − dt² H (spring blocks a = dt² k, b = 0, uploaded once;
 // the linear bending operator's (dt² + dt β) Q, common/bending.wgsl),
-// pins as fixed filters, a Jacobi preconditioner, the warm start and the
-// term of δ0 in the w of W_RHS. The CPU twin solves the same system exactly with a
+// pins as fixed filters, a Jacobi preconditioner (on a grid with the
+// coarse levels of common/coarse.wgsl, whose contributions it stores as
+// implicit_prepare does), the warm start and the term of δ0 in the w of
+// W_RHS. The CPU twin solves the same system exactly with a
 // banded Cholesky factor (cpu::filter::BandedFilter).
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 #include "common/cg.wgsl"
+#include "common/coarse.wgsl"
 
 @compute @workgroup_size(WORKGROUP)
 fn semi_cg_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -21,10 +24,17 @@ fn semi_cg_prepare(@builtin(global_invocation_id) gid: vec3<u32>) {
             kind = FILTER_FIXED;
         }
         var diag = v[p].w;
+        var levels = levels_start(p, diag, COARSE);
         let begin = spring_adj(p);
         let end = spring_adj(p + 1u);
+        let others = spring_adj_others();
         for (var k = begin; k < end; k++) {
-            diag += work[si(S_BLOCK, topo(params.spring_adj_entries + k) >> 1u)].w;
+            let a = work[si(S_BLOCK, topo(params.spring_adj_entries + k) >> 1u)].w;
+            diag += a;
+            levels = levels_add(levels, topo(others + k), vec4<f32>(0.0, 0.0, 0.0, a), COARSE);
+        }
+        if (COARSE) {
+            store_levels(p, levels, 3.0 * diag);
         }
         if (has_bending()) {
             diag += bending_scaled_diagonal(p);

@@ -40,12 +40,14 @@ impl Aggregation {
         (nx >= 2 && ny >= 2 && agg.total() <= nx * ny).then_some(agg)
     }
 
-    /// The aggregation both backends use for `model` under `params`: an
-    /// implicit grid cloth with [`crate::params::ImplicitParams::coarse_levels`].
+    /// The aggregation of `model`'s CG under `params`: a grid cloth with
+    /// [`crate::params::ImplicitParams::coarse_levels`], implicit (both
+    /// backends) or semi-implicit (the GPU's CG-solved filter; the CPU
+    /// factors the filter instead).
     pub fn for_scene(model: &Model, params: &Params) -> Option<Self> {
         // The coarse levels aggregate the springs' blocks; a cloth of the
         // linear bending model has a wider operator they do not carry.
-        if params.integrator != Integrator::Implicit
+        if params.integrator == Integrator::Explicit
             || !params.implicit.coarse_levels
             || model.bending.is_some()
         {

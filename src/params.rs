@@ -150,7 +150,8 @@ pub struct ImplicitParams {
     /// Add the coarse levels (`cpu/coarse.rs`) to the block-Jacobi
     /// preconditioner on a grid cloth: fewer CG iterations to the same
     /// tolerance (the stopping test stays the block-Jacobi residual norm
-    /// above). No effect on a cloth that is not a grid.
+    /// above). No effect on a cloth that is not a grid. The GPU's
+    /// CG-solved semi-implicit filter takes them too.
     pub coarse_levels: bool,
 }
 

@@ -59,6 +59,48 @@ fn coarse_setup_item(k: u32) {
     work[wa(W_COARSE_INV_O, k)] = vec4<f32>(m.o, 0.0);
 }
 
+// A particle's contributions to its aggregates' D at both levels (twin:
+// `levels` in cpu::implicit::prepare): its mass times I plus the blocks of
+// its springs whose other end lies in another aggregate of that level.
+struct Levels {
+    own: vec2<u32>,
+    d1: Sym3,
+    d2: Sym3,
+}
+
+fn levels_start(p: u32, m: f32, coarse: bool) -> Levels {
+    let diag = Sym3(vec3<f32>(m), vec3<f32>(0.0));
+    if (!coarse) {
+        return Levels(vec2<u32>(0u), diag, diag);
+    }
+    return Levels(vec2<u32>(coarse_of(LEVEL1_SIDE, p), coarse_of(LEVEL2_SIDE, p)), diag, diag);
+}
+
+// `l` plus the block `blk` of a spring whose other end is `other`.
+fn levels_add(l: Levels, other: u32, blk: vec4<f32>, coarse: bool) -> Levels {
+    if (!coarse) {
+        return l;
+    }
+    var out = l;
+    if (coarse_of(LEVEL1_SIDE, other) != l.own.x) {
+        out.d1 = sym3_add_block(out.d1, blk);
+    }
+    if (coarse_of(LEVEL2_SIDE, other) != l.own.y) {
+        out.d2 = sym3_add_block(out.d2, blk);
+    }
+    return out;
+}
+
+// Particle p's contributions `levels` and the trace of its block-Jacobi
+// block `trace` [kg] (for θ), for coarse_setup (twin: Coarse::contrib and
+// Coarse::trace).
+fn store_levels(p: u32, levels: Levels, trace: f32) {
+    work[wi(W_LEVEL1_D, p)] = vec4<f32>(levels.d1.d, 0.0);
+    work[wi(W_LEVEL1_O, p)] = vec4<f32>(levels.d1.o, trace);
+    work[wi(W_LEVEL2_D, p)] = vec4<f32>(levels.d2.d, 0.0);
+    work[wi(W_LEVEL2_O, p)] = vec4<f32>(levels.d2.o, 0.0);
+}
+
 // What cg_update_aggregate found of a level-1 aggregate: Πᵀr, its term
 // of δ and the sum of its particles' terms of ρ (row-major, in sequence).
 struct Level1 {

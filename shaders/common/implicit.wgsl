@@ -38,38 +38,6 @@ fn implicit_springs_item(s: u32) {
     work[si(S_FORCE, s)] = vec4<f32>(lin.f, 0.0);
 }
 
-// A particle's contributions to its aggregates' D at both levels (twin:
-// `levels` in cpu::implicit::prepare): its mass times I plus the blocks of
-// its springs whose other end lies in another aggregate of that level.
-struct Levels {
-    own: vec2<u32>,
-    d1: Sym3,
-    d2: Sym3,
-}
-
-fn levels_start(p: u32, m: f32, coarse: bool) -> Levels {
-    let diag = Sym3(vec3<f32>(m), vec3<f32>(0.0));
-    if (!coarse) {
-        return Levels(vec2<u32>(0u), diag, diag);
-    }
-    return Levels(vec2<u32>(coarse_of(LEVEL1_SIDE, p), coarse_of(LEVEL2_SIDE, p)), diag, diag);
-}
-
-// `l` plus the block `blk` of a spring whose other end is `other`.
-fn levels_add(l: Levels, other: u32, blk: vec4<f32>, coarse: bool) -> Levels {
-    if (!coarse) {
-        return l;
-    }
-    var out = l;
-    if (coarse_of(LEVEL1_SIDE, other) != l.own.x) {
-        out.d1 = sym3_add_block(out.d1, blk);
-    }
-    if (coarse_of(LEVEL2_SIDE, other) != l.own.y) {
-        out.d2 = sym3_add_block(out.d2, blk);
-    }
-    return out;
-}
-
 // The set-up of particle p from the spring pass's K v and blocks, in
 // adjacency order (twin: the particle loop of cpu::implicit::prepare).
 fn implicit_prepare_item(p: u32, coarse: bool) {
@@ -161,12 +129,7 @@ fn prepare_particle(
     work[wi(W_PRE_DIAG, p)] = vec4<f32>(pre.d, 0.0);
     work[wi(W_PRE_OFF, p)] = vec4<f32>(pre.o, 0.0);
     if (coarse) {
-        // The trace of the block-Jacobi block, for θ (coarse_setup).
-        let trace = pre_in.d.x + pre_in.d.y + pre_in.d.z;
-        work[wi(W_LEVEL1_D, p)] = vec4<f32>(levels.d1.d, 0.0);
-        work[wi(W_LEVEL1_O, p)] = vec4<f32>(levels.d1.o, trace);
-        work[wi(W_LEVEL2_D, p)] = vec4<f32>(levels.d2.d, 0.0);
-        work[wi(W_LEVEL2_O, p)] = vec4<f32>(levels.d2.o, 0.0);
+        store_levels(p, levels, pre_in.d.x + pre_in.d.y + pre_in.d.z);
     }
     let dv = filter_apply(kind, normal, warm_start(p)) + z;
     work[wi(W_DV, p)] = vec4<f32>(dv, kind);

@@ -667,7 +667,10 @@ impl<R: Real> CpuSolver<R> {
             v: try_vec(n, Vec3::ZERO, "the CPU solver's state")?,
         };
         let mut work = Workspace::new(n, model.springs.len(), model.triangles.len())?;
-        work.coarse = Aggregation::for_scene(model, params).map(Coarse::new);
+        // The CPU's semi-implicit filter is a factorisation, not a CG.
+        work.coarse = Aggregation::for_scene(model, params)
+            .filter(|_| params.integrator == Integrator::Implicit)
+            .map(Coarse::new);
         work.self_grid = match &sys.self_collision {
             Some(c) => Some(self_collision::Grid::new(n, c.table)?),
             None => None,

@@ -326,6 +326,9 @@ fn step(i: &PlanInputs) -> Vec<Part<Dispatch>> {
                 let keep = Dispatch::direct(Kernel::SemiRhs, n).of(Variant::KeepDv);
                 plan.push(Part::Once(keep));
                 plan.push(once(Kernel::SemiCgPrepare, n));
+                if f.coarse {
+                    plan.push(once(Kernel::CoarseSetup, i.aggregates[0] + i.aggregates[1]));
+                }
                 cg(i, &mut plan);
             }
             if i.torque {
@@ -396,11 +399,12 @@ mod tests {
 
     /// A plain sheet of `side × side` particles pinned at two corners, on
     /// the multi-dispatch path: grid kernels, pins (a filter), damped
-    /// springs, no collider, wind or fix-up; coarse levels for implicit.
+    /// springs, no collider, wind or fix-up; coarse levels for CG (the
+    /// semi-implicit one the CG-solved filter).
     fn sheet(integrator: Integrator, side: u32) -> PlanInputs {
         let n = side * side;
         let agg = Aggregation::for_grid(Some((side as usize, side as usize)))
-            .filter(|_| integrator == Integrator::Implicit);
+            .filter(|_| integrator != Integrator::Explicit);
         PlanInputs {
             integrator,
             features: Features {
@@ -465,7 +469,9 @@ mod tests {
                 [
                     (Kernel::SemiRhs, Variant::KeepDv),
                     (Kernel::SemiCgPrepare, Variant::Plain),
+                    (Kernel::CoarseSetup, Variant::Plain),
                     (Kernel::CgInit, Variant::Plain),
+                    (Kernel::CgUpdate, Variant::CgFirst),
                     (Kernel::SemiIntegrate, Variant::Plain),
                     (Kernel::FinishStep, Variant::Plain),
                 ],
