@@ -7,6 +7,9 @@
 #                                 # target/device-tests.tar.xz (carry it)
 #   .ci/device-tests.sh run       # there, in the repository root:
 #                                 # unpacks and runs every binary
+#   .ci/device-tests.sh bench     # there, after run (or alone): the
+#                                 # gpu_step bench's tables at SIZES
+#                                 # (default 33,65,257,513), quick
 #
 # The device's copy of the working tree may stand at another path than
 # this one, and the test binaries find the repository (its scenes,
@@ -45,6 +48,20 @@ for line in open(sys.argv[1]):
         strip "$out/bin/$t"
     done
     rm -f "$list"
+    # The step-time bench, for the performance tables (docs/performance.md).
+    cargo bench --bench gpu_step --no-run --message-format=json >"$list.bench"
+    bench=$(python3 -c '
+import json, sys
+for line in open(sys.argv[1]):
+    m = json.loads(line)
+    if m.get("reason") == "compiler-artifact" and m["target"]["name"] == "gpu_step" \
+            and m.get("executable"):
+        print(m["executable"])
+' "$list.bench" | tail -1)
+    [ -n "$bench" ] || { echo "device-tests.sh: no gpu_step bench binary" >&2; exit 2; }
+    cp "$bench" "$out/bin/gpu_step"
+    strip "$out/bin/gpu_step"
+    rm -f "$list.bench"
     cp target/release/wgcloth "$out/bin/wgcloth"
     strip "$out/bin/wgcloth"
     printf '%s\n' "$PWD" >"$out/built-in"
@@ -92,8 +109,18 @@ run() {
     [ "$failed" -eq 0 ]
 }
 
+bench() {
+    dir=target/device-tests
+    [ -x "$dir/bin/gpu_step" ] || tar -C target -xJf "$archive"
+    nvidia-smi -L 2>/dev/null || true
+    # The printed tables only: criterion's own timing is filtered out.
+    WGCLOTH_BENCH_QUICK=1 WGCLOTH_BENCH_SIZES="${SIZES:-33,65,257,513}" \
+        "$dir/bin/gpu_step" --bench no-criterion-benchmark-matches-this
+}
+
 case "${1:-}" in
     stage) stage ;;
     run) run ;;
-    *) echo "usage: .ci/device-tests.sh stage|run" >&2; exit 2 ;;
+    bench) bench ;;
+    *) echo "usage: .ci/device-tests.sh stage|run|bench" >&2; exit 2 ;;
 esac

@@ -33,7 +33,10 @@ pub const CG_GROUP: u32 = 256;
 /// Particles per block of CG's reductions: [`CG_GROUP`], so the CPU sums
 /// in the GPU's order.
 pub const CG_BLOCK: usize = CG_GROUP as usize;
-const _: () = assert!(CG_GROUP.is_power_of_two() && CG_GROUP == SUM_GROUP);
+// The workgroup path's lane l takes particle l of each CG block, and a
+// CG tree is 16 runs of 16 lanes (`tree_reduce` in shaders/common/cg.wgsl),
+// a run a level-2 aggregate's slots.
+const _: () = assert!(CG_GROUP == SUM_GROUP && CG_GROUP == 16 * 16);
 
 /// Invocations of the one-workgroup kernels (the workgroup path's
 /// `cloth_*`, self-collision's scan) on devices that allow it (the solver

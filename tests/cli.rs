@@ -703,6 +703,25 @@ fn verbose_shows_the_step_path_and_the_passes() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// What `wgcloth run SCENE --backend gpu --steps STEPS --step-path
+/// multi-dispatch --verbose` prints, after checking it succeeded.
+fn verbose_on_multi_dispatch(scene: &std::path::Path, steps: u32) -> String {
+    let steps = steps.to_string();
+    let out = wgcloth(&[
+        "run",
+        path_str(scene),
+        "--backend",
+        "gpu",
+        "--steps",
+        &steps,
+        "--step-path",
+        "multi-dispatch",
+        "--verbose",
+    ]);
+    assert_status(&out, 0);
+    stdout(&out)
+}
+
 /// Dispatches outside the CG iterations of a plain pinned sheet's
 /// implicit step (issue #41: at most eight; it records five).
 const SHEET_OUTSIDE_MAX: u32 = 8;
@@ -729,19 +748,7 @@ fn verbose_counts_two_dispatches_per_cg_iteration() {
          [springs.bend]\nstiffness = 2.0\ndamping = 0.002\n\
          [implicit]\ntolerance = 1e-3\n",
     );
-    let out = wgcloth(&[
-        "run",
-        path_str(&scene),
-        "--backend",
-        "gpu",
-        "--steps",
-        "10",
-        "--step-path",
-        "multi-dispatch",
-        "--verbose",
-    ]);
-    assert_status(&out, 0);
-    let text = stdout(&out);
+    let text = verbose_on_multi_dispatch(&scene, 10);
     let number = |prefix: &str, after: &str| -> f64 {
         text.lines()
             .find_map(|l| l.strip_prefix(prefix))
@@ -786,19 +793,7 @@ fn verbose_says_a_material_grid_takes_the_general_spring_layout() {
         "cotton.toml",
         "[cloth]\nresolution = [9, 9]\n[material]\ndensity = 0.2\nstretch = 100.0\n",
     );
-    let out = wgcloth(&[
-        "run",
-        path_str(&scene),
-        "--backend",
-        "gpu",
-        "--steps",
-        "3",
-        "--step-path",
-        "multi-dispatch",
-        "--verbose",
-    ]);
-    assert_status(&out, 0);
-    let text = stdout(&out);
+    let text = verbose_on_multi_dispatch(&scene, 3);
     assert!(text.contains("spring layout: general"), "{text}");
     assert!(text.contains("spring_forces"), "{text}");
     let out = wgcloth(&["run", path_str(&scene), "--steps", "3", "--verbose"]);

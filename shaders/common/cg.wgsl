@@ -504,37 +504,76 @@ fn update_slots(k: u32, running: bool, alpha: f32, delta: f32) {
 }
 
 // The reduction tree of a workgroup: one vec4 per lane of CG_GROUP (a
-// workgroup kernel's further invocations take no part).
+// workgroup kernel's further invocations take no part), then one per run
+// of TREE_RUN lanes.
 var<workgroup> tree: array<vec4<f32>, CG_GROUP>;
+var<workgroup> tree_runs: array<vec4<f32>, CG_GROUP / TREE_RUN>;
 var<workgroup> tree_total: vec4<f32>;
 
-// The first `width` (a power of two) of the pairwise tree of the lanes'
-// `value`s: lane i ← lane i + lane i + w for w = 1, 2, … < width at each
-// i that is a multiple of 2w (twin: cpu::cg::pairwise). Returns, in every
-// lane, the sum of its run of `width` lanes. Call from uniform control
-// flow, every invocation of the workgroup.
-fn tree_levels(value: vec4<f32>, lid: u32, width: u32) -> vec4<f32> {
+// Lanes per run of the tree that one invocation adds up in registers.
+const TREE_RUN: u32 = 16u;
+
+// The pairwise sum of TREE_RUN values `v`: v[i] += v[i + w] for w = 1, 2,
+// 4, 8 at each i that is a multiple of 2w (twin: cpu::cg::pairwise).
+fn pairwise_run(values: array<vec4<f32>, TREE_RUN>) -> vec4<f32> {
+    var v = values;
+    for (var w = 1u; w < TREE_RUN; w *= 2u) {
+        for (var i = 0u; i < TREE_RUN; i += 2u * w) {
+            v[i] = v[i] + v[i + w];
+        }
+    }
+    return v[0];
+}
+
+// The pairwise sum of `tree`'s run of TREE_RUN lanes from lane `first`.
+fn tree_run(first: u32) -> vec4<f32> {
+    var v: array<vec4<f32>, TREE_RUN>;
+    for (var k = 0u; k < TREE_RUN; k++) {
+        v[k] = tree[first + k];
+    }
+    return pairwise_run(v);
+}
+
+// Writes the lanes' `value`s into `tree` (lane l at l). Call from uniform
+// control flow, every invocation.
+fn tree_store(value: vec4<f32>, lid: u32) {
     // An earlier tree's readers are done with it.
     workgroupBarrier();
     if (lid < CG_GROUP) {
         tree[lid] = value;
     }
-    for (var w = 1u; w < width; w *= 2u) {
-        workgroupBarrier();
-        if (lid < CG_GROUP && lid % (2u * w) == 0u) {
-            tree[lid] = tree[lid] + tree[lid + w];
-        }
-    }
     workgroupBarrier();
-    return tree[min(lid, CG_GROUP - 1u) & ~(width - 1u)];
 }
 
-// The pairwise tree's total of the CG_GROUP lanes' `value`s, uniform over
-// the workgroup. Call from uniform control flow, every invocation.
+// The sum of each run of TREE_RUN lanes' `value`s, valid in the run's first
+// lane: the run's part of the pairwise tree. Call from uniform control
+// flow, every invocation.
+fn tree_run_sums(value: vec4<f32>, lid: u32) -> vec4<f32> {
+    tree_store(value, lid);
+    if (lid < CG_GROUP && lid % TREE_RUN == 0u) {
+        return tree_run(lid);
+    }
+    return vec4<f32>(0.0);
+}
+
+// The pairwise tree's total of the CG_GROUP lanes' `value`s (lane i +=
+// lane i + w for w = 1, 2, 4, … at each i that is a multiple of 2w; twin:
+// cpu::cg::pairwise), uniform over the workgroup: each run of TREE_RUN
+// lanes is summed by one invocation in registers, then the runs' sums by
+// one more — the same additions as a level per barrier, in four barriers.
+// Call from uniform control flow, every invocation.
 fn tree_reduce(value: vec4<f32>, lid: u32) -> vec4<f32> {
-    let total = tree_levels(value, lid, CG_GROUP);
+    tree_store(value, lid);
+    if (lid < CG_GROUP / TREE_RUN) {
+        tree_runs[lid] = tree_run(lid * TREE_RUN);
+    }
+    workgroupBarrier();
     if (lid == 0u) {
-        tree_total = total;
+        var v: array<vec4<f32>, TREE_RUN>;
+        for (var k = 0u; k < CG_GROUP / TREE_RUN; k++) {
+            v[k] = tree_runs[k];
+        }
+        tree_total = pairwise_run(v);
     }
     return workgroupUniformLoad(&tree_total);
 }

@@ -171,7 +171,8 @@ fn cg_update_slot(slot: u32, lid: u32, alpha: f32, first: bool, running: bool) -
     if (running && a != NO_PARTICLE) {
         l1 = cg_update_aggregate(a, alpha, first);
     }
-    let r2 = tree_levels(vec4<f32>(l1.r1, 0.0), lid, LEVEL2_SLOTS).xyz;
+    // A level-2 aggregate's slots are a run of the tree.
+    let r2 = tree_run_sums(vec4<f32>(l1.r1, 0.0), lid).xyz;
     var dc = l1.term1;
     if (running && slot % LEVEL2_SLOTS == 0u && slot < coarse_slots()) {
         dc = l1.term1 + level2_store(slot / LEVEL2_SLOTS, r2);

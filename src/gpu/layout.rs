@@ -195,12 +195,12 @@ const _: () = assert!(
 );
 // A workgroup kernel's copy of its cloth's parameters, its self-collision
 // scan, the torque's reduction words, the CG reductions' tree (a vec4 per
-// lane, and its total) and its shared words fit the memory it is chosen
-// for.
+// lane, per run of 16 lanes, and its total) and its shared words fit the
+// memory it is chosen for.
 const _: () = assert!(
     std::mem::size_of::<GpuParams>()
         + 4 * (crate::kernel_config::SUM_GROUP + crate::kernel_config::WORKGROUP) as usize
-        + 16 * (crate::kernel_config::WORKGROUP + 1) as usize
+        + 16 * (crate::kernel_config::CG_GROUP + crate::kernel_config::CG_GROUP / 16 + 1) as usize
         + 64
         <= crate::kernel_config::WORKGROUP_STEP_SHARED_BYTES as usize
 );
