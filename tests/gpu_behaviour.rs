@@ -11,7 +11,7 @@ use wgcloth::gpu::{
     pipeline_cache, GpuContext, GpuKernels, GpuSolver, GpuState, GridBlock, Kernel, StepPath,
     Variant,
 };
-use wgcloth::kernel_config::{SUM_GROUP, WORKGROUP};
+use wgcloth::kernel_config::CG_BLOCK;
 use wgcloth::model::{ClothSpec, Pin};
 use wgcloth::params::Integrator;
 use wgcloth::{Error, Model, Params};
@@ -301,7 +301,7 @@ fn every_grid_block_shape_gives_the_same_bits() {
                             [
                                 Kernel::ExplicitIntegrate,
                                 Kernel::FixupJacobi,
-                                Kernel::CgApply,
+                                Kernel::ImplicitPrepare,
                             ]
                             .contains(&d.kernel)
                         })
@@ -310,6 +310,15 @@ fn every_grid_block_shape_gives_the_same_bits() {
                     let blocks = shape.count(13, 11);
                     assert!(
                         !gather.is_empty() && gather.iter().all(|&i| i == blocks),
+                        "{what} {shape:?}: {plan:?}"
+                    );
+                    // The CG kernels gather a particle per invocation
+                    // whatever the shape (their partial sums cover CG
+                    // blocks of particles).
+                    assert!(
+                        plan.iter()
+                            .filter(|d| [Kernel::CgInit, Kernel::CgApply].contains(&d.kernel))
+                            .all(|d| d.items == 13 * 11),
                         "{what} {shape:?}: {plan:?}"
                     );
                 })
@@ -325,17 +334,16 @@ fn every_grid_block_shape_gives_the_same_bits() {
     }
 }
 
-/// The CG scalar kernels stage the block sums through workgroup memory
-/// 256 at a time (see `wgcloth::gpu::sum_group`): a 129 × 129
-/// cloth has 261 block sums, so the staging loop takes two turns, and
-/// the implicit step still matches the CPU mirror bit for bit — every
-/// other test's cloth has fewer than 256 blocks.
+/// Every CG workgroup adds all the partial sums, lane `l` taking partials
+/// `l`, `l + 256`, …: a 257 × 257 cloth has 259 CG blocks, so some lanes
+/// add two, and the implicit step still matches the CPU mirror bit for
+/// bit — every other test's cloth has fewer than 256 blocks.
 #[test]
-fn staged_cg_sums_of_more_blocks_than_a_workgroup_match_the_cpu_mirror() {
+fn cg_sums_of_more_blocks_than_a_workgroup_match_the_cpu_mirror() {
     let p = busy_params(Integrator::Implicit);
-    let m = grid(129, 129, corners(), &p);
-    assert!(m.particle_count().div_ceil(WORKGROUP as usize) > SUM_GROUP as usize);
-    let (d, worst, g, c) = compare(&m, &p, 3);
+    let m = grid(257, 257, corners(), &p);
+    assert!(m.particle_count().div_ceil(CG_BLOCK) > CG_BLOCK);
+    let (d, worst, g, c) = compare(&m, &p, 2);
     assert!(
         d == 0.0,
         "particle {worst}: GPU {g:?} against CPU {c:?}, {d:e} m apart"

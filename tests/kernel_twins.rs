@@ -32,18 +32,19 @@ use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
 use wgcloth::real::Vec3;
 use wgcloth::Params;
 
-/// Columns and rows of the test cloths: 621 particles, three of CG's
-/// reduction blocks of 256 (and ten of the torque's 64), so the sums cross
-/// block boundaries and end in a partial block.
-const NX: usize = 27;
+/// Columns and rows of the test cloths: 529 particles, three of CG's
+/// reduction blocks of 256 (and nine of the torque's 64), so the sums
+/// cross block boundaries and end in a partial block.
+const NX: usize = 23;
 const NY: usize = 23;
 
-/// Columns and rows of the coarse levels' test cloth: 5 × 4 level-2
-/// aggregates of 16 slots, 320 slots, so the per-slot update's partial
-/// sums span two workgroups, the last partial; the last row and column of
-/// aggregates are cut short.
-const COARSE_NX: usize = 70;
-const COARSE_NY: usize = 50;
+/// Columns and rows of the coarse levels' test cloth, a long strip: 18 × 1
+/// level-2 aggregates of 16 slots, 288 slots, so the per-slot update's
+/// partial sums span two workgroups, the last partial; every level-2
+/// aggregate is cut short by the last row, the last one by the last
+/// column too.
+const COARSE_NX: usize = 282;
+const COARSE_NY: usize = 5;
 
 /// Steps both solvers take before a kernel is compared: enough for the
 /// busy scene's cloth to sag, swing in the wind and, implicitly, start
@@ -70,8 +71,9 @@ fn general(integrator: Integrator, pinned: bool) -> Twins {
 }
 
 /// The busy implicit scene on a grid with coarse levels, its GPU on the
-/// general kernels (which keep the coarse levels, with a `cg_prolong`
-/// pass) or the grid's own (`specialised`).
+/// general kernels (which keep the coarse levels, `cg_apply` adding level
+/// 2's correction to each `s` it loads) or the grid's own
+/// (`specialised`).
 fn coarse(specialised: bool) -> Twins {
     let mut p = params(Integrator::Implicit);
     p.implicit.coarse_levels = true;

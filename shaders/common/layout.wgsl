@@ -208,7 +208,7 @@ struct Spring {
 }
 
 // Group 0 binds seven buffers (six of them storage, plus `params`), so
-// that with cg_start's two dispatch-argument buffers in group 1 no kernel
+// that with cg_init's two dispatch-argument buffers in group 1 no kernel
 // binds more than the eight storage buffers per stage every WebGPU device
 // grants (see docs/design.md, "Bindings"). Read-only model data shares one
 // buffer, the scratch another.

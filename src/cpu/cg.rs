@@ -226,7 +226,9 @@ pub fn apply<R: Real>(sys: &System<R>, w: &mut Workspace<R>) {
     } else {
         delta / w.cg.delta_prev
     };
-    if !(rho > tolerance_sq(sys) * w.cg.delta0) {
+    // Not `<=`: a NaN ρ stops CG too, as on the GPU.
+    let running = rho > tolerance_sq(sys) * w.cg.delta0;
+    if !running {
         w.cg.stopped = true;
         return;
     }

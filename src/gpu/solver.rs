@@ -67,7 +67,7 @@ pub(super) fn decode_status(
 }
 
 /// Storage buffers a kernel binds at most: group 0's six (see
-/// `shaders/common/layout.wgsl`) and cg_start's two dispatch-argument
+/// `shaders/common/layout.wgsl`) and cg_init's two dispatch-argument
 /// buffers in group 1 — the eight per shader stage that every WebGPU
 /// device grants (`wgpu::Limits::default()`). A workgroup kernel binds
 /// group 0's six and its cloth table.

@@ -236,13 +236,13 @@ impl Kernel {
             }
             // The implicit step's fixed phases in one dispatch, the rows
             // of implicit_springs, implicit_prepare, coarse_setup,
-            // cg_init, cg_start and implicit_finish added up: per particle
+            // cg_init and implicit_finish added up: per particle
             // 2 + 4 + 4 + 2 + 7 vec4 and two terms read, 7 + 4 + 3
             // written; two adjacency offsets; per spring its data, then
             // its block and K·v and its block again, and three vec4
             // written; per aggregate its inverse blocks. CG's iterations,
             // whose number the device decides each step, are not counted
-            // (each moves a cg_apply, cg_alpha, cg_update and cg_beta row).
+            // (each moves a cg_apply and a cg_update row).
             Kernel::ClothImplicit => {
                 const {
                     &[
