@@ -267,7 +267,7 @@ pub mod spring_work {
 /// [`CG_SCALARS`](partials::CG_SCALARS) CG scalars (WGSL: `P_*`, `C_*`,
 /// `pi`, `scalar_index`, `partial`). The torque's sums keep one `f32` per
 /// `vec4` (in x); CG's sums one `vec4` per block of
-/// [`CG_GROUP`](super::CG_GROUP): cᵀq in [`CQ`](partials::CQ)'s x, the
+/// [`CG_GROUP`](crate::kernel_config::CG_GROUP): cᵀq in [`CQ`](partials::CQ)'s x, the
 /// residual's three sums in [`RES`](partials::RES), so the kernel that
 /// adds them loads each block once. No CG kernel reads a slot it writes.
 pub mod partials {

@@ -206,7 +206,7 @@ pub fn residual_sums<R: Real>(w: &Workspace<R>) -> (R, R) {
 /// summed ([`residual_sums`]; in the first iteration δ0 too), CG stopped
 /// once ρ ≤ tol² δ0; else β = δ / δ_prev (0 in the first iteration), the
 /// direction `c = s + β c` and its product `q = S A c = S A s + β q` (the
-/// direction update folded into the product, see [`solve`]), and cᵀq's
+/// direction update folded into the product, see `solve`), and cᵀq's
 /// terms. With coarse levels `s` gets each level-2 aggregate's correction
 /// first ([`prolong`], which the GPU adds to each `s` it loads). Reads
 /// `blocks`, `filter`, `s`, `c`, `q`, `rho_terms` (or the coarse
