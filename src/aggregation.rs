@@ -99,7 +99,8 @@ impl Aggregation {
     /// The level-1 aggregate (its index among level 1's) at slot `slot` of
     /// the level-2-major order: slot `16 b + 4 i + j` holds the level-1
     /// aggregate `i` rows and `j` columns into level-2 aggregate `b`, or
-    /// none where the grid's edge cuts level-2 aggregate `b` short. CG's
+    /// none where the grid's edge cuts level-2 aggregate `b` short or past
+    /// the last level-2 aggregate. CG's
     /// per-aggregate update runs an invocation per slot, so the level-1
     /// aggregates of one level-2 aggregate share a workgroup, which sums
     /// their residuals itself (twin: `level1_of_slot` in
@@ -107,6 +108,9 @@ impl Aggregation {
     pub fn slot_aggregate(&self, slot: usize) -> Option<usize> {
         let b = slot / SLOTS_PER_LEVEL2;
         let k = slot % SLOTS_PER_LEVEL2;
+        if b >= self.count(1) {
+            return None;
+        }
         let row = (b / self.across(1)) * RATIO + k / RATIO;
         let col = (b % self.across(1)) * RATIO + k % RATIO;
         (row < self.down(0) && col < self.across(0)).then(|| self.index(0, row, col))

@@ -37,6 +37,18 @@ fn implicit_matches_the_cpu_mirror() {
     }
 }
 
+/// The implicit scene's step bound at its tolerance, a GPU solver that
+/// records the whole CG budget, its `f32` mirror and an `f64` judge.
+fn judged() -> (agreement::Bound, GpuSolver, CpuSolver<f32>, CpuSolver<f64>) {
+    let (model, params) = scene();
+    (
+        agreement::implicit_step(params.implicit.tolerance),
+        exact_gpu(&model, &params),
+        CpuSolver::<f32>::new(&model, &params).expect("CPU solver"),
+        CpuSolver::<f64>::new(&model, &params).expect("f64 judge"),
+    )
+}
+
 /// On every adapter, whatever the policy: each step's `Δv`, from the
 /// mirror re-seeded with the device's state, satisfies the system an `f64`
 /// solver assembles at that state to CG's tolerance (plus what `f32`
@@ -44,11 +56,7 @@ fn implicit_matches_the_cpu_mirror() {
 /// the `f64` solver's but for a counted few (`agreement::FILTER_FLIPS`).
 #[test]
 fn each_implicit_step_satisfies_its_system_in_f64() {
-    let (model, params) = scene();
-    let bound = agreement::implicit_step(params.implicit.tolerance);
-    let mut g = exact_gpu(&model, &params);
-    let mut c = CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
-    let mut judge = CpuSolver::<f64>::new(&model, &params).expect("f64 judge");
+    let (bound, mut g, mut c, mut judge) = judged();
     agreement::check_reseeded_judged("implicit", &mut g, &mut c, Some(&mut judge), LONG, &bound)
         .unwrap_or_else(|e| panic!("{e}"));
 }
@@ -58,11 +66,7 @@ fn each_implicit_step_satisfies_its_system_in_f64() {
 #[test]
 fn the_f64_residual_rejects_an_answer_ten_bounds_off() {
     const WARM: u32 = 20;
-    let (model, params) = scene();
-    let bound = agreement::implicit_step(params.implicit.tolerance);
-    let mut g = exact_gpu(&model, &params);
-    let mut c = CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
-    let mut judge = CpuSolver::<f64>::new(&model, &params).expect("f64 judge");
+    let (bound, mut g, mut c, mut judge) = judged();
     agreement::check_reseeded_judged("warm-up", &mut g, &mut c, Some(&mut judge), WARM, &bound)
         .unwrap_or_else(|e| panic!("{e}"));
     let before = Stepper::state(&g);
@@ -70,7 +74,7 @@ fn the_f64_residual_rejects_an_answer_ten_bounds_off() {
     let (dv, kinds) = g.implicit_answer().expect("the GPU keeps its Δv");
     agreement::check_implicit_residual("as it is", &mut judge.clone(), &before, &dv, &kinds, false)
         .unwrap_or_else(|e| panic!("{e}"));
-    let admitted = params.implicit.tolerance + agreement::RESIDUAL_GAP;
+    let admitted = scene().1.implicit.tolerance + agreement::RESIDUAL_GAP;
     let off: Vec<_> = dv
         .iter()
         .map(|d| *d * (1.0 + 10.0 * admitted) as f32)

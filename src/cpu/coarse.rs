@@ -203,7 +203,7 @@ impl<R: Real> Coarse<R> {
             for k in 0..CG_BLOCK {
                 let slot = start + k;
                 (rho[k], dc[k]) = (R::ZERO, R::ZERO);
-                let Some(a) = agg.slot_aggregate(slot).filter(|_| slot < agg.slots()) else {
+                let Some(a) = agg.slot_aggregate(slot) else {
                     continue;
                 };
                 let (row, col) = (a / agg.across(0), a % agg.across(0));
