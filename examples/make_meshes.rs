@@ -2,7 +2,10 @@
 //! cloth, an irregular triangulation in rings), `scenes/banner.gltf` (a
 //! banner with a round hole, triangles graded towards the hole, its buffer
 //! embedded) and `scenes/table.obj` (a closed table, top and four legs: a
-//! mesh collider). Deterministic: the same files on every run and machine.
+//! mesh collider) and `scenes/cape_detail.obj` (the `cape` scene's render
+//! mesh: a slab of fabric 3 mm thick over its 15 × 25 cloth, four times
+//! finer, with a hem of double thickness along its bottom). Deterministic:
+//! the same files on every run and machine.
 //!
 //! `cargo run --release --example make_meshes [OUT_DIR]` (default `scenes`)
 
@@ -12,6 +15,20 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 use base64::Engine as _;
+
+/// The `cape` scene's cloth (`scenes/cape.toml`): a vertical grid whose
+/// top-left corner is `CAPE_ORIGIN`, `CAPE_SIZE` wide and tall \[m\], x to
+/// the right and y down its rows, facing +z; `CAPE_CELLS` cells across and
+/// down.
+const CAPE_ORIGIN: [f64; 3] = [-0.28, 1.42, -0.2];
+const CAPE_SIZE: [f64; 2] = [0.56, 0.95];
+const CAPE_CELLS: [usize; 2] = [14, 24];
+/// Render vertices per cloth cell along each side.
+const CAPE_FINE: usize = 4;
+/// Half the fabric's thickness \[m\], and the hem's (folded: double) along
+/// the bottom `CAPE_HEM` metres.
+const CAPE_HALF_THICKNESS: f64 = 0.0015;
+const CAPE_HEM: f64 = 0.03;
 
 /// Rings of the tablecloth around its centre vertex.
 const TABLECLOTH_RINGS: usize = 14;
@@ -286,6 +303,57 @@ fn table() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     (positions, triangles)
 }
 
+/// The cape's render mesh: a front and a back layer over the cloth's rest
+/// rectangle, `CAPE_HALF_THICKNESS` either side of it (twice that in the
+/// hem), joined along their border into a closed slab.
+fn cape_detail() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let (nx, ny) = (CAPE_CELLS[0] * CAPE_FINE + 1, CAPE_CELLS[1] * CAPE_FINE + 1);
+    let mut positions = Vec::with_capacity(2 * nx * ny);
+    let mut triangles = Vec::new();
+    for side in [1.0, -1.0] {
+        for j in 0..ny {
+            for i in 0..nx {
+                let down = j as f64 / (ny - 1) as f64 * CAPE_SIZE[1];
+                let hem = if CAPE_SIZE[1] - down <= CAPE_HEM {
+                    2.0
+                } else {
+                    1.0
+                };
+                positions.push([
+                    CAPE_ORIGIN[0] + i as f64 / (nx - 1) as f64 * CAPE_SIZE[0],
+                    CAPE_ORIGIN[1] - down,
+                    CAPE_ORIGIN[2] + side * hem * CAPE_HALF_THICKNESS,
+                ]);
+            }
+        }
+    }
+    let at = |layer: usize, i: usize, j: usize| (layer * nx * ny + j * nx + i) as u32;
+    for j in 0..ny - 1 {
+        for i in 0..nx - 1 {
+            // The front faces +z (as the cloth's triangles do), the back -z.
+            let cell =
+                |layer| [(0, 0), (1, 0), (0, 1), (1, 1)].map(|(di, dj)| at(layer, i + di, j + dj));
+            let [a, b, c, d] = cell(0);
+            triangles.extend([[a, c, b], [b, c, d]]);
+            let [a, b, c, d] = cell(1);
+            triangles.extend([[a, b, c], [b, d, c]]);
+        }
+    }
+    // The border, once around (clockwise seen from the front), each edge
+    // joined to its twin on the back by a quad facing outwards.
+    let mut border = Vec::new();
+    border.extend((0..nx - 1).map(|i| (i, 0)));
+    border.extend((0..ny - 1).map(|j| (nx - 1, j)));
+    border.extend((1..nx).rev().map(|i| (i, ny - 1)));
+    border.extend((1..ny).rev().map(|j| (0, j)));
+    for k in 0..border.len() {
+        let ((i0, j0), (i1, j1)) = (border[k], border[(k + 1) % border.len()]);
+        let [f0, f1, b0, b1] = [at(0, i0, j0), at(0, i1, j1), at(1, i0, j0), at(1, i1, j1)];
+        triangles.extend([[f0, b0, f1], [f1, b0, b1]]);
+    }
+    (positions, triangles)
+}
+
 /// Writes a mesh file and says what it holds.
 fn write(
     path: &Path,
@@ -319,6 +387,13 @@ fn main() -> anyhow::Result<()> {
         "A table, 1.2 × 0.8 m, 0.76 m high: a closed mesh (a collider).",
     );
     write(&dir.join("table.obj"), &text, &p, &t)?;
+    let (p, t) = cape_detail();
+    let text = obj(
+        &p,
+        &t,
+        "The cape scene's render mesh: its cloth as a slab 3 mm thick, with a hem.",
+    );
+    write(&dir.join("cape_detail.obj"), &text, &p, &t)?;
     let (p, t) = banner();
     write(&dir.join("banner.gltf"), &gltf(&p, &t, "banner"), &p, &t)
 }

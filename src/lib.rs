@@ -55,6 +55,7 @@ pub mod params;
 #[doc(hidden)]
 pub mod real;
 pub mod render;
+pub mod render_mesh;
 pub mod scene;
 pub mod sdf;
 mod stats;

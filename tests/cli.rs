@@ -977,3 +977,94 @@ fn step_path_forces_a_path_with_the_same_results() {
         assert!(stderr(&out).contains("--step-path"), "{}", stderr(&out));
     }
 }
+
+/// [`SMALL_SCENE`] drawn through a render mesh: the cloth's 1 m square as
+/// two triangles a millimetre above it (the grid hangs in the xz-plane,
+/// 1 m up: see `ClothSpec::default`).
+const RENDER_MESH_OBJ: &str =
+    "v -0.5 1.001 -0.5\nv 0.5 1.001 -0.5\nv 0.5 1.001 0.5\nv -0.5 1.001 0.5\nf 1 4 3\nf 1 3 2\n";
+
+#[test]
+fn render_mesh_out_writes_the_render_vertices_skinned_on_the_final_cloth() {
+    let dir = TempDir::new("render_mesh_out");
+    dir.write("detail.obj", RENDER_MESH_OBJ);
+    let scene = dir.write(
+        "small.toml",
+        &SMALL_SCENE.replace("[cloth]\n", "[cloth]\nrender_mesh = \"detail.obj\"\n"),
+    );
+    let file = dir.join("render.txt");
+    let steps = 7;
+    let out = wgcloth(&[
+        OsStr::new("run"),
+        scene.as_os_str(),
+        OsStr::new("--steps"),
+        OsStr::new(&steps.to_string()),
+        OsStr::new("--render-mesh-out"),
+        file.as_os_str(),
+    ]);
+    assert_status(&out, 0);
+    let got = parse_positions(&fs::read_to_string(&file).expect("the render mesh file"));
+    // The skinning twin on the reference's final positions, in f64.
+    let loaded = Scene::load(&scene).expect("the scene");
+    let model = loaded.model().expect("the model");
+    let embedding = &loaded.embeddings(&model).expect("embeds")[0];
+    let x: Vec<_> = reference_positions::<f64>(&scene, steps)
+        .into_iter()
+        .map(wgcloth::real::Vec3::<f64>::from_f64)
+        .collect();
+    let (p, _) = wgcloth::cpu::skin::skin(&model, &x, embedding);
+    let want: Vec<[f64; 3]> = p.iter().map(|p| p.to_f64()).collect();
+    assert_eq!(got.len(), 4);
+    assert_same_positions(&got, &want, "render vertices");
+    // The corners moved with the cloth: the free ones fell.
+    assert!(got[2][1] < 1.0 && got[3][1] < 1.0, "{got:?}");
+}
+
+#[test]
+fn render_mesh_out_needs_a_render_mesh_and_a_render_mesh_its_cloth() {
+    let dir = TempDir::new("render_mesh_refused");
+    let scene = dir.write("small.toml", SMALL_SCENE);
+    let file = dir.join("render.txt");
+    let args = |scene: &Path| {
+        wgcloth(&[
+            OsStr::new("run"),
+            scene.as_os_str(),
+            OsStr::new("--render-mesh-out"),
+            file.as_os_str(),
+        ])
+    };
+    let out = args(&scene);
+    assert_status(&out, 2);
+    assert!(stderr(&out).contains("has none"), "{}", stderr(&out));
+    // A vertex 10 cm off the cloth, beyond the default 5 cm.
+    dir.write("far.obj", &RENDER_MESH_OBJ.replacen("1.001", "1.1", 1));
+    let far = dir.write(
+        "far.toml",
+        &SMALL_SCENE.replace("[cloth]\n", "[cloth]\nrender_mesh = \"far.obj\"\n"),
+    );
+    let out = args(&far);
+    assert_status(&out, 2);
+    let err = stderr(&out);
+    assert!(
+        err.contains("far.obj") && err.contains("vertex 0 ") && err.contains("max_distance"),
+        "{err}"
+    );
+    assert!(!file.exists(), "a refused run wrote {}", file.display());
+    // A `[[render_mesh]]` with its distance raised takes it; a bad key does not.
+    let tables = dir.write(
+        "tables.toml",
+        &format!("{SMALL_SCENE}\n[[render_mesh]]\nfile = \"far.obj\"\nmax_distance = 0.2\n"),
+    );
+    assert_status(&args(&tables), 0);
+    let bad = dir.write(
+        "bad.toml",
+        &format!("{SMALL_SCENE}\n[[render_mesh]]\nfile = \"far.obj\"\nmax_distance = -1\n"),
+    );
+    let out = args(&bad);
+    assert_status(&out, 2);
+    assert!(
+        stderr(&out).contains("render_mesh[0].max_distance"),
+        "{}",
+        stderr(&out)
+    );
+}

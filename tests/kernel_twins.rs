@@ -19,13 +19,17 @@ use gpu_common::agreement::{self, Policy};
 #[path = "gpu_common/twins.rs"]
 mod twins;
 
+use gpu_common::agreement::{check_bits, check_values, Bound};
+use gpu_common::layers::embedded;
 use gpu_common::{busy_params, corners, folded_model, folded_positions, grid, without_grid};
 use twins::{
     assert_exact, assert_same, bits, blocks, filters, kind, pack, pack_sym3s, section, sym3s,
     vectors, w, xyz, Twins,
 };
+use wgcloth::cpu::skin;
 use wgcloth::cpu::twins as cpu;
 use wgcloth::cpu::twins::Filter;
+use wgcloth::gpu::{readback, GpuRenderMesh, SkinLayout};
 use wgcloth::gpu::{DebugBuffer, Dispatch, Kernel, StepPath, Variant};
 use wgcloth::kernel_config::{partials, spring_work, status, work, CG_BLOCK};
 use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
@@ -146,9 +150,7 @@ fn coarse_grid() -> Twins {
     coarse(true)
 }
 
-/// Every kernel with its twin test. `normals` (vertex normals for
-/// rendering) has no twin: the CPU solver never renders, and stepping
-/// never reads normals.
+/// Every kernel with its twin test.
 const TWIN_TESTS: &[(Kernel, fn())] = &[
     (Kernel::SpringForces, spring_forces_matches_its_twin),
     (
@@ -158,6 +160,8 @@ const TWIN_TESTS: &[(Kernel, fn())] = &[
     (Kernel::ExplicitSeed, explicit_seed_matches_its_twin),
     (Kernel::FixupJacobi, fixup_jacobi_matches_its_twin),
     (Kernel::FinishStep, finish_step_matches_its_twin),
+    (Kernel::Normals, normals_matches_its_twin),
+    (Kernel::Skin, skin_matches_its_twin),
     (Kernel::ImplicitSprings, implicit_springs_matches_its_twin),
     (Kernel::ImplicitPrepare, implicit_prepare_matches_its_twin),
     (Kernel::CoarseSetup, coarse_setup_matches_its_twin),
@@ -201,7 +205,7 @@ const TWIN_TESTS: &[(Kernel, fn())] = &[
 ];
 
 /// Kernels without a twin, and why (see [`TWIN_TESTS`]).
-const EXEMPT: &[(Kernel, &str)] = &[(Kernel::Normals, "render only")];
+const EXEMPT: &[(Kernel, &str)] = &[];
 
 /// The share of kernel files that must have a twin test (issue #16).
 const MIN_COVERAGE: f64 = 0.85;
@@ -1462,4 +1466,123 @@ fn self_collision_respond_matches_its_twin() {
             "{integrator}: the passes found no contact to test"
         );
     }
+}
+
+// Render meshes: the vertex normals and the `skin` pass.
+
+/// The `skin` pass's words against its twin's from the same cloth, under
+/// the bounded policy: a normal's path holds four normalisations (the
+/// cloth's vertex normal, the interpolated `n̂`, `t̂`, the result), each a
+/// square root and a division within 2.5 ulp: 20 units, plus the final
+/// rounding, under 32; the fused products as in [`agreement::KERNEL`]
+/// (fewer than 64 on any word's path). Errors spread evenly up to the
+/// worst case have a root mean square of 20/√3 ≈ 11.5 units: 12.
+const SKIN: Bound = Bound {
+    ulps: 32.0,
+    rel: 64.0,
+    rms_ulps: 12.0,
+    drift: None,
+};
+
+/// The `normals` kernel against its twin, under both policies: a sum of
+/// six cross products, a square root and a division, one kernel's
+/// ([`agreement::KERNEL`]), each component measured in ulps of the unit
+/// vector's length. On lavapipe a tenth of the words differ from the twin
+/// by an ulp or so of that length (neither the twin's order, nor its
+/// fused variants, nor the other triangle and corner orders give the
+/// device's bits), so the bits policy cannot hold here.
+const NORMALS: Bound = agreement::KERNEL;
+
+/// The cloth's positions and the vertex normals its last normals pass
+/// wrote, read back.
+fn positions_and_normals(solver: &wgcloth::GpuSolver) -> (Vec<Vec3<f32>>, Vec<Vec3<f32>>) {
+    let ctx = gpu_common::gpu();
+    let state = solver.read_state().expect("state");
+    let x: Vec<Vec3<f32>> = state.x.iter().map(|p| Vec3::new(p.x, p.y, p.z)).collect();
+    let bytes = (x.len() * 16) as u64;
+    let read = readback::read_buffers(
+        &ctx.device,
+        &ctx.queue,
+        &[(solver.normals_buffer(), 0, bytes)],
+    )
+    .expect("normals read-back");
+    let words: Vec<f32> = bytemuck::pod_collect_to_vec(&read[0]);
+    let normals = words
+        .chunks(4)
+        .map(|n| Vec3::new(n[0], n[1], n[2]))
+        .collect();
+    (x, normals)
+}
+
+#[test]
+fn normals_matches_its_twin() {
+    let params = params(Explicit);
+    let model = grid(NX, NY, corners(), &params);
+    let ctx = gpu_common::gpu();
+    let mut solver = wgcloth::GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &model, &params)
+        .expect("GPU solver");
+    solver.step(WARM_STEPS * 10).expect("steps");
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    solver.encode_normals(&mut encoder);
+    ctx.queue.submit([encoder.finish()]);
+    let (x, normals) = positions_and_normals(&solver);
+    let gpu: Vec<f32> = normals.iter().flat_map(|n| [n.x, n.y, n.z]).collect();
+    let twin: Vec<f32> = skin::normals(&model, &x)
+        .iter()
+        .flat_map(|n| [n.x, n.y, n.z])
+        .collect();
+    // Each component of a unit vector is as exact as the vector: measured
+    // in ulps of 1, its length.
+    let unit = agreement::ulp_of(1.0);
+    agreement::check_values_with("vertex normals", &gpu, &twin, 1.0, &NORMALS, |_| unit)
+        .unwrap_or_else(|e| panic!("{e}"));
+}
+
+#[test]
+fn skin_matches_its_twin() {
+    let params = params(Explicit);
+    let model = grid(13, 9, corners(), &params);
+    let (_, embedding) = embedded(&model);
+    let ctx = gpu_common::gpu();
+    let mut solver = wgcloth::GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &model, &params)
+        .expect("GPU solver");
+    solver.step(300).expect("steps");
+    let layout = SkinLayout {
+        stride: 8,
+        position: 1,
+        normal: Some(5),
+        uv: None,
+    };
+    let mesh = GpuRenderMesh::new(&solver, &embedding, layout).expect("render mesh");
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    solver.encode_normals(&mut encoder);
+    mesh.encode(&solver, &mut encoder).expect("skin pass");
+    ctx.queue.submit([encoder.finish()]);
+    let words = mesh.read_vertices(&solver).expect("read-back");
+    let (x, normals) = positions_and_normals(&solver);
+    // Against the twin from the same words (the normals the device wrote).
+    let (p, n): (Vec<_>, Vec<_>) = embedding
+        .vertices
+        .iter()
+        .map(|e| skin::skin_vertex(&model, &x, &normals, e))
+        .unzip();
+    let mut gpu_words = Vec::new();
+    let mut cpu_words = Vec::new();
+    for (k, (p, n)) in p.iter().zip(&n).enumerate() {
+        let at = k * 8;
+        gpu_words.extend_from_slice(&words[at + 1..at + 4]);
+        gpu_words.extend_from_slice(&words[at + 5..at + 8]);
+        cpu_words.extend([p.x, p.y, p.z, n.x, n.y, n.z]);
+    }
+    // The words outside the layout are left as the buffer was made.
+    assert!(words.chunks(8).all(|v| v[0] == 0.0 && v[4] == 0.0));
+    let result = match agreement::policy() {
+        Policy::Bits => check_bits(
+            "skinned vertices",
+            bytemuck::cast_slice(&gpu_words),
+            bytemuck::cast_slice(&cpu_words),
+        ),
+        Policy::Bounded => check_values("skinned vertices", &gpu_words, &cpu_words, &SKIN),
+    };
+    result.unwrap_or_else(|e| panic!("{e}"));
 }

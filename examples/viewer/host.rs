@@ -32,6 +32,9 @@ pub struct Host {
     fault: Arc<Mutex<Option<String>>>,
     /// A one-line description of the adapter.
     pub adapter: String,
+    /// The [`Sim::generation`] whose solver the renderer's render meshes
+    /// follow.
+    generation: u64,
 }
 
 impl Host {
@@ -106,7 +109,9 @@ impl Host {
             depth: render::DEPTH_FORMAT,
         };
         let camera = Camera::for_scene(scene, sim.model(), aspect(&config));
-        let renderer = Renderer::with_formats(&device, &queue, &scene.params, &camera, formats)?;
+        let mut renderer =
+            Renderer::with_formats(&device, &queue, &scene.params, &camera, formats)?;
+        renderer.set_render_meshes(sim.render_meshes()?)?;
         let target = FrameTarget::with_formats(&device, config.width, config.height, formats);
         let info = adapter.get_info();
         let host = Host {
@@ -116,6 +121,7 @@ impl Host {
             copyable,
             fault,
             adapter: format!("{} ({:?}), {format:?}", info.name, info.backend),
+            generation: sim.generation,
             device,
             queue,
             config,
@@ -183,6 +189,14 @@ impl Host {
             let (spheres, capsules) = sim.solver.colliders();
             self.renderer.set_colliders(&spheres, &capsules);
         }
+        // A reset or an integrator switch built a new solver: its own
+        // render meshes.
+        if sim.generation != self.generation {
+            self.renderer.set_render_meshes(sim.render_meshes()?)?;
+            self.generation = sim.generation;
+        }
+        self.renderer
+            .encode_render_meshes(&mut encoder, &sim.solver)?;
         {
             let mut pass = self
                 .renderer
@@ -193,7 +207,7 @@ impl Host {
         if offscreen {
             // The same frame once more, into a target that can be copied.
             self.renderer
-                .encode_frame(&mut encoder, &sim.solver, &self.target);
+                .encode_frame(&mut encoder, &sim.solver, &self.target)?;
         }
         self.queue.submit([encoder.finish()]);
         if let Some(path) = screenshot {

@@ -4,8 +4,9 @@
 
 use anyhow::Context as _;
 use wgcloth::glam::Vec3;
-use wgcloth::gpu::GpuKernels;
+use wgcloth::gpu::{GpuKernels, GpuRenderMesh, SkinLayout};
 use wgcloth::params::Integrator;
+use wgcloth::render_mesh::Embedding;
 use wgcloth::scene::animation::Animation;
 use wgcloth::{GpuSolver, Model, PinTarget, Scene};
 
@@ -43,6 +44,11 @@ pub struct Sim {
     time: f64,
     /// Frames advanced since the last status check.
     frames_since_check: u64,
+    /// The scene's render meshes, embedded in the cloth.
+    embeddings: Vec<Embedding>,
+    /// Solvers built so far: a host's render meshes follow the solver of
+    /// the generation they were made for.
+    pub generation: u64,
 }
 
 impl Sim {
@@ -50,6 +56,7 @@ impl Sim {
     /// and queue.
     pub fn new(scene: Scene, kernels: &GpuKernels, queue: &wgpu::Queue) -> anyhow::Result<Sim> {
         let model = scene.model()?;
+        let embeddings = scene.embeddings(&model)?;
         let solver = GpuSolver::with_kernels(kernels, queue, &model, &scene.params)
             .with_context(|| format!("building the solver of `{}`", scene.name))?;
         let animation = scene.animation(&model);
@@ -63,7 +70,18 @@ impl Sim {
             animation,
             time: 0.0,
             frames_since_check: 0,
+            embeddings,
+            generation: 0,
         })
+    }
+
+    /// The scene's render meshes on the running solver (none: the cloth is
+    /// drawn itself).
+    pub fn render_meshes(&self) -> wgcloth::Result<Vec<GpuRenderMesh>> {
+        self.embeddings
+            .iter()
+            .map(|e| GpuRenderMesh::new(&self.solver, e, SkinLayout::POSITION_NORMAL))
+            .collect()
     }
 
     /// The model the solver was built from.
@@ -147,6 +165,7 @@ impl Sim {
     pub fn reset(&mut self) -> anyhow::Result<()> {
         self.grab = None;
         self.solver = self.build(self.scene.params.integrator)?;
+        self.generation += 1;
         self.time = 0.0;
         Ok(())
     }
@@ -163,6 +182,7 @@ impl Sim {
             hand_over(&mut solver, state, &self.model.pinned)?;
         }
         self.solver = solver;
+        self.generation += 1;
         self.scene.params.integrator = integrator;
         Ok(())
     }

@@ -440,6 +440,13 @@ struct RunArgs {
     #[arg(long, value_name = "FILE")]
     positions_out: Option<PathBuf>,
 
+    /// Write the final positions (metres) of the scene's render meshes'
+    /// vertices to FILE: one line `x y z` per vertex, each mesh in the
+    /// order of its file, the meshes in the scene's order (`[cloth]
+    /// render_mesh` first). Refused for a scene without one.
+    #[arg(long, value_name = "FILE")]
+    render_mesh_out: Option<PathBuf>,
+
     /// Write a CSV trace to FILE: header `step,time,particle,x,y,z,vx,vy,vz`,
     /// one row per particle at step 0, every K-th step and the last step.
     #[arg(long, value_name = "FILE.csv")]

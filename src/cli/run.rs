@@ -12,6 +12,9 @@ use wgcloth::{Model, Params, Real, Scene};
 use super::backend::{Cpu, Gpu, Solver};
 use super::batch::GpuCopies;
 use super::interrupt;
+use wgcloth::cpu::skin;
+use wgcloth::render_mesh::Embedding;
+
 use super::output::{commit_all, distinct_outputs, write_positions, AtomicFile, Trace};
 use super::profile;
 use super::summary::{Outcome, Summary};
@@ -52,9 +55,23 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     };
     distinct_outputs(&[
         ("--positions-out", args.positions_out.as_deref()),
+        ("--render-mesh-out", args.render_mesh_out.as_deref()),
         ("--trace-out", args.trace_out.as_deref()),
     ])?;
+    if args.render_mesh_out.is_some() && scene.render_meshes.is_empty() {
+        return Err(UsageError(format!(
+            "--render-mesh-out writes a scene's render meshes; `{}` has none (`[cloth] \
+             render_mesh` or `[[render_mesh]]` in the scene file)",
+            scene.name
+        ))
+        .into());
+    }
     let model = scene.model()?;
+    // Embedded before any step: a vertex far from the cloth is refused now.
+    let embeddings = match &args.render_mesh_out {
+        Some(_) => scene.embeddings(&model)?,
+        None => Vec::new(),
+    };
     let animation = scene.animation(&model);
     let character = match (&animation, args.fps) {
         (None, None) => None,
@@ -75,6 +92,8 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         params,
         steps,
         positions: args.positions_out.as_deref(),
+        render_meshes: args.render_mesh_out.as_deref(),
+        embeddings: &embeddings,
         trace: args.trace_out.as_deref(),
         trace_every: args.trace_every,
     };
@@ -252,6 +271,9 @@ struct Run<'a> {
     params: &'a Params,
     steps: u64,
     positions: Option<&'a Path>,
+    /// `--render-mesh-out`, and the scene's render meshes embedded.
+    render_meshes: Option<&'a Path>,
+    embeddings: &'a [Embedding],
     trace: Option<&'a Path>,
     trace_every: u64,
 }
@@ -264,6 +286,7 @@ impl Run<'_> {
         // after it; dropped uncommitted on any error or interruption below,
         // which removes them.
         let positions = self.positions.map(AtomicFile::create).transpose()?;
+        let render_meshes = self.render_meshes.map(AtomicFile::create).transpose()?;
         let mut trace = self
             .trace
             .map(|path| Trace::create(path, self.trace_every))
@@ -324,6 +347,16 @@ impl Run<'_> {
         let mut outputs = Vec::new();
         if let Some(mut file) = positions {
             file.write_with(|out| write_positions(out, &s.x))?;
+            outputs.push(file);
+        }
+        if let Some(mut file) = render_meshes {
+            // The skinning's CPU twin on the final positions: on a GPU
+            // that rounds like it, the bits its `skin` pass writes.
+            file.write_with(|out| {
+                self.embeddings
+                    .iter()
+                    .try_for_each(|e| write_positions(out, &skin::skin(self.model, &s.x, e).0))
+            })?;
             outputs.push(file);
         }
         if let Some(trace) = trace {

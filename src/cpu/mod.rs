@@ -35,6 +35,7 @@ pub mod motion;
 #[doc(hidden)]
 pub mod self_collision;
 pub(crate) mod semi_implicit;
+pub mod skin;
 pub(crate) mod torque;
 #[doc(hidden)]
 pub mod twins;

@@ -23,6 +23,9 @@ pub enum Kernel {
     FinishStep,
     /// Per particle: vertex normals (rendering only).
     Normals,
+    /// Per render vertex: its position and normal on the cloth (rendering
+    /// only; see [`crate::render_mesh`]).
+    Skin,
     /// Per spring: the implicit linearisation (spring blocks).
     ImplicitSprings,
     /// Per particle: the implicit system, its right-hand side and filter.
@@ -111,6 +114,7 @@ kernels! {
     FixupJacobi = "fixup_jacobi",
     FinishStep = "finish_step",
     Normals = "normals",
+    Skin = "skin",
     ImplicitSprings = "implicit_springs",
     ImplicitPrepare = "implicit_prepare",
     CoarseSetup = "coarse_setup",

@@ -141,6 +141,10 @@ struct Inner {
     args: [wgpu::BindGroupLayout; 3],
     layout: wgpu::PipelineLayout,
     args_layouts: [wgpu::PipelineLayout; 3],
+    /// Group 1 of the `skin` kernel: a render mesh's embedding, its
+    /// vertex buffer and its layout (see `shaders/skin.wgsl`).
+    skin: wgpu::BindGroupLayout,
+    skin_layout: wgpu::PipelineLayout,
     /// wgpu's pipeline cache, on devices with the feature.
     cache: Option<wgpu::PipelineCache>,
     /// A change to one kernel's source (see [`SourcePatch`]).
@@ -176,6 +180,20 @@ fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Buffer {
             ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A uniform-buffer entry of a bind-group layout.
+fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
             has_dynamic_offset: false,
             min_binding_size: None,
         },
@@ -229,16 +247,7 @@ impl GpuKernels {
     /// earlier run; see `src/gpu/pipeline_cache.rs` for how the CLI keeps
     /// it).
     pub(crate) fn with_cache(device: &wgpu::Device, cache_data: Option<&[u8]>) -> GpuKernels {
-        let mut entries = vec![wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }];
+        let mut entries = vec![uniform_entry(0)];
         entries.extend(GROUP0_STORAGE.iter().map(|&(b, ro)| storage_entry(b, ro)));
         let group0 = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("wgcloth.bindings"),
@@ -278,6 +287,19 @@ impl GpuKernels {
                 immediate_size: 0,
             })
         });
+        let skin = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("wgcloth.skin"),
+            entries: &[
+                storage_entry(0, true),
+                storage_entry(1, false),
+                uniform_entry(2),
+            ],
+        });
+        let skin_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("wgcloth.skin"),
+            bind_group_layouts: &[Some(&group0), Some(&skin)],
+            immediate_size: 0,
+        });
         GpuKernels {
             inner: Arc::new(Inner {
                 device: device.clone(),
@@ -287,6 +309,8 @@ impl GpuKernels {
                 args,
                 layout,
                 args_layouts,
+                skin,
+                skin_layout,
                 cache: super::pipeline_cache::create(device, cache_data),
                 patch: None,
                 built: Mutex::new(Built::default()),
@@ -316,6 +340,11 @@ impl GpuKernels {
     /// [`GpuKernels::group0`].
     pub(crate) fn cloth_group0(&self) -> &wgpu::BindGroupLayout {
         &self.inner.cloth_group0
+    }
+
+    /// Group 1's layout of the `skin` kernel.
+    pub(super) fn skin_group1(&self) -> &wgpu::BindGroupLayout {
+        &self.inner.skin
     }
 
     /// Group 1's layout of a kernel that writes dispatch arguments.
@@ -485,6 +514,7 @@ impl GpuKernels {
         let layout = match kernel.args_group() {
             Some(g) => &self.inner.args_layouts[g.index()],
             None if kernel.steps_cloths() => &self.inner.cloth_layout,
+            None if kernel == Kernel::Skin => &self.inner.skin_layout,
             None => &self.inner.layout,
         };
         let what = format!("compiling the kernel {kernel} ({variant:?})");

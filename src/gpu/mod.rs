@@ -37,6 +37,7 @@ mod plan;
 mod profile;
 #[doc(hidden)]
 pub mod readback;
+mod render_mesh;
 mod semi_filter;
 #[doc(hidden)]
 pub mod shaders;
@@ -51,6 +52,7 @@ pub(crate) use errors::guarded;
 pub use grid::GridBlock;
 pub use host_env::quiet_mesa;
 pub use path::StepPath;
+pub use render_mesh::{GpuRenderMesh, SkinLayout};
 pub use semi_filter::{FILTER_CG_MAX_ITERATIONS, FILTER_CG_TOLERANCE};
 pub use solver::{GpuSolver, GpuState};
 // The kernels' typed identity and the debug API that runs them one by one:

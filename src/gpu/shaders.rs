@@ -61,6 +61,7 @@ pub const COMMON: &[(&str, &str)] = &[
     wgsl!("common/torque"),
     wgsl!("common/self_collision"),
     wgsl!("common/cloth_self_collision"),
+    wgsl!("common/skin"),
 ];
 
 /// A composed source (its grid gather generated for `block`), or what is

@@ -37,6 +37,9 @@ pub enum Unit {
     FilterEntry,
     /// A triangle.
     Triangle,
+    /// A vertex of a render mesh (`skin`; never in a step plan, so no
+    /// solver counts any: see [`UnitCounts::of`]).
+    RenderVertex,
 }
 
 /// Bytes a kernel reads and writes per item of one [`Unit`].
@@ -75,7 +78,10 @@ impl Kernel {
     /// the match is exhaustive, and `tests/profile.rs` checks that every
     /// kernel of [`Kernel::ALL`] writes something.
     pub const fn traffic(self) -> &'static [Term] {
-        use Unit::{AdjacencyRow, Aggregate, FilterEntry, FilterRow, Particle, Spring, Triangle};
+        use Unit::{
+            AdjacencyRow, Aggregate, FilterEntry, FilterRow, Particle, RenderVertex, Spring,
+            Triangle,
+        };
         match self {
             // x, v of both ends; the force.
             Kernel::SpringForces => {
@@ -119,6 +125,9 @@ impl Kernel {
                     ]
                 }
             }
+            // Its place, the triangle's three indices, positions and
+            // normals; the position and normal written.
+            Kernel::Skin => const { &[term(RenderVertex, 32 + 12 + 6 * VEC4, 6 * 4)] },
             // x, v of both ends; the block, K·v and the force.
             Kernel::ImplicitSprings => {
                 const { &[term(Particle, 2 * VEC4, 0), term(Spring, SPRING, 3 * VEC4)] }
@@ -317,6 +326,7 @@ impl UnitCounts {
             Unit::FilterRow => self.filter_rows,
             Unit::FilterEntry => self.filter_rows * self.filter_rows,
             Unit::Triangle => self.triangles,
+            Unit::RenderVertex => 0,
         }
     }
 

@@ -16,6 +16,7 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::buffer::Source;
 use gltf::mesh::{Mode, Semantic};
 
+use super::Attributes;
 use super::{too_many_vertices, Face, FacePlace, Mesh};
 use crate::model::MAX_PARTICLES;
 
@@ -133,11 +134,77 @@ pub(super) fn parse(
             at: t,
         });
     }
+    let attributes = attributes(&primitive, &buffers, count, &faces)?;
     Ok(Mesh {
         positions: xyz,
         faces,
+        attributes,
         place: FacePlace::Gltf(place),
     })
+}
+
+/// The primitive's `NORMAL` and `TEXCOORD_0` (float), one per vertex, if
+/// it has them: each corner takes its vertex's.
+fn attributes(
+    primitive: &gltf::Primitive,
+    buffers: &[Vec<u8>],
+    count: usize,
+    faces: &[Face],
+) -> Result<Attributes, String> {
+    let mut out = Attributes::default();
+    let floats = |semantic: Semantic, dimensions: Dimensions| -> Result<Option<Vec<f64>>, String> {
+        // Only floats are read: normalised integer coordinates (which glTF
+        // allows for TEXCOORD_0) are left out, so a cloth's file that has
+        // them still loads.
+        let Some(accessor) = primitive
+            .get(&semantic)
+            .filter(|a| a.data_type() == DataType::F32 && a.dimensions() == dimensions)
+        else {
+            return Ok(None);
+        };
+        if accessor.count() != count {
+            return Err(format!(
+                "`accessors[{}]` ({semantic:?}): {} elements for {count} vertices",
+                accessor.index(),
+                accessor.count()
+            ));
+        }
+        let words = read(&accessor, buffers, DataType::F32, dimensions)?;
+        let values: Vec<f64> = words
+            .iter()
+            .map(|&w| f64::from(f32::from_bits(w)))
+            .collect();
+        if let Some(k) = values.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "`accessors[{}]` ({semantic:?}): element {} is not finite",
+                accessor.index(),
+                k / dimensions.multiplicity()
+            ));
+        }
+        Ok(Some(values))
+    };
+    let normals = floats(Semantic::Normals, Dimensions::Vec3)?;
+    let uvs = floats(Semantic::TexCoords(0), Dimensions::Vec2)?;
+    let has = [uvs.is_some(), normals.is_some()];
+    if let Some(n) = normals {
+        out.normals = n
+            .chunks_exact(3)
+            .map(|n| DVec3::new(n[0], n[1], n[2]))
+            .collect();
+    }
+    if let Some(t) = uvs {
+        out.uvs = t.chunks_exact(2).map(|t| [t[0], t[1]]).collect();
+    }
+    if has.iter().any(|&h| h) {
+        out.corners = faces
+            .iter()
+            .map(|f| {
+                f.corners
+                    .map(|v| has.map(|h| if h { v } else { Attributes::NONE }))
+            })
+            .collect();
+    }
+    Ok(out)
 }
 
 /// Where a walk over a GLB file's chunks ran past the end.

@@ -96,7 +96,30 @@ pub struct Mesh {
     pub positions: Vec<DVec3>,
     /// Faces, file order.
     pub faces: Vec<Face>,
+    /// The normals and texture coordinates the file gives, if any: a cloth
+    /// ignores them, a [render mesh](crate::render_mesh) draws with them.
+    pub attributes: Attributes,
     place: FacePlace,
+}
+
+/// Normals and texture coordinates as a file gives them: two pools and,
+/// for each corner of each face, an index into each (or [`Attributes::NONE`]).
+/// An OBJ's `vn` and `vt` lines and its corners' `v/vt/vn`; a glTF
+/// primitive's `NORMAL` and `TEXCOORD_0`, one per vertex.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Attributes {
+    /// Normals, as the file gives them (not normalised).
+    pub normals: Vec<DVec3>,
+    /// Texture coordinates `(u, v)`.
+    pub uvs: Vec<[f64; 2]>,
+    /// For each face, each corner's `[uv, normal]` indices into the pools
+    /// (empty when the file gives neither).
+    pub corners: Vec<[[u32; 2]; 4]>,
+}
+
+impl Attributes {
+    /// A corner without this attribute.
+    pub const NONE: u32 = u32::MAX;
 }
 
 impl Mesh {
@@ -196,6 +219,7 @@ impl Mesh {
         let mesh = Mesh {
             positions,
             faces,
+            attributes: Attributes::default(),
             place: FacePlace::Triangles,
         };
         mesh.check().map_err(fail)?;

@@ -9,7 +9,7 @@ use super::png_writer::{self, frame_name, Frame, PngWriter};
 use super::{Camera, FrameTarget, Renderer, COLOR_FORMAT, DEPTH_FORMAT};
 use crate::budget;
 use crate::error::{Error, Result};
-use crate::gpu::{guarded, readback, GpuKernels, GpuSolver, StepPath};
+use crate::gpu::{guarded, readback, GpuKernels, GpuRenderMesh, GpuSolver, SkinLayout, StepPath};
 use crate::scene::animation::Animation;
 use crate::scene::Scene;
 
@@ -171,7 +171,7 @@ fn render_filmed_frames(
                 renderer.set_camera(&camera);
             }
             solver.encode_normals(&mut encoder);
-            renderer.encode_frame(&mut encoder, solver, &target);
+            renderer.encode_frame(&mut encoder, solver, &target)?;
             copy_to_staging(&mut encoder, &target.color, &staging[slot], row);
             renderer.queue.submit([encoder.finish()]);
             let (tx, rx) = flume::bounded(1);
@@ -302,6 +302,9 @@ pub fn render_scene_on_path(
     let device = kernels.device();
     check_image(device, options.width, options.height)?;
     let model = scene.model()?;
+    // Before the solver: a render mesh's vertex far from the cloth is
+    // refused before anything is allocated on the device.
+    let embeddings = scene.embeddings(&model)?;
     let mut solver = match path {
         Some(path) => GpuSolver::with_step_path(kernels, queue, &model, &scene.params, path)?,
         None => GpuSolver::with_kernels(kernels, queue, &model, &scene.params)?,
@@ -318,6 +321,11 @@ pub fn render_scene_on_path(
         if options.strain {
             renderer.show_strain(device, &model, &solver);
         }
+        let meshes = embeddings
+            .iter()
+            .map(|e| GpuRenderMesh::new(&solver, e, SkinLayout::POSITION_NORMAL))
+            .collect::<Result<Vec<_>>>()?;
+        renderer.set_render_meshes(meshes)?;
         Ok(renderer)
     })?;
     let animation = scene.animation(&model);

@@ -30,7 +30,7 @@ pub use frames::{
 pub use png_writer::{existing_frames, frame_name, is_frame_name, remove_frames, write_png, Frame};
 
 use crate::error::{Error, Result};
-use crate::gpu::{guarded, DrawRange, GpuSolver};
+use crate::gpu::{guarded, DrawRange, GpuRenderMesh, GpuSolver, SkinLayout};
 use crate::kernel_config::{MAX_CAPSULES, MAX_SPHERES};
 use crate::model::Model;
 use crate::params::{Capsule, Params, Sphere};
@@ -189,6 +189,10 @@ pub struct Renderer {
     /// `Some`: the cloth is drawn coloured by strain.
     strain: Option<strain::StrainView>,
     cloth: wgpu::RenderPipeline,
+    /// A render mesh's vertex buffer ([`SkinLayout::POSITION_NORMAL`]).
+    render_mesh: wgpu::RenderPipeline,
+    /// Drawn in place of the cloth when there are any.
+    render_meshes: Vec<GpuRenderMesh>,
     collider: wgpu::RenderPipeline,
     ground: Option<Collider>,
     /// Spheres and capsules, all drawn with the capsule mesh (a sphere is
@@ -397,6 +401,19 @@ impl Renderer {
         };
         // The cloth is seen from both sides: no culling.
         let cloth = pipeline("wgcloth.render.cloth", "vs_cloth", &cloth_buffers, None);
+        // A render mesh's vertices: position and normal interleaved, as a
+        // collider mesh's; seen from both sides too.
+        let render_mesh_buffers = [Some(vertex_layout(
+            24,
+            wgpu::VertexStepMode::Vertex,
+            &mesh_attributes,
+        ))];
+        let render_mesh = pipeline(
+            "wgcloth.render.render_mesh",
+            "vs_cloth",
+            &render_mesh_buffers,
+            None,
+        );
         let collider = pipeline(
             "wgcloth.render.collider",
             "vs_collider",
@@ -445,6 +462,8 @@ impl Renderer {
             strain: None,
             bind_group,
             cloth,
+            render_mesh,
+            render_meshes: Vec::new(),
             collider,
             ground,
             round,
@@ -502,7 +521,43 @@ impl Renderer {
         self.round.instance_count.store(count, Ordering::Relaxed);
     }
 
-    /// Records the cloth, the ground, the spheres and the capsules into `pass`, a pass
+    /// Draws `meshes` in place of the cloth from now on (none: the cloth
+    /// itself), each written by its `skin` pass
+    /// ([`Renderer::encode_render_meshes`]). Refused: a mesh whose vertex
+    /// buffer is not [`SkinLayout::POSITION_NORMAL`].
+    pub fn set_render_meshes(&mut self, meshes: Vec<GpuRenderMesh>) -> Result<()> {
+        if let Some(m) = meshes
+            .iter()
+            .find(|m| m.layout() != SkinLayout::POSITION_NORMAL)
+        {
+            return Err(Error::InvalidParameter {
+                key: "Renderer::set_render_meshes".into(),
+                allowed: "render meshes of SkinLayout::POSITION_NORMAL".into(),
+                got: format!("{:?}", m.layout()),
+            });
+        }
+        self.render_meshes = meshes;
+        Ok(())
+    }
+
+    /// Records the `skin` pass of each render mesh
+    /// ([`Renderer::set_render_meshes`]) into `encoder`, from `solver`'s
+    /// cloth, whose normals must have been recorded since its last step;
+    /// before the render pass that draws them. Refused: meshes of another
+    /// solver.
+    pub fn encode_render_meshes(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        solver: &GpuSolver,
+    ) -> Result<()> {
+        self.render_meshes
+            .iter()
+            .try_for_each(|m| m.encode(solver, encoder))
+    }
+
+    /// Records the cloth (or its render meshes, whose `skin` passes
+    /// [`Renderer::encode_render_meshes`] recorded), the ground, the
+    /// spheres and the capsules into `pass`, a pass
     /// whose colour and depth targets have this renderer's
     /// [`formats`](Renderer::formats). The cloth's normals must have been recorded
     /// (`GpuSolver::encode_normals`) since its last step.
@@ -510,6 +565,13 @@ impl Renderer {
         pass.set_bind_group(0, &self.bind_group, &[]);
         if let Some(strain) = &self.strain {
             strain.draw(pass);
+        } else if !self.render_meshes.is_empty() {
+            pass.set_pipeline(&self.render_mesh);
+            for m in &self.render_meshes {
+                pass.set_vertex_buffer(0, m.vertex_buffer().slice(..));
+                pass.set_index_buffer(m.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
+                pass.draw_indexed(0..m.index_count(), 0, 0..1);
+            }
         } else {
             self.draw_mesh(
                 pass,
@@ -574,16 +636,20 @@ impl Renderer {
         pass.draw_indexed(indices, base_vertex, 0..1);
     }
 
-    /// Records a render pass that clears `target` to [`BACKGROUND`] and
-    /// draws the scene (see [`Renderer::draw`]).
+    /// Records the render meshes' `skin` passes
+    /// ([`Renderer::encode_render_meshes`]), then a render pass that clears
+    /// `target` to [`BACKGROUND`] and draws the scene (see
+    /// [`Renderer::draw`]).
     pub fn encode_frame(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         solver: &GpuSolver,
         target: &FrameTarget,
-    ) {
+    ) -> Result<()> {
+        self.encode_render_meshes(encoder, solver)?;
         let mut pass = self.begin_pass(encoder, &target.color_view, &target.depth_view);
         self.draw(&mut pass, solver);
+        Ok(())
     }
 
     /// Begins a render pass on `color` and `depth`, views of this

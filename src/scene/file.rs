@@ -65,6 +65,8 @@ pub(super) struct SceneFile {
     capsule: List<Table<CapsuleTable>>,
     #[serde(default)]
     collider: List<Table<ColliderTable>>,
+    #[serde(default)]
+    render_mesh: List<Table<RenderMeshTable>>,
     character: Option<Table<CharacterTable>>,
     wind: Option<Table<WindTable>>,
     self_collision: Option<Table<SelfCollisionTable>>,
@@ -106,6 +108,7 @@ struct ClothTable {
     mesh: Option<String>,
     mesh_name: Option<String>,
     scale: Option<Number>,
+    render_mesh: Option<String>,
 }
 
 /// The `[cloth]` keys of a mesh cloth, not yet read or checked.
@@ -255,6 +258,43 @@ struct CapsuleTable {
     radius: Number,
     friction: Option<Number>,
     velocity: Option<Vec3>,
+}
+
+/// `[[render_mesh]] max_distance` when absent \[m\]: a lining or a hem
+/// lies millimetres from the cloth; a vertex 5 cm away is almost surely
+/// in the wrong place or the wrong units.
+pub(super) const DEFAULT_RENDER_MESH_DISTANCE: f64 = 0.05;
+
+/// A `[[render_mesh]]`: a detailed mesh drawn in place of the cloth (see
+/// `crate::render_mesh`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderMeshTable {
+    /// Required: the mesh file.
+    file: String,
+    mesh_name: Option<String>,
+    max_distance: Option<Number>,
+}
+
+impl Form for RenderMeshTable {
+    const ONE: &'static str = "a table: a `[[render_mesh]]` line with its keys on the lines below";
+    const MANY: &'static str =
+        "tables, each a `[[render_mesh]]` line (double brackets) with its keys on the lines below";
+}
+
+/// A render mesh as the file gives it (`[cloth] render_mesh` or a
+/// `[[render_mesh]]`), defaults filled in, not yet read or checked.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct RenderMeshKeys {
+    /// The key that gave it, for messages: `cloth.render_mesh` or
+    /// `render_mesh[N]`.
+    pub key: String,
+    /// The file, as written (relative to the scene file's folder).
+    pub file: String,
+    /// `mesh_name`.
+    pub name: Option<String>,
+    /// `max_distance` \[m\].
+    pub max_distance: f64,
 }
 
 /// A `[[collider]]`: a closed mesh (see `crate::sdf`).
@@ -640,6 +680,29 @@ fn capsule(a: Vec3, b: Vec3, radius: Number, friction: Option<Number>) -> Capsul
 }
 
 impl SceneFile {
+    /// The file's render meshes, taken out: `[cloth] render_mesh` first,
+    /// then each `[[render_mesh]]`.
+    pub(super) fn take_render_meshes(&mut self) -> Vec<RenderMeshKeys> {
+        let cloth = self.cloth.0.render_mesh.take().map(|file| RenderMeshKeys {
+            key: "cloth.render_mesh".into(),
+            file,
+            name: None,
+            max_distance: DEFAULT_RENDER_MESH_DISTANCE,
+        });
+        let tables = std::mem::take(&mut self.render_mesh.0)
+            .into_iter()
+            .enumerate()
+            .map(|(n, Table(t))| RenderMeshKeys {
+                key: format!("render_mesh[{n}]"),
+                file: t.file,
+                name: t.mesh_name,
+                max_distance: t
+                    .max_distance
+                    .map_or(DEFAULT_RENDER_MESH_DISTANCE, f64::from),
+            });
+        cloth.into_iter().chain(tables).collect()
+    }
+
     /// The file's `[[collider]]` tables, taken out.
     pub(super) fn take_colliders(&mut self) -> Vec<ColliderKeys> {
         std::mem::take(&mut self.collider.0)

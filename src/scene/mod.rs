@@ -27,6 +27,7 @@ use crate::material::Material;
 use crate::mesh::{Mesh, MeshCloth};
 use crate::model::{ClothSpec, Model};
 use crate::params::{check, check_finite, format_number, format_short, Params};
+use crate::render_mesh::{Embedding, RenderMesh};
 
 /// A complete, validated scene.
 #[derive(Clone, Debug, PartialEq)]
@@ -55,6 +56,21 @@ pub struct Scene {
     /// of `params.capsules` (posed at its first key) and which carries the
     /// cloth's pins; see [`Scene::animation`].
     pub character: Option<animation::Character>,
+    /// The meshes drawn in place of the cloth (`[cloth] render_mesh`, then
+    /// each `[[render_mesh]]`), placed as the cloth is: a mesh cloth's
+    /// `scale` and `origin` apply to them too; a grid's are in the scene's
+    /// frame.
+    pub render_meshes: Vec<SceneRenderMesh>,
+}
+
+/// A render mesh of a scene: the mesh, placed, and how far from the cloth
+/// its vertices may lie.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneRenderMesh {
+    /// The mesh, its vertices in the scene's frame \[m\].
+    pub mesh: RenderMesh,
+    /// `max_distance` \[m\]: a vertex farther from the cloth is refused.
+    pub max_distance: f64,
 }
 
 /// The `[camera]` table: each key overrides one choice of the automatic
@@ -142,6 +158,7 @@ impl Scene {
         let material = parsed.material().map_err(fail)?;
         let (mut character, character_colliders) = parsed.take_character();
         let colliders = parsed.take_colliders();
+        let render_mesh_keys = parsed.take_render_meshes();
         let (mut cloth, mut params, duration, camera) = parsed.into_parts();
         if let Some(m) = &material {
             m.validate().map_err(|e| fail(e.to_string()))?;
@@ -209,6 +226,27 @@ impl Scene {
                 Some(mesh)
             }
         };
+        let (scale, origin) = match &mesh {
+            Some(m) => (m.scale, cloth.origin),
+            None => (1.0, DVec3::ZERO),
+        };
+        let mut render_meshes = Vec::with_capacity(render_mesh_keys.len());
+        for keys in render_mesh_keys {
+            check(
+                &format!("{}.max_distance", keys.key),
+                keys.max_distance,
+                keys.max_distance > 0.0,
+                "> 0 [m]",
+            )
+            .map_err(|e| fail(e.to_string()))?;
+            let file = path.parent().unwrap_or(Path::new("")).join(&keys.file);
+            let read = read_mesh(&file, keys.name.as_deref())?;
+            // Named as the scene writes it (as a mesh cloth's file is).
+            render_meshes.push(SceneRenderMesh {
+                mesh: RenderMesh::from_mesh(Path::new(&keys.file), &read, scale, origin),
+                max_distance: keys.max_distance,
+            });
+        }
         let name = path
             .file_stem()
             .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
@@ -221,6 +259,7 @@ impl Scene {
             duration,
             camera,
             character,
+            render_meshes,
         };
         scene
             .check_material_geometry()
@@ -394,6 +433,16 @@ impl Scene {
         Ok(model)
     }
 
+    /// Each render mesh embedded in `model` (this scene's model), in
+    /// order; a vertex farther from the cloth than its mesh's
+    /// `max_distance` is refused, by name.
+    pub fn embeddings(&self, model: &Model) -> Result<Vec<Embedding>> {
+        self.render_meshes
+            .iter()
+            .map(|r| Embedding::new(model, &r.mesh, r.max_distance))
+            .collect()
+    }
+
     /// Number of particles of the cloth.
     pub fn particle_count(&self) -> usize {
         match &self.mesh {
@@ -543,6 +592,7 @@ fn builtin_mesh(file: &Path) -> Option<&'static [u8]> {
         "tablecloth.obj" => include_bytes!("../../scenes/tablecloth.obj"),
         "banner.gltf" => include_bytes!("../../scenes/banner.gltf"),
         "table.obj" => include_bytes!("../../scenes/table.obj"),
+        "cape_detail.obj" => include_bytes!("../../scenes/cape_detail.obj"),
         _ => return None,
     })
 }

@@ -9,10 +9,21 @@ use std::path::Path;
 use crate::cli_common::{assert_status, wgcloth, TempDir, LAVAPIPE};
 
 /// The built-in `cape` scene's keys (stands 0.6 s, then jogs along +z at
-/// 2 m/s) replaced by one key at the origin: the character stands.
+/// 2 m/s) replaced by one key at the origin: the character stands; its
+/// render mesh read from `scenes/`.
 fn standing_cape() -> String {
     let cape = fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cape.toml"))
         .expect("the cape scene");
+    // The render mesh from the scenes folder, where the scene is written
+    // elsewhere.
+    let cape = cape.replace(
+        "render_mesh = \"cape_detail.obj\"",
+        concat!(
+            "render_mesh = \"",
+            env!("CARGO_MANIFEST_DIR"),
+            "/scenes/cape_detail.obj\""
+        ),
+    );
     let keys = cape.find("[[character.key]]").expect("the cape's keys");
     let camera = cape.find("[camera]").expect("the cape's camera");
     format!(

@@ -3,6 +3,7 @@
 #![allow(dead_code, reason = "each test binary uses a different subset")]
 
 pub mod agreement;
+pub mod layers;
 
 use std::sync::OnceLock;
 

@@ -4,9 +4,10 @@
 
 use wasm_bindgen::JsValue;
 use wgcloth::glam::{Vec2, Vec3};
-use wgcloth::gpu::GpuKernels;
+use wgcloth::gpu::{GpuKernels, GpuRenderMesh, SkinLayout};
 use wgcloth::params::Integrator;
 use wgcloth::render::{Camera, Renderer, RendererFormats};
+use wgcloth::render_mesh::Embedding;
 use wgcloth::scene::animation::Animation;
 use wgcloth::{GpuSolver, Model, PinTarget, Scene};
 
@@ -53,6 +54,9 @@ pub struct Cloth {
     time: f64,
     grab: Option<Grab>,
     frames_since_check: u32,
+    /// The scene's render meshes, embedded in the cloth (each solver gets
+    /// its own [`GpuRenderMesh`]es, which the renderer draws).
+    embeddings: Vec<Embedding>,
 }
 
 /// The integrator named `name` (as scene files spell it).
@@ -99,9 +103,10 @@ impl Cloth {
         aspect: f32,
     ) -> wgcloth::Result<Cloth> {
         let model = scene.model()?;
+        let embeddings = scene.embeddings(&model)?;
         let solver = GpuSolver::with_kernels_async(kernels, queue, &model, &scene.params).await?;
         let camera = camera(&scene, &model, aspect, 0.0);
-        let renderer = Renderer::with_formats(
+        let mut renderer = Renderer::with_formats(
             device,
             queue,
             &scene.params,
@@ -111,6 +116,7 @@ impl Cloth {
                 depth: DEPTH_FORMAT,
             },
         )?;
+        renderer.set_render_meshes(render_meshes(&embeddings, &solver)?)?;
         let animation = scene.animation(&model);
         Ok(Cloth {
             scene,
@@ -123,6 +129,7 @@ impl Cloth {
             time: 0.0,
             grab: None,
             frames_since_check: 0,
+            embeddings,
         })
     }
 
@@ -167,17 +174,20 @@ impl Cloth {
         self.solver.check_async().await.map(|_| ())
     }
 
-    /// Records the normals and a pass drawing the cloth and its colliders
-    /// into `color` and `depth`.
+    /// Records the normals, the render meshes' skin passes and a pass
+    /// drawing the cloth (or its render meshes) and its colliders into
+    /// `color` and `depth`.
     pub fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::TextureView,
         depth: &wgpu::TextureView,
-    ) {
+    ) -> wgcloth::Result<()> {
         self.solver.encode_normals(encoder);
+        self.renderer.encode_render_meshes(encoder, &self.solver)?;
         let mut pass = self.renderer.begin_pass(encoder, color, depth);
         self.renderer.draw(&mut pass, &self.solver);
+        Ok(())
     }
 
     /// Holds the particle under `pixel` of a `size` canvas, if one is near
@@ -241,10 +251,23 @@ impl Cloth {
         if let Some(state) = state {
             hand_over(&mut solver, state, &self.model.pinned)?;
         }
+        self.renderer
+            .set_render_meshes(render_meshes(&self.embeddings, &solver)?)?;
         self.solver = solver;
         self.scene.params.integrator = integrator;
         Ok(())
     }
+}
+
+/// The render meshes of `embeddings` on `solver`.
+fn render_meshes(
+    embeddings: &[Embedding],
+    solver: &GpuSolver,
+) -> wgcloth::Result<Vec<GpuRenderMesh>> {
+    embeddings
+        .iter()
+        .map(|e| GpuRenderMesh::new(solver, e, SkinLayout::POSITION_NORMAL))
+        .collect()
 }
 
 /// The scene's camera at time `t` \[s\]: following its character if it

@@ -1,0 +1,322 @@
+//! A render mesh on the device: its embedding uploaded once, and one
+//! `skin` dispatch a frame that writes its vertices into a vertex buffer
+//! the host draws (see [`crate::render_mesh`]).
+
+use wgpu::util::DeviceExt;
+
+use super::errors::guarded;
+use super::kernel::{Kernel, Variant};
+use super::readback::read_buffers;
+use super::GpuSolver;
+use crate::error::{Error, Result};
+use crate::kernel_config::WORKGROUP;
+use crate::render_mesh::{Embedded, Embedding};
+
+/// Where each render vertex lies in the vertex buffer, in `f32` words:
+/// three of position and three of normal, written by the `skin` pass, and
+/// two of texture coordinates, written once when the buffer is made.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SkinLayout {
+    /// Words from one vertex to the next.
+    pub stride: u32,
+    /// The word of the position's x within a vertex.
+    pub position: u32,
+    /// The word of the normal's x within a vertex (`None`: not written).
+    pub normal: Option<u32>,
+    /// The word of the texture coordinates' u within a vertex (`None`: not
+    /// written; `Some` needs a mesh that has them).
+    pub uv: Option<u32>,
+}
+
+impl SkinLayout {
+    /// `[px py pz nx ny nz]`: a position and a normal attribute of format
+    /// `Float32x3` at byte offsets 0 and 12, stride 24; what
+    /// [`Renderer`](crate::render::Renderer) draws.
+    pub const POSITION_NORMAL: SkinLayout = SkinLayout {
+        stride: 6,
+        position: 0,
+        normal: Some(3),
+        uv: None,
+    };
+
+    /// `[px py pz nx ny nz u v]`: [`SkinLayout::POSITION_NORMAL`] and a
+    /// `Float32x2` texture coordinate at byte offset 24, stride 32.
+    pub const POSITION_NORMAL_UV: SkinLayout = SkinLayout {
+        stride: 8,
+        position: 0,
+        normal: Some(3),
+        uv: Some(6),
+    };
+
+    /// The `(first word, words)` of each attribute the layout has.
+    fn attributes(&self) -> Vec<(u32, u32)> {
+        let mut out = vec![(self.position, 3)];
+        out.extend(self.normal.map(|n| (n, 3)));
+        out.extend(self.uv.map(|t| (t, 2)));
+        out
+    }
+
+    /// Refuses a layout whose attributes overlap or leave the stride.
+    fn check(&self) -> Result<()> {
+        let ranges = self.attributes();
+        let fits = ranges
+            .iter()
+            .all(|&(at, n)| at.checked_add(n).is_some_and(|end| end <= self.stride));
+        let apart = ranges.iter().enumerate().all(|(i, &(a, n))| {
+            ranges[i + 1..]
+                .iter()
+                .all(|&(b, m)| a.saturating_add(n) <= b || b.saturating_add(m) <= a)
+        });
+        if fits && apart {
+            Ok(())
+        } else {
+            Err(Error::InvalidParameter {
+                key: "SkinLayout".into(),
+                allowed: "three words of position, three of normal and two of texture \
+                          coordinates, apart, each inside the stride"
+                    .into(),
+                got: format!("{self:?}"),
+            })
+        }
+    }
+}
+
+/// The `skin` kernel's uniform block (`SkinParams` in `shaders/skin.wgsl`).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct SkinParams {
+    count: u32,
+    stride: u32,
+    position: u32,
+    normal: u32,
+}
+
+/// `SkinParams::normal` when no normal is written (`NO_NORMAL`).
+const NO_NORMAL: u32 = u32::MAX;
+
+/// A render mesh bound to one [`GpuSolver`]'s cloth: its vertex buffer
+/// (written by [`GpuRenderMesh::encode`]) and index buffer.
+#[derive(Debug)]
+pub struct GpuRenderMesh {
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    vertex_count: u32,
+    layout: SkinLayout,
+    group: wgpu::BindGroup,
+    pipeline: wgpu::ComputePipeline,
+    /// The cloth's position buffer: which solver this mesh follows.
+    cloth: wgpu::Buffer,
+}
+
+impl GpuRenderMesh {
+    /// Uploads `embedding` for `solver`'s cloth, with a vertex buffer of
+    /// `layout`. Refused: an embedding of another cloth (a triangle it does
+    /// not have, an index past the render mesh), a bad layout, more
+    /// vertices than one dispatch reaches.
+    pub fn new(
+        solver: &GpuSolver,
+        embedding: &Embedding,
+        layout: SkinLayout,
+    ) -> Result<GpuRenderMesh> {
+        layout.check()?;
+        let triangles = solver.index_count() / 3;
+        if let Some((i, e)) = embedding
+            .vertices
+            .iter()
+            .enumerate()
+            .find(|(_, e)| e.triangle >= triangles)
+        {
+            return Err(Error::InvalidParameter {
+                key: format!("Embedding::vertices[{i}].triangle"),
+                allowed: format!("a triangle of this cloth, below {triangles}"),
+                got: e.triangle.to_string(),
+            });
+        }
+        let n = embedding.vertex_count();
+        if let Some(t) = embedding
+            .triangles
+            .iter()
+            .find(|t| t.iter().any(|&i| i as usize >= n))
+        {
+            return Err(Error::InvalidParameter {
+                key: "Embedding::triangles".into(),
+                allowed: format!("indices below the {n} render vertices"),
+                got: format!("{t:?}"),
+            });
+        }
+        let device = &solver.device;
+        let limits = device.limits();
+        let groups = n.div_ceil(WORKGROUP as usize);
+        let bytes = n as u64 * u64::from(layout.stride) * 4;
+        if groups > limits.max_compute_workgroups_per_dimension as usize
+            || bytes > limits.max_storage_buffer_binding_size
+        {
+            return Err(Error::InvalidParameter {
+                key: "the render mesh's vertices".into(),
+                allowed: format!(
+                    "at most {} of {} words on this device",
+                    (limits.max_compute_workgroups_per_dimension as u64 * u64::from(WORKGROUP))
+                        .min(
+                            limits.max_storage_buffer_binding_size / (4 * u64::from(layout.stride))
+                        ),
+                    layout.stride
+                ),
+                got: n.to_string(),
+            });
+        }
+        // The texture coordinates, written once where the layout puts them.
+        let mut initial = vec![0.0f32; n * layout.stride as usize];
+        if let Some(at) = layout.uv {
+            let uvs = embedding
+                .uvs
+                .as_ref()
+                .filter(|uvs| uvs.len() == n)
+                .ok_or_else(|| Error::InvalidParameter {
+                    key: "SkinLayout::uv".into(),
+                    allowed: "None for a render mesh without texture coordinates (one per \
+                              vertex)"
+                        .into(),
+                    got: format!("Some({at})"),
+                })?;
+            for (k, t) in uvs.iter().enumerate() {
+                let w = k * layout.stride as usize + at as usize;
+                initial[w..w + 2].copy_from_slice(t);
+            }
+        }
+        let pipeline = solver
+            .kernels
+            .pipelines([(Kernel::Skin, Variant::Plain)], solver.features)?
+            .remove(&(Kernel::Skin, Variant::Plain))
+            .ok_or_else(|| Error::Gpu("the skin kernel was not compiled".into()))?;
+        let need = bytes + n as u64 * std::mem::size_of::<Embedded>() as u64;
+        guarded(device, "the render mesh's buffers", Some(need), || {
+            let embedded = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("wgcloth.render_mesh.embedding"),
+                contents: bytemuck::cast_slice(&pad_empty(&embedding.vertices)),
+                usage: wgpu::BufferUsages::STORAGE,
+            });
+            let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("wgcloth.render_mesh.vertices"),
+                contents: bytemuck::cast_slice(&pad_empty(&initial)),
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::VERTEX
+                    | wgpu::BufferUsages::COPY_SRC,
+            });
+            let flat: Vec<u32> = embedding.triangles.iter().flatten().copied().collect();
+            let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("wgcloth.render_mesh.indices"),
+                contents: bytemuck::cast_slice(&pad_empty(&flat)),
+                usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_SRC,
+            });
+            let params = SkinParams {
+                count: n as u32,
+                stride: layout.stride,
+                position: layout.position,
+                normal: layout.normal.unwrap_or(NO_NORMAL),
+            };
+            let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("wgcloth.render_mesh.params"),
+                contents: bytemuck::bytes_of(&params),
+                usage: wgpu::BufferUsages::UNIFORM,
+            });
+            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("wgcloth.render_mesh"),
+                layout: solver.kernels.skin_group1(),
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: embedded.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: vertices.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: uniform.as_entire_binding(),
+                    },
+                ],
+            });
+            Ok(GpuRenderMesh {
+                vertices,
+                indices,
+                index_count: flat.len() as u32,
+                vertex_count: n as u32,
+                layout,
+                group,
+                pipeline,
+                cloth: solver.positions_buffer().clone(),
+            })
+        })
+    }
+
+    /// Records the `skin` pass into `encoder`: one dispatch that writes the
+    /// vertex buffer from `solver`'s cloth as it is when the pass runs. The
+    /// cloth's normals must have been recorded
+    /// ([`GpuSolver::encode_normals`]) since its last step. Refused: a
+    /// solver other than the one the mesh was made for.
+    pub fn encode(&self, solver: &GpuSolver, encoder: &mut wgpu::CommandEncoder) -> Result<()> {
+        if solver.positions_buffer() != &self.cloth {
+            return Err(Error::InvalidParameter {
+                key: "GpuRenderMesh::encode's solver".into(),
+                allowed: "the solver the render mesh was made for".into(),
+                got: "another solver".into(),
+            });
+        }
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("wgcloth.skin"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &solver.buffers.bind_group, &[]);
+        pass.set_bind_group(1, &self.group, &[]);
+        pass.dispatch_workgroups(self.vertex_count.div_ceil(WORKGROUP), 1, 1);
+        Ok(())
+    }
+
+    /// The vertex buffer: [`GpuRenderMesh::vertex_count`] vertices of
+    /// [`GpuRenderMesh::layout`], written by [`GpuRenderMesh::encode`].
+    pub fn vertex_buffer(&self) -> &wgpu::Buffer {
+        &self.vertices
+    }
+
+    /// The render mesh's triangles (`u32`, three per triangle) as an index
+    /// buffer.
+    pub fn index_buffer(&self) -> &wgpu::Buffer {
+        &self.indices
+    }
+
+    /// Number of indices in [`GpuRenderMesh::index_buffer`].
+    pub fn index_count(&self) -> u32 {
+        self.index_count
+    }
+
+    /// Number of render vertices.
+    pub fn vertex_count(&self) -> u32 {
+        self.vertex_count
+    }
+
+    /// Where each vertex's position and normal lie in the vertex buffer.
+    pub fn layout(&self) -> SkinLayout {
+        self.layout
+    }
+
+    /// Reads the vertex buffer back: `vertex_count × stride` words (native
+    /// only; for tests and the CLI, never per frame).
+    pub fn read_vertices(&self, solver: &GpuSolver) -> Result<Vec<f32>> {
+        let bytes = u64::from(self.vertex_count) * u64::from(self.layout.stride) * 4;
+        let parts = read_buffers(&solver.device, &solver.queue, &[(&self.vertices, 0, bytes)])?;
+        Ok(bytemuck::pod_collect_to_vec(&parts[0]))
+    }
+}
+
+/// `items`, or one zeroed item where there are none (a buffer is never
+/// empty).
+fn pad_empty<T: bytemuck::Pod>(items: &[T]) -> Vec<T> {
+    if items.is_empty() {
+        vec![T::zeroed()]
+    } else {
+        items.to_vec()
+    }
+}
