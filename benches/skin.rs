@@ -67,8 +67,7 @@ fn main() {
         let t = Instant::now();
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         solver.encode_normals(&mut encoder);
-        skin.encode(&solver, &mut encoder)
-            .unwrap_or_else(|e| panic!("skin: {e}"));
+        skin.encode(&mut encoder);
         ctx.queue.submit([encoder.finish()]);
         if let Err(e) = ctx.device.poll(wgpu::PollType::wait_indefinitely()) {
             panic!("poll: {e}");

@@ -1544,27 +1544,80 @@ fn skin_matches_its_twin() {
     let model = grid(13, 9, corners(), &params);
     let (_, embedding) = embedded(&model);
     let ctx = gpu_common::gpu();
-    let mut solver = wgcloth::GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &model, &params)
-        .expect("GPU solver");
-    solver.step(300).expect("steps");
+    // Words 0 and 4 of each vertex are left out: the pass must not touch
+    // them.
     let layout = SkinLayout {
         stride: 8,
         position: 1,
         normal: Some(5),
         uv: None,
     };
+    // A lone solver's cloth.
+    let mut solver = wgcloth::GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &model, &params)
+        .expect("GPU solver");
+    solver.step(300).expect("steps");
     let mesh = GpuRenderMesh::new(&solver, &embedding, layout).expect("render mesh");
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     solver.encode_normals(&mut encoder);
-    mesh.encode(&solver, &mut encoder).expect("skin pass");
+    mesh.encode(&mut encoder);
     ctx.queue.submit([encoder.finish()]);
-    let words = mesh.read_vertices(&solver).expect("read-back");
     let (x, normals) = positions_and_normals(&solver);
-    // Against the twin from the same words (the normals the device wrote).
+    check_skin("a solver's cloth", &model, &embedding, &mesh, &x, &normals);
+    // The second cloth of a batch: its indices and vertices past the
+    // first cloth's.
+    let mut batch = wgcloth::gpu::GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
+    batch
+        .add(&grid(5, 4, corners(), &params), &params)
+        .expect("first cloth");
+    let id = batch.add(&model, &params).expect("second cloth");
+    batch.step(300).expect("steps");
+    let mesh = GpuRenderMesh::in_batch(&batch, id, &embedding, layout).expect("render mesh");
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    batch.encode_normals(&mut encoder);
+    mesh.encode(&mut encoder);
+    ctx.queue.submit([encoder.finish()]);
+    let state = batch.read_state(id).expect("state");
+    let x: Vec<Vec3<f32>> = state.x.iter().map(|p| Vec3::new(p.x, p.y, p.z)).collect();
+    let range = batch.draw_range(id).expect("the cloth's range");
+    let at = u64::try_from(range.base_vertex).expect("a vertex") * 16;
+    let read = readback::read_buffers(
+        &ctx.device,
+        &ctx.queue,
+        &[(range.normals, at, (x.len() * 16) as u64)],
+    )
+    .expect("normals read-back");
+    let words: Vec<f32> = bytemuck::pod_collect_to_vec(&read[0]);
+    let normals: Vec<Vec3<f32>> = words
+        .chunks(4)
+        .map(|n| Vec3::new(n[0], n[1], n[2]))
+        .collect();
+    assert!(range.base_vertex > 0 && range.indices.start > 0);
+    check_skin(
+        "a batch's second cloth",
+        &model,
+        &embedding,
+        &mesh,
+        &x,
+        &normals,
+    );
+}
+
+/// The vertex buffer `mesh`'s pass wrote (of the layout of
+/// [`skin_matches_its_twin`]) against the twin from the same positions
+/// `x` and normals.
+fn check_skin(
+    what: &str,
+    model: &wgcloth::Model,
+    embedding: &wgcloth::render_mesh::Embedding,
+    mesh: &GpuRenderMesh,
+    x: &[Vec3<f32>],
+    normals: &[Vec3<f32>],
+) {
+    let words = mesh.read_vertices().expect("read-back");
     let (p, n): (Vec<_>, Vec<_>) = embedding
         .vertices
         .iter()
-        .map(|e| skin::skin_vertex(&model, &x, &normals, e))
+        .map(|e| skin::skin_vertex(model, x, normals, e))
         .unzip();
     let mut gpu_words = Vec::new();
     let mut cpu_words = Vec::new();
@@ -1574,15 +1627,18 @@ fn skin_matches_its_twin() {
         gpu_words.extend_from_slice(&words[at + 5..at + 8]);
         cpu_words.extend([p.x, p.y, p.z, n.x, n.y, n.z]);
     }
-    // The words outside the layout are left as the buffer was made.
-    assert!(words.chunks(8).all(|v| v[0] == 0.0 && v[4] == 0.0));
+    assert!(
+        words.chunks(8).all(|v| v[0] == 0.0 && v[4] == 0.0),
+        "{what}: a word outside the layout was written"
+    );
+    let what = format!("skinned vertices of {what}");
     let result = match agreement::policy() {
         Policy::Bits => check_bits(
-            "skinned vertices",
+            &what,
             bytemuck::cast_slice(&gpu_words),
             bytemuck::cast_slice(&cpu_words),
         ),
-        Policy::Bounded => check_values("skinned vertices", &gpu_words, &cpu_words, &SKIN),
+        Policy::Bounded => check_values(&what, &gpu_words, &cpu_words, &SKIN),
     };
     result.unwrap_or_else(|e| panic!("{e}"));
 }

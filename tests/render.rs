@@ -248,9 +248,7 @@ fn an_srgb_target_shows_the_png_colours() {
             let target = FrameTarget::with_formats(&ctx.device, WIDTH, HEIGHT, formats);
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             solver.encode_normals(&mut encoder);
-            renderer
-                .encode_frame(&mut encoder, &solver, &target)
-                .expect("the frame's passes");
+            renderer.encode_frame(&mut encoder, &solver, &target);
             ctx.queue.submit([encoder.finish()]);
             render::read_rgba(&ctx.device, &ctx.queue, &target.color)
                 .unwrap_or_else(|e| panic!("reading {formats:?} back: {e}"))

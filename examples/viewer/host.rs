@@ -195,8 +195,7 @@ impl Host {
             self.renderer.set_render_meshes(sim.render_meshes()?)?;
             self.generation = sim.generation;
         }
-        self.renderer
-            .encode_render_meshes(&mut encoder, &sim.solver)?;
+        self.renderer.encode_render_meshes(&mut encoder);
         {
             let mut pass = self
                 .renderer
@@ -207,7 +206,7 @@ impl Host {
         if offscreen {
             // The same frame once more, into a target that can be copied.
             self.renderer
-                .encode_frame(&mut encoder, &sim.solver, &self.target)?;
+                .encode_frame(&mut encoder, &sim.solver, &self.target);
         }
         self.queue.submit([encoder.finish()]);
         if let Some(path) = screenshot {

@@ -14,6 +14,7 @@
 // MAX_CAPSULES, and the overrides WORKGROUP and SUM_GROUP (set per
 // pipeline by src/gpu/kernels.rs).
 #include "generated/config.wgsl"
+#include "common/vector.wgsl"
 
 // Scene features; a pipeline variant with a feature off has its code
 // removed by the compiler (constant-folded branch).
@@ -263,10 +264,6 @@ fn spring(s: u32) -> Spring {
         b.w,
     );
 }
-
-// A length below which a spring or triangle has no direction. Twin:
-// Real::TINY for f32.
-const TINY: f32 = 1e-9;
 
 // Particle p's index within its cloth (particles are global indices in
 // x, v, vertex_normals and the springs' ends).

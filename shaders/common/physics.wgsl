@@ -7,18 +7,6 @@
 #include "common/bindings.wgsl"
 #include "common/bending.wgsl"
 
-fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
-    return a.x * b.x + a.y * b.y + a.z * b.z;
-}
-
-fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
-}
-
-fn len3(a: vec3<f32>) -> f32 {
-    return sqrt(dot3(a, a));
-}
-
 // True unless NaN or infinite, from the bits (WGSL lets compilers assume
 // floats are finite, so `f == f` is not a reliable NaN test).
 fn finite1(f: f32) -> bool {

@@ -1,11 +1,12 @@
 // One render vertex skinned on the cloth (src/render_mesh.rs gives the
 // formulas; twin: cpu::skin::skin_vertex): its place on a cloth triangle,
 // offset along the interpolated vertex normal, and its own normal turned
-// with the frame of that place. Reads the cloth's positions `x` and the
-// normals pass's `vertex_normals`.
+// with the frame of that place. The cloth is read as it is drawn — its
+// position, normal and index buffers and where the cloth lies in them —
+// so a lone solver's cloth and a batch's are skinned alike.
 
-#include "common/bindings.wgsl"
-#include "common/physics.wgsl"
+#include "generated/config.wgsl"
+#include "common/vector.wgsl"
 
 // A render vertex's place (twin: render_mesh::Embedded, whose `uv` is u
 // and v here: a vec2 would be aligned to 8 bytes).
@@ -17,6 +18,30 @@ struct Embedded {
     normal: vec3<f32>,
     pad: u32,
 }
+
+struct SkinParams {
+    // Render vertices.
+    count: u32,
+    // f32 words from one vertex to the next.
+    stride: u32,
+    // The word of the position's x in a vertex.
+    position: u32,
+    // The word of the normal's x (NO_NORMAL: none written).
+    normal: u32,
+    // The cloth's first index in `cloth_indices`, and the vertex its
+    // indices count from in `cloth_x` and `cloth_normals`.
+    first_index: u32,
+    base_vertex: i32,
+}
+
+const NO_NORMAL: u32 = 0xffffffffu;
+
+@group(0) @binding(0) var<storage, read> embedded: array<Embedded>;
+@group(0) @binding(1) var<storage, read_write> skinned: array<f32>;
+@group(0) @binding(2) var<uniform> skin_params: SkinParams;
+@group(0) @binding(3) var<storage, read> cloth_x: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read> cloth_normals: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read> cloth_indices: array<u32>;
 
 struct Skinned {
     position: vec3<f32>,
@@ -33,21 +58,26 @@ fn normalize_or(n: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
     return fallback;
 }
 
+// Corner k of the cloth's triangle t, as a vertex of the cloth's buffers.
+fn cloth_corner(t: u32, k: u32) -> u32 {
+    let i = cloth_indices[skin_params.first_index + 3u * t + k];
+    return u32(i32(i) + skin_params.base_vertex);
+}
+
 fn skin_vertex(e: Embedded) -> Skinned {
-    let corner = params.triangles + 3u * e.triangle;
-    let a = topo(corner);
-    let b = topo(corner + 1u);
-    let c = topo(corner + 2u);
+    let a = cloth_corner(e.triangle, 0u);
+    let b = cloth_corner(e.triangle, 1u);
+    let c = cloth_corner(e.triangle, 2u);
     let u = e.u;
     let v = e.v;
     let w = 1.0 - u - v;
-    let base = x[a].xyz * w + x[b].xyz * u + x[c].xyz * v;
+    let base = cloth_x[a].xyz * w + cloth_x[b].xyz * u + cloth_x[c].xyz * v;
     let n = normalize_or(
-        vertex_normals[a].xyz * w + vertex_normals[b].xyz * u + vertex_normals[c].xyz * v,
+        cloth_normals[a].xyz * w + cloth_normals[b].xyz * u + cloth_normals[c].xyz * v,
         vec3<f32>(0.0, 1.0, 0.0),
     );
     let position = base + n * e.offset;
-    let edge = x[b].xyz - x[a].xyz;
+    let edge = cloth_x[b].xyz - cloth_x[a].xyz;
     let t = normalize_or(edge - n * dot3(n, edge), vec3<f32>(1.0, 0.0, 0.0));
     let bt = cross3(n, t);
     let normal = normalize_or(t * e.normal.x + bt * e.normal.y + n * e.normal.z, n);

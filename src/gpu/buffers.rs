@@ -180,7 +180,8 @@ impl ClothBuffers {
             device,
             "wgcloth.indices",
             bytemuck::cast_slice(up.triangles),
-            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST,
+            // STORAGE: a render mesh's skin pass reads it.
+            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::STORAGE,
         );
         let group0 = [&params, &model, &x, &v, &work, &status, &normals];
         let bind_group = buffers_group(device, "wgcloth.bindings", kernels.group0(), &group0);

@@ -141,8 +141,9 @@ struct Inner {
     args: [wgpu::BindGroupLayout; 3],
     layout: wgpu::PipelineLayout,
     args_layouts: [wgpu::PipelineLayout; 3],
-    /// Group 1 of the `skin` kernel: a render mesh's embedding, its
-    /// vertex buffer and its layout (see `shaders/skin.wgsl`).
+    /// The `skin` kernel's one group: a render mesh's embedding, its vertex
+    /// buffer, its parameters, and the cloth's positions, normals and
+    /// indices as it is drawn (see `shaders/common/skin.wgsl`).
     skin: wgpu::BindGroupLayout,
     skin_layout: wgpu::PipelineLayout,
     /// wgpu's pipeline cache, on devices with the feature.
@@ -293,11 +294,14 @@ impl GpuKernels {
                 storage_entry(0, true),
                 storage_entry(1, false),
                 uniform_entry(2),
+                storage_entry(3, true),
+                storage_entry(4, true),
+                storage_entry(5, true),
             ],
         });
         let skin_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("wgcloth.skin"),
-            bind_group_layouts: &[Some(&group0), Some(&skin)],
+            bind_group_layouts: &[Some(&skin)],
             immediate_size: 0,
         });
         GpuKernels {
@@ -342,8 +346,8 @@ impl GpuKernels {
         &self.inner.cloth_group0
     }
 
-    /// Group 1's layout of the `skin` kernel.
-    pub(super) fn skin_group1(&self) -> &wgpu::BindGroupLayout {
+    /// The `skin` kernel's group layout.
+    pub(super) fn skin_group(&self) -> &wgpu::BindGroupLayout {
         &self.inner.skin
     }
 
@@ -510,6 +514,11 @@ impl GpuKernels {
             ("COARSE", flag(features.coarse)),
             ("SUM_GROUP", f64::from(sum_group(&device.limits()))),
         ];
+        if kernel == Kernel::Skin {
+            // Its bindings are its own (no common/layout.wgsl): only the
+            // generated configuration's overrides are declared.
+            constants.retain(|(name, _)| matches!(*name, "WORKGROUP" | "SUM_GROUP"));
+        }
         constants.extend(variant.constants(kernel));
         let layout = match kernel.args_group() {
             Some(g) => &self.inner.args_layouts[g.index()],

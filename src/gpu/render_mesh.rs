@@ -6,8 +6,9 @@ use wgpu::util::DeviceExt;
 
 use super::errors::guarded;
 use super::kernel::{Kernel, Variant};
+use super::kernels::{Features, GpuKernels};
 use super::readback::read_buffers;
-use super::GpuSolver;
+use super::{ClothId, DrawRange, GpuBatch, GpuSolver};
 use crate::error::{Error, Result};
 use crate::kernel_config::WORKGROUP;
 use crate::render_mesh::{Embedded, Embedding};
@@ -89,6 +90,9 @@ struct SkinParams {
     stride: u32,
     position: u32,
     normal: u32,
+    first_index: u32,
+    base_vertex: i32,
+    pad: [u32; 2],
 }
 
 /// `SkinParams::normal` when no normal is written (`NO_NORMAL`).
@@ -105,22 +109,54 @@ pub struct GpuRenderMesh {
     layout: SkinLayout,
     group: wgpu::BindGroup,
     pipeline: wgpu::ComputePipeline,
-    /// The cloth's position buffer: which solver this mesh follows.
-    cloth: wgpu::Buffer,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
 }
 
 impl GpuRenderMesh {
     /// Uploads `embedding` for `solver`'s cloth, with a vertex buffer of
     /// `layout`. Refused: an embedding of another cloth (a triangle it does
-    /// not have, an index past the render mesh), a bad layout, more
-    /// vertices than one dispatch reaches.
+    /// not have, an index past the render mesh), a bad layout, a layout
+    /// with texture coordinates for a mesh without, more vertices than one
+    /// dispatch reaches.
     pub fn new(
         solver: &GpuSolver,
         embedding: &Embedding,
         layout: SkinLayout,
     ) -> Result<GpuRenderMesh> {
+        let range = DrawRange {
+            positions: solver.positions_buffer(),
+            normals: solver.normals_buffer(),
+            index_buffer: solver.index_buffer(),
+            indices: 0..solver.index_count(),
+            base_vertex: 0,
+        };
+        GpuRenderMesh::build(&solver.kernels, &solver.queue, &range, embedding, layout)
+    }
+
+    /// As [`GpuRenderMesh::new`], for cloth `id` of `batch` (where
+    /// [`GpuBatch::draw_range`] says it lies). Its normals are the batch's
+    /// ([`GpuBatch::encode_normals`]).
+    pub fn in_batch(
+        batch: &GpuBatch,
+        id: ClothId,
+        embedding: &Embedding,
+        layout: SkinLayout,
+    ) -> Result<GpuRenderMesh> {
+        let range = batch.draw_range(id)?;
+        GpuRenderMesh::build(batch.kernels(), batch.queue(), &range, embedding, layout)
+    }
+
+    /// The render mesh over the cloth that `range` places in its buffers.
+    fn build(
+        kernels: &GpuKernels,
+        queue: &wgpu::Queue,
+        range: &DrawRange<'_>,
+        embedding: &Embedding,
+        layout: SkinLayout,
+    ) -> Result<GpuRenderMesh> {
         layout.check()?;
-        let triangles = solver.index_count() / 3;
+        let triangles = range.indices.len() as u32 / 3;
         if let Some((i, e)) = embedding
             .vertices
             .iter()
@@ -145,7 +181,7 @@ impl GpuRenderMesh {
                 got: format!("{t:?}"),
             });
         }
-        let device = &solver.device;
+        let device = kernels.device();
         let limits = device.limits();
         let groups = n.div_ceil(WORKGROUP as usize);
         let bytes = n as u64 * u64::from(layout.stride) * 4;
@@ -184,9 +220,8 @@ impl GpuRenderMesh {
                 initial[w..w + 2].copy_from_slice(t);
             }
         }
-        let pipeline = solver
-            .kernels
-            .pipelines([(Kernel::Skin, Variant::Plain)], solver.features)?
+        let pipeline = kernels
+            .pipelines([(Kernel::Skin, Variant::Plain)], Features::default())?
             .remove(&(Kernel::Skin, Variant::Plain))
             .ok_or_else(|| Error::Gpu("the skin kernel was not compiled".into()))?;
         let need = bytes + n as u64 * std::mem::size_of::<Embedded>() as u64;
@@ -214,6 +249,9 @@ impl GpuRenderMesh {
                 stride: layout.stride,
                 position: layout.position,
                 normal: layout.normal.unwrap_or(NO_NORMAL),
+                first_index: range.indices.start,
+                base_vertex: range.base_vertex,
+                pad: [0; 2],
             };
             let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some("wgcloth.render_mesh.params"),
@@ -222,7 +260,7 @@ impl GpuRenderMesh {
             });
             let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("wgcloth.render_mesh"),
-                layout: solver.kernels.skin_group1(),
+                layout: kernels.skin_group(),
                 entries: &[
                     wgpu::BindGroupEntry {
                         binding: 0,
@@ -236,6 +274,18 @@ impl GpuRenderMesh {
                         binding: 2,
                         resource: uniform.as_entire_binding(),
                     },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: range.positions.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: range.normals.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: range.index_buffer.as_entire_binding(),
+                    },
                 ],
             });
             Ok(GpuRenderMesh {
@@ -246,33 +296,25 @@ impl GpuRenderMesh {
                 layout,
                 group,
                 pipeline,
-                cloth: solver.positions_buffer().clone(),
+                device: device.clone(),
+                queue: queue.clone(),
             })
         })
     }
 
     /// Records the `skin` pass into `encoder`: one dispatch that writes the
-    /// vertex buffer from `solver`'s cloth as it is when the pass runs. The
-    /// cloth's normals must have been recorded
-    /// ([`GpuSolver::encode_normals`]) since its last step. Refused: a
-    /// solver other than the one the mesh was made for.
-    pub fn encode(&self, solver: &GpuSolver, encoder: &mut wgpu::CommandEncoder) -> Result<()> {
-        if solver.positions_buffer() != &self.cloth {
-            return Err(Error::InvalidParameter {
-                key: "GpuRenderMesh::encode's solver".into(),
-                allowed: "the solver the render mesh was made for".into(),
-                got: "another solver".into(),
-            });
-        }
+    /// vertex buffer from the cloth's buffers as they are when the pass
+    /// runs. The cloth's normals must have been recorded
+    /// ([`GpuSolver::encode_normals`], [`GpuBatch::encode_normals`]) since
+    /// its last step.
+    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("wgcloth.skin"),
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &solver.buffers.bind_group, &[]);
-        pass.set_bind_group(1, &self.group, &[]);
+        pass.set_bind_group(0, &self.group, &[]);
         pass.dispatch_workgroups(self.vertex_count.div_ceil(WORKGROUP), 1, 1);
-        Ok(())
     }
 
     /// The vertex buffer: [`GpuRenderMesh::vertex_count`] vertices of
@@ -304,9 +346,9 @@ impl GpuRenderMesh {
 
     /// Reads the vertex buffer back: `vertex_count × stride` words (native
     /// only; for tests and the CLI, never per frame).
-    pub fn read_vertices(&self, solver: &GpuSolver) -> Result<Vec<f32>> {
+    pub fn read_vertices(&self) -> Result<Vec<f32>> {
         let bytes = u64::from(self.vertex_count) * u64::from(self.layout.stride) * 4;
-        let parts = read_buffers(&solver.device, &solver.queue, &[(&self.vertices, 0, bytes)])?;
+        let parts = read_buffers(&self.device, &self.queue, &[(&self.vertices, 0, bytes)])?;
         Ok(bytemuck::pod_collect_to_vec(&parts[0]))
     }
 }

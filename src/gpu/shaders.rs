@@ -43,6 +43,7 @@ const STANDS_IN: &[(&str, &str)] = &[("common/cloth_bindings", "common/bindings"
 
 /// Shared files an `#include` may name.
 pub const COMMON: &[(&str, &str)] = &[
+    wgsl!("common/vector"),
     wgsl!("common/layout"),
     wgsl!("common/bindings"),
     wgsl!("common/cloth_bindings"),

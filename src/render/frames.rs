@@ -171,7 +171,7 @@ fn render_filmed_frames(
                 renderer.set_camera(&camera);
             }
             solver.encode_normals(&mut encoder);
-            renderer.encode_frame(&mut encoder, solver, &target)?;
+            renderer.encode_frame(&mut encoder, solver, &target);
             copy_to_staging(&mut encoder, &target.color, &staging[slot], row);
             renderer.queue.submit([encoder.finish()]);
             let (tx, rx) = flume::bounded(1);

@@ -541,18 +541,13 @@ impl Renderer {
     }
 
     /// Records the `skin` pass of each render mesh
-    /// ([`Renderer::set_render_meshes`]) into `encoder`, from `solver`'s
-    /// cloth, whose normals must have been recorded since its last step;
-    /// before the render pass that draws them. Refused: meshes of another
-    /// solver.
-    pub fn encode_render_meshes(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        solver: &GpuSolver,
-    ) -> Result<()> {
-        self.render_meshes
-            .iter()
-            .try_for_each(|m| m.encode(solver, encoder))
+    /// ([`Renderer::set_render_meshes`]) into `encoder`, from its cloth,
+    /// whose normals must have been recorded since its last step; before
+    /// the render pass that draws them.
+    pub fn encode_render_meshes(&self, encoder: &mut wgpu::CommandEncoder) {
+        for m in &self.render_meshes {
+            m.encode(encoder);
+        }
     }
 
     /// Records the cloth (or its render meshes, whose `skin` passes
@@ -645,11 +640,10 @@ impl Renderer {
         encoder: &mut wgpu::CommandEncoder,
         solver: &GpuSolver,
         target: &FrameTarget,
-    ) -> Result<()> {
-        self.encode_render_meshes(encoder, solver)?;
+    ) {
+        self.encode_render_meshes(encoder);
         let mut pass = self.begin_pass(encoder, &target.color_view, &target.depth_view);
         self.draw(&mut pass, solver);
-        Ok(())
     }
 
     /// Begins a render pass on `color` and `depth`, views of this

@@ -182,12 +182,11 @@ impl Cloth {
         encoder: &mut wgpu::CommandEncoder,
         color: &wgpu::TextureView,
         depth: &wgpu::TextureView,
-    ) -> wgcloth::Result<()> {
+    ) {
         self.solver.encode_normals(encoder);
-        self.renderer.encode_render_meshes(encoder, &self.solver)?;
+        self.renderer.encode_render_meshes(encoder);
         let mut pass = self.renderer.begin_pass(encoder, color, depth);
         self.renderer.draw(&mut pass, &self.solver);
-        Ok(())
     }
 
     /// Holds the particle under `pixel` of a `size` canvas, if one is near

@@ -410,9 +410,7 @@ impl State {
         let view = frame.texture.create_view(&Default::default());
         let mut encoder = self.device.create_command_encoder(&Default::default());
         if let Some(cloth) = &self.cloth {
-            cloth
-                .draw(&mut encoder, &view, &self.depth)
-                .map_err(|e| js_error(e.to_string()))?;
+            cloth.draw(&mut encoder, &view, &self.depth);
         }
         self.queue.submit([encoder.finish()]);
         self.queue.present(frame);

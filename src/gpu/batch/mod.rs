@@ -395,6 +395,16 @@ impl GpuBatch {
         }
     }
 
+    /// The kernel library the batch's pipelines come from.
+    pub(in crate::gpu) fn kernels(&self) -> &GpuKernels {
+        &self.kernels
+    }
+
+    /// The queue the batch submits to.
+    pub(in crate::gpu) fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
     /// The path that steps cloth `id`: [`StepPath::Workgroup`](super::StepPath::Workgroup)
     /// for a cloth in the shared buffers, else the multi-dispatch path of
     /// its own solver.

@@ -47,9 +47,8 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
 fn usage(region: Region) -> wgpu::BufferUsages {
     match region {
         Region::Particles => STORAGE | wgpu::BufferUsages::VERTEX,
-        Region::Indices => {
-            wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC
-        }
+        // STORAGE: a render mesh's skin pass reads it.
+        Region::Indices => STORAGE | wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_SRC,
         _ => STORAGE,
     }
 }
