@@ -288,3 +288,67 @@ fn an_srgb_target_shows_the_png_colours() {
         );
     }
 }
+
+/// A render mesh over the left half of [`SCENE`]'s cloth (x < 0), a
+/// millimetre above it, as two triangles.
+fn left_half() -> wgcloth::mesh::Mesh {
+    let at = |x: f64, z: f64| wgcloth::glam::DVec3::new(x, 1.001, z);
+    let positions = vec![at(-0.5, -0.5), at(0.0, -0.5), at(0.0, 0.5), at(-0.5, 0.5)];
+    wgcloth::mesh::Mesh::from_triangles("left half", positions, &[[0, 3, 2], [0, 2, 1]])
+        .expect("a valid mesh")
+}
+
+#[test]
+fn a_render_mesh_is_drawn_in_place_of_the_cloth() {
+    use wgcloth::gpu::{GpuRenderMesh, SkinLayout};
+    use wgcloth::render_mesh::{Embedding, RenderMesh};
+    let ctx = gpu_common::gpu();
+    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
+    let model = scene.model().expect("the model");
+    let solver = GpuSolver::new(&ctx.device, &ctx.queue, &model, &scene.params)
+        .unwrap_or_else(|e| panic!("GPU solver: {e}"));
+    let half = RenderMesh::from_mesh(
+        Path::new("left half"),
+        &left_half(),
+        1.0,
+        wgcloth::glam::DVec3::ZERO,
+    );
+    let embedding = Embedding::new(&model, &half, 0.01).expect("embeds");
+    let mesh =
+        GpuRenderMesh::new(&solver, &embedding, SkinLayout::POSITION_NORMAL).expect("render mesh");
+    let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
+    let mut renderer = Renderer::new(&ctx.device, &ctx.queue, &scene.params, &camera);
+    renderer.set_render_meshes(vec![mesh]).expect("its layout");
+    let target = FrameTarget::new(&ctx.device, WIDTH, HEIGHT);
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    solver.encode_normals(&mut encoder);
+    renderer.encode_frame(&mut encoder, &solver, &target);
+    ctx.queue.submit([encoder.finish()]);
+    let rgba = render::read_rgba(&ctx.device, &ctx.queue, &target.color).expect("read back");
+    // The interior particles: cloth where the render mesh lies (x ≤ −0.2),
+    // none where only the cloth would be (x ≥ 0.2).
+    let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
+    let (mut left, mut right) = (0, 0);
+    for x in interior(&rest) {
+        let [px, py] = camera
+            .project(x, WIDTH, HEIGHT)
+            .expect("in front of the camera")
+            .to_array();
+        let c = pixel(&rgba, px as u32, py as u32);
+        let cloth = i32::from(c[0]) - i32::from(c[1]).max(i32::from(c[2])) > CLOTH_RED_MARGIN;
+        if x.x <= -0.2 {
+            assert!(cloth, "{x:?}: the render mesh is not drawn there ({c:?})");
+            left += 1;
+        } else if x.x >= 0.2 {
+            assert!(
+                !cloth,
+                "{x:?}: the cloth is drawn beside its render mesh ({c:?})"
+            );
+            right += 1;
+        }
+    }
+    assert!(
+        left > 0 && right > 0,
+        "{left} and {right} particles checked"
+    );
+}
