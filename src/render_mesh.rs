@@ -205,6 +205,25 @@ impl Embedding {
         if mesh.positions.is_empty() || mesh.triangles.is_empty() {
             return Err(fail("has no vertices or no triangles to draw".into()));
         }
+        let n = mesh.positions.len();
+        if mesh.normals.len() != n || mesh.uvs.as_ref().is_some_and(|t| t.len() != n) {
+            return Err(fail(format!(
+                "has {n} positions but {} normals and {} texture coordinates: one of each per \
+                 vertex",
+                mesh.normals.len(),
+                mesh.uvs.as_ref().map_or(n, Vec::len)
+            )));
+        }
+        if let Some(t) = mesh
+            .triangles
+            .iter()
+            .position(|t| t.iter().any(|&i| i as usize >= n))
+        {
+            return Err(fail(format!(
+                "triangle {t}: {:?} names a vertex past the {n} it has",
+                mesh.triangles[t]
+            )));
+        }
         let x = &model.rest_positions;
         let normals = area_normals(x, &model.triangles);
         let cells = TriangleCells::new(x, &model.triangles, max_distance);

@@ -129,6 +129,15 @@ fn a_vertex_far_from_the_cloth_is_refused_by_name() {
     );
     let e = Embedding::new(&model, &mesh, f64::NAN).expect_err("refused");
     assert!(e.to_string().contains("max_distance"), "{e}");
+    // A host's mesh whose lists disagree.
+    let mut short = mesh.clone();
+    short.normals.pop();
+    let e = Embedding::new(&model, &short, MAX_DISTANCE).expect_err("refused");
+    assert!(e.to_string().contains("normals"), "{e}");
+    let mut past = mesh.clone();
+    past.triangles[3][1] = past.positions.len() as u32;
+    let e = Embedding::new(&model, &past, MAX_DISTANCE).expect_err("refused");
+    assert!(e.to_string().contains("triangle 3"), "{e}");
 }
 
 #[test]
