@@ -2,9 +2,10 @@
 // the page built into DIR (`bash web/build.sh DIR`) on localhost and drives
 // the system's headless Chromium (WebGPU on SwiftShader, Chrome's software
 // Vulkan) with playwright-core:
-// - the check of `hanging`, `drape` and the mesh scene `banner`: the GPU's
-//   positions equal the f32 CPU reference's bit for bit;
-// - the check's screenshot shows the cloth (cloth-coloured pixels counted);
+// - the check of `hanging`, `drape`, the mesh scene `banner` and `cape`:
+//   the GPU's positions equal the f32 CPU reference's bit for bit;
+// - the check's screenshot shows the cloth (cloth-coloured pixels counted;
+//   `cape`'s is drawn through its render mesh);
 // - a scripted mouse drag moves the cloth: the same frames stepped with and
 //   without the drag differ, the cloth pulled the way the mouse went;
 // - a check that fails logs its line with the error.
@@ -31,11 +32,13 @@ const ARGS = [
 // The checks: each scene's steps reach what the scene is about on the
 // 2-vCPU machine in seconds of SwiftShader time — `hanging` (explicit)
 // 0.5 s of swinging, `drape` (implicit) 0.33 s, past its contact with the
-// ball (at about 0.23 s), `banner` (semi-implicit, a glTF mesh) 0.5 s.
+// ball (at about 0.23 s), `banner` (semi-implicit, a glTF mesh) 0.5 s,
+// `cape` (implicit, a character, drawn through a render mesh) 0.25 s.
 const CHECKS = [
   { scene: 'hanging', steps: 500 },
   { scene: 'drape', steps: 40 },
   { scene: 'banner', steps: 100 },
+  { scene: 'cape', steps: 60 },
 ];
 // GPU and CPU reference in f32 agree bit for bit on SwiftShader as on
 // lavapipe (the kernels mirror the reference's operation order and WGSL
