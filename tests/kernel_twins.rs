@@ -1487,7 +1487,7 @@ const SKIN: Bound = Bound {
 /// The `normals` kernel against its twin, under both policies: a sum of
 /// six cross products, a square root and a division, one kernel's
 /// ([`agreement::KERNEL`]), each component measured in ulps of the unit
-/// vector's length. On lavapipe a tenth of the words differ from the twin
+/// vector's length. On lavapipe about half the words differ from the twin
 /// by an ulp or so of that length (neither the twin's order, nor its
 /// fused variants, nor the other triangle and corner orders give the
 /// device's bits), so the bits policy cannot hold here.
