@@ -60,6 +60,20 @@ fn pixel(rgba: &[u8], x: u32, y: u32) -> [u8; 4] {
     [rgba[at], rgba[at + 1], rgba[at + 2], rgba[at + 3]]
 }
 
+/// The colour of `rgba`'s pixel under `x` as `camera` sees it.
+fn colour_at(rgba: &[u8], camera: &Camera, x: Vec3) -> [u8; 4] {
+    let [px, py] = camera
+        .project(x, WIDTH, HEIGHT)
+        .expect("in front of the camera")
+        .to_array();
+    pixel(rgba, px as u32, py as u32)
+}
+
+/// Whether `c` is the cloth's red or orange (see [`CLOTH_RED_MARGIN`]).
+fn is_cloth(c: [u8; 4]) -> bool {
+    i32::from(c[0]) - i32::from(c[1]).max(i32::from(c[2])) > CLOTH_RED_MARGIN
+}
+
 /// Checks that `positions` (interior particles of the cloth) land on
 /// cloth-coloured pixels of `frame`, and the top-left corner is sky.
 fn assert_cloth_at(frame: &Path, camera: &Camera, positions: &[Vec3]) {
@@ -81,9 +95,8 @@ fn assert_cloth_at(frame: &Path, camera: &Camera, positions: &[Vec3]) {
             "particle {p} at {x:?} projects outside the image, to ({px}, {py})"
         );
         let c = pixel(&rgba, px as u32, py as u32);
-        let red = i32::from(c[0]) - i32::from(c[1]).max(i32::from(c[2]));
         assert!(
-            c != render::BACKGROUND && red > CLOTH_RED_MARGIN,
+            c != render::BACKGROUND && is_cloth(c),
             "{}: particle {p} at {x:?} projects to ({px:.1}, {py:.1}), colour {c:?}: not cloth",
             frame.display()
         );
@@ -191,14 +204,10 @@ fn strain_view_at_rest_is_blue() {
     let (_, _, rgba) = gpu_common::decode_png(&frame);
     let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
     for x in interior(&rest) {
-        let [px, py] = camera
-            .project(x, WIDTH, HEIGHT)
-            .expect("in front")
-            .to_array();
-        let c = pixel(&rgba, px as u32, py as u32);
+        let c = colour_at(&rgba, &camera, x);
         assert!(
             i32::from(c[2]) > i32::from(c[0]).max(i32::from(c[1])) + CLOTH_RED_MARGIN,
-            "{}: particle at {x:?} projects to ({px:.1}, {py:.1}), colour {c:?}: not blue",
+            "{}: particle at {x:?}: colour {c:?}: not blue",
             frame.display()
         );
     }
@@ -330,12 +339,8 @@ fn a_render_mesh_is_drawn_in_place_of_the_cloth() {
     let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
     let (mut left, mut right) = (0, 0);
     for x in interior(&rest) {
-        let [px, py] = camera
-            .project(x, WIDTH, HEIGHT)
-            .expect("in front of the camera")
-            .to_array();
-        let c = pixel(&rgba, px as u32, py as u32);
-        let cloth = i32::from(c[0]) - i32::from(c[1]).max(i32::from(c[2])) > CLOTH_RED_MARGIN;
+        let c = colour_at(&rgba, &camera, x);
+        let cloth = is_cloth(c);
         if x.x <= -0.2 {
             assert!(cloth, "{x:?}: the render mesh is not drawn there ({c:?})");
             left += 1;
