@@ -1,5 +1,5 @@
 // Vertex normals for rendering: the normalised sum of the incident
-// triangles' area-weighted normals.
+// triangles' area-weighted normals. Twin: cpu::skin::normals.
 #include "common/bindings.wgsl"
 #include "common/physics.wgsl"
 
@@ -20,11 +20,5 @@ fn normals(@builtin(global_invocation_id) gid: vec3<u32>) {
         let c = x[topo(base + 2u)].xyz;
         n += cross3(b - a, c - a);
     }
-    let l = len3(n);
-    if (l > TINY) {
-        n = n / l;
-    } else {
-        n = vec3<f32>(0.0, 1.0, 0.0);
-    }
-    vertex_normals[p] = vec4<f32>(n, 0.0);
+    vertex_normals[p] = vec4<f32>(normalize_or(n, vec3<f32>(0.0, 1.0, 0.0)), 0.0);
 }

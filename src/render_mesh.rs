@@ -29,6 +29,7 @@ use glam::DVec3;
 use crate::error::{Error, Result};
 use crate::mesh::{Attributes, Mesh};
 use crate::model::Model;
+use crate::sdf::closest_on_triangle;
 
 /// A detailed mesh to draw: positions and triangles in the cloth's frame,
 /// each vertex's normal (the file's, or computed from the triangles) and
@@ -233,14 +234,12 @@ impl Embedding {
                 .near(p)
                 .iter()
                 .map(|&t| {
-                    (
-                        t,
-                        point_triangle_distance(p, corners(x, model.triangles[t as usize])),
-                    )
+                    let tri = corners(x, model.triangles[t as usize]);
+                    (t, (p - closest_on_triangle(&tri, p).0).length())
                 })
                 .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-            let (t, distance) = match nearest {
-                Some((t, d)) if d <= max_distance => (t, d),
+            let t = match nearest {
+                Some((t, d)) if d <= max_distance => t,
                 other => {
                     let how_far = match other {
                         Some((_, d)) => {
@@ -256,7 +255,6 @@ impl Embedding {
             };
             let tri = model.triangles[t as usize];
             let (uv, offset, frame) = solve_place(p, corners(x, tri), corners(&normals, tri));
-            debug_assert!(distance <= max_distance);
             let [ft, fb, fn_] = frame;
             let m = [normal.dot(ft), normal.dot(fb), normal.dot(fn_)];
             vertices.push(Embedded {
@@ -311,44 +309,6 @@ fn solve_place(p: DVec3, x: [DVec3; 3], n: [DVec3; 3]) -> ([f64; 2], f64, [DVec3
     }
     let t = (e1 - nh * nh.dot(e1)).try_normalize().unwrap_or(DVec3::X);
     ([u, v], h, [t, nh.cross(t), nh])
-}
-
-/// Distance from `p` to the triangle `x` (closest point by region, Ericson's
-/// "Real-Time Collision Detection" §5.1.5).
-pub(crate) fn point_triangle_distance(p: DVec3, [a, b, c]: [DVec3; 3]) -> f64 {
-    let (ab, ac, ap) = (b - a, c - a, p - a);
-    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return ap.length();
-    }
-    let bp = p - b;
-    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
-    if d3 >= 0.0 && d4 <= d3 {
-        return bp.length();
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let t = d1 / (d1 - d3);
-        return (p - (a + ab * t)).length();
-    }
-    let cp = p - c;
-    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
-    if d6 >= 0.0 && d5 <= d6 {
-        return cp.length();
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let t = d2 / (d2 - d6);
-        return (p - (a + ac * t)).length();
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        return (p - (b + (c - b) * t)).length();
-    }
-    let denom = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denom, vc * denom);
-    (p - (a + ab * v + ac * w)).length()
 }
 
 /// A uniform grid of cubic cells, each listing the triangles whose bounding

@@ -1496,22 +1496,26 @@ const NORMALS: Bound = agreement::KERNEL;
 /// The cloth's positions and the vertex normals its last normals pass
 /// wrote, read back.
 fn positions_and_normals(solver: &wgcloth::GpuSolver) -> (Vec<Vec3<f32>>, Vec<Vec3<f32>>) {
-    let ctx = gpu_common::gpu();
     let state = solver.read_state().expect("state");
     let x: Vec<Vec3<f32>> = state.x.iter().map(|p| Vec3::new(p.x, p.y, p.z)).collect();
-    let bytes = (x.len() * 16) as u64;
+    let normals = read_normals(solver.normals_buffer(), 0, x.len());
+    (x, normals)
+}
+
+/// `count` vertex normals (`vec4<f32>`) of `buffer` from vertex `first`.
+fn read_normals(buffer: &wgpu::Buffer, first: u64, count: usize) -> Vec<Vec3<f32>> {
+    let ctx = gpu_common::gpu();
     let read = readback::read_buffers(
         &ctx.device,
         &ctx.queue,
-        &[(solver.normals_buffer(), 0, bytes)],
+        &[(buffer, first * 16, (count * 16) as u64)],
     )
     .expect("normals read-back");
     let words: Vec<f32> = bytemuck::pod_collect_to_vec(&read[0]);
-    let normals = words
+    words
         .chunks(4)
         .map(|n| Vec3::new(n[0], n[1], n[2]))
-        .collect();
-    (x, normals)
+        .collect()
 }
 
 #[test]
@@ -1579,18 +1583,8 @@ fn skin_matches_its_twin() {
     let state = batch.read_state(id).expect("state");
     let x: Vec<Vec3<f32>> = state.x.iter().map(|p| Vec3::new(p.x, p.y, p.z)).collect();
     let range = batch.draw_range(id).expect("the cloth's range");
-    let at = u64::try_from(range.base_vertex).expect("a vertex") * 16;
-    let read = readback::read_buffers(
-        &ctx.device,
-        &ctx.queue,
-        &[(range.normals, at, (x.len() * 16) as u64)],
-    )
-    .expect("normals read-back");
-    let words: Vec<f32> = bytemuck::pod_collect_to_vec(&read[0]);
-    let normals: Vec<Vec3<f32>> = words
-        .chunks(4)
-        .map(|n| Vec3::new(n[0], n[1], n[2]))
-        .collect();
+    let first = u64::try_from(range.base_vertex).expect("a vertex");
+    let normals = read_normals(range.normals, first, x.len());
     assert!(range.base_vertex > 0 && range.indices.start > 0);
     check_skin(
         "a batch's second cloth",

@@ -111,7 +111,7 @@ impl Host {
         let camera = Camera::for_scene(scene, sim.model(), aspect(&config));
         let mut renderer =
             Renderer::with_formats(&device, &queue, &scene.params, &camera, formats)?;
-        renderer.set_render_meshes(sim.render_meshes()?)?;
+        renderer.set_embeddings(&sim.solver, sim.embeddings())?;
         let target = FrameTarget::with_formats(&device, config.width, config.height, formats);
         let info = adapter.get_info();
         let host = Host {
@@ -192,7 +192,8 @@ impl Host {
         // A reset or an integrator switch built a new solver: its own
         // render meshes.
         if sim.generation != self.generation {
-            self.renderer.set_render_meshes(sim.render_meshes()?)?;
+            self.renderer
+                .set_embeddings(&sim.solver, sim.embeddings())?;
             self.generation = sim.generation;
         }
         self.renderer.encode_render_meshes(&mut encoder);

@@ -4,7 +4,7 @@
 
 use anyhow::Context as _;
 use wgcloth::glam::Vec3;
-use wgcloth::gpu::{GpuKernels, GpuRenderMesh, SkinLayout};
+use wgcloth::gpu::GpuKernels;
 use wgcloth::params::Integrator;
 use wgcloth::render_mesh::Embedding;
 use wgcloth::scene::animation::Animation;
@@ -75,13 +75,10 @@ impl Sim {
         })
     }
 
-    /// The scene's render meshes on the running solver (none: the cloth is
-    /// drawn itself).
-    pub fn render_meshes(&self) -> wgcloth::Result<Vec<GpuRenderMesh>> {
-        self.embeddings
-            .iter()
-            .map(|e| GpuRenderMesh::new(&self.solver, e, SkinLayout::POSITION_NORMAL))
-            .collect()
+    /// The scene's render meshes, embedded in the cloth (none: the cloth
+    /// is drawn itself).
+    pub fn embeddings(&self) -> &[Embedding] {
+        &self.embeddings
     }
 
     /// The model the solver was built from.

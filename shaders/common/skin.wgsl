@@ -48,16 +48,6 @@ struct Skinned {
     normal: vec3<f32>,
 }
 
-// n / |n|, or `fallback` where |n| is at most TINY (twin:
-// cpu::skin::normalize_or).
-fn normalize_or(n: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
-    let l = len3(n);
-    if (l > TINY) {
-        return n / l;
-    }
-    return fallback;
-}
-
 // Corner k of the cloth's triangle t, as a vertex of the cloth's buffers.
 fn cloth_corner(t: u32, k: u32) -> u32 {
     let i = cloth_indices[skin_params.first_index + 3u * t + k];

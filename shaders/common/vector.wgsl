@@ -18,3 +18,13 @@ fn cross3(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
 fn len3(a: vec3<f32>) -> f32 {
     return sqrt(dot3(a, a));
 }
+
+// n / |n|, or `fallback` where |n| is at most TINY (twin:
+// cpu::skin::normalize_or).
+fn normalize_or(n: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
+    let l = len3(n);
+    if (l > TINY) {
+        return n / l;
+    }
+    return fallback;
+}

@@ -5,16 +5,15 @@ use std::path::Path;
 use std::time::{Duration, Instant};
 
 use anyhow::Context as _;
+use wgcloth::cpu::skin;
 use wgcloth::diagnostics::{self, CHECK_EVERY};
 use wgcloth::params::format_number;
+use wgcloth::render_mesh::Embedding;
 use wgcloth::{Model, Params, Real, Scene};
 
 use super::backend::{Cpu, Gpu, Solver};
 use super::batch::GpuCopies;
 use super::interrupt;
-use wgcloth::cpu::skin;
-use wgcloth::render_mesh::Embedding;
-
 use super::output::{commit_all, distinct_outputs, write_positions, AtomicFile, Trace};
 use super::profile;
 use super::summary::{Outcome, Summary};

@@ -87,7 +87,7 @@ const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
 const MIN_BINDING: usize = std::mem::size_of::<GpuSpring>();
 
 /// A buffer holding `contents` (at least [`MIN_BINDING`] bytes).
-fn init(
+pub(super) fn init(
     device: &wgpu::Device,
     label: &str,
     contents: &[u8],

@@ -189,6 +189,13 @@ impl Kernel {
         )
     }
 
+    /// Whether the kernel binds a group of its own instead of the cloth's
+    /// (`common/layout.wgsl`), and so declares none of its scene-feature
+    /// overrides: `skin`, which reads a cloth as it is drawn.
+    pub const fn has_own_bindings(self) -> bool {
+        matches!(self, Kernel::Skin)
+    }
+
     /// The group 1 of a kernel that writes indirect dispatch arguments.
     pub const fn args_group(self) -> Option<ArgsGroup> {
         match self {

@@ -514,16 +514,15 @@ impl GpuKernels {
             ("COARSE", flag(features.coarse)),
             ("SUM_GROUP", f64::from(sum_group(&device.limits()))),
         ];
-        if kernel == Kernel::Skin {
-            // Its bindings are its own (no common/layout.wgsl): only the
-            // generated configuration's overrides are declared.
+        if kernel.has_own_bindings() {
+            // Only the generated configuration's overrides are declared.
             constants.retain(|(name, _)| matches!(*name, "WORKGROUP" | "SUM_GROUP"));
         }
         constants.extend(variant.constants(kernel));
         let layout = match kernel.args_group() {
             Some(g) => &self.inner.args_layouts[g.index()],
             None if kernel.steps_cloths() => &self.inner.cloth_layout,
-            None if kernel == Kernel::Skin => &self.inner.skin_layout,
+            None if kernel.has_own_bindings() => &self.inner.skin_layout,
             None => &self.inner.layout,
         };
         let what = format!("compiling the kernel {kernel} ({variant:?})");

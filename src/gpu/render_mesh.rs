@@ -2,8 +2,7 @@
 //! `skin` dispatch a frame that writes its vertices into a vertex buffer
 //! the host draws (see [`crate::render_mesh`]).
 
-use wgpu::util::DeviceExt;
-
+use super::buffers::init;
 use super::errors::guarded;
 use super::kernel::{Kernel, Variant};
 use super::kernels::{Features, GpuKernels};
@@ -98,8 +97,9 @@ struct SkinParams {
 /// `SkinParams::normal` when no normal is written (`NO_NORMAL`).
 const NO_NORMAL: u32 = u32::MAX;
 
-/// A render mesh bound to one [`GpuSolver`]'s cloth: its vertex buffer
-/// (written by [`GpuRenderMesh::encode`]) and index buffer.
+/// A render mesh bound to one cloth (a [`GpuSolver`]'s or a
+/// [`GpuBatch`]'s): its vertex buffer (written by
+/// [`GpuRenderMesh::encode`]) and index buffer.
 #[derive(Debug)]
 pub struct GpuRenderMesh {
     vertices: wgpu::Buffer,
@@ -124,14 +124,13 @@ impl GpuRenderMesh {
         embedding: &Embedding,
         layout: SkinLayout,
     ) -> Result<GpuRenderMesh> {
-        let range = DrawRange {
-            positions: solver.positions_buffer(),
-            normals: solver.normals_buffer(),
-            index_buffer: solver.index_buffer(),
-            indices: 0..solver.index_count(),
-            base_vertex: 0,
-        };
-        GpuRenderMesh::build(&solver.kernels, &solver.queue, &range, embedding, layout)
+        GpuRenderMesh::build(
+            &solver.kernels,
+            &solver.queue,
+            &solver.draw_range(),
+            embedding,
+            layout,
+        )
     }
 
     /// As [`GpuRenderMesh::new`], for cloth `id` of `batch` (where
@@ -226,24 +225,27 @@ impl GpuRenderMesh {
             .ok_or_else(|| Error::Gpu("the skin kernel was not compiled".into()))?;
         let need = bytes + n as u64 * std::mem::size_of::<Embedded>() as u64;
         guarded(device, "the render mesh's buffers", Some(need), || {
-            let embedded = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("wgcloth.render_mesh.embedding"),
-                contents: bytemuck::cast_slice(&pad_empty(&embedding.vertices)),
-                usage: wgpu::BufferUsages::STORAGE,
-            });
-            let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("wgcloth.render_mesh.vertices"),
-                contents: bytemuck::cast_slice(&pad_empty(&initial)),
-                usage: wgpu::BufferUsages::STORAGE
+            let embedded = init(
+                device,
+                "wgcloth.render_mesh.embedding",
+                bytemuck::cast_slice(&embedding.vertices),
+                wgpu::BufferUsages::STORAGE,
+            );
+            let vertices = init(
+                device,
+                "wgcloth.render_mesh.vertices",
+                bytemuck::cast_slice(&initial),
+                wgpu::BufferUsages::STORAGE
                     | wgpu::BufferUsages::VERTEX
                     | wgpu::BufferUsages::COPY_SRC,
-            });
+            );
             let flat: Vec<u32> = embedding.triangles.iter().flatten().copied().collect();
-            let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("wgcloth.render_mesh.indices"),
-                contents: bytemuck::cast_slice(&pad_empty(&flat)),
-                usage: wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_SRC,
-            });
+            let indices = init(
+                device,
+                "wgcloth.render_mesh.indices",
+                bytemuck::cast_slice(&flat),
+                wgpu::BufferUsages::INDEX | wgpu::BufferUsages::COPY_SRC,
+            );
             let params = SkinParams {
                 count: n as u32,
                 stride: layout.stride,
@@ -253,11 +255,12 @@ impl GpuRenderMesh {
                 base_vertex: range.base_vertex,
                 pad: [0; 2],
             };
-            let uniform = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("wgcloth.render_mesh.params"),
-                contents: bytemuck::bytes_of(&params),
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
+            let uniform = init(
+                device,
+                "wgcloth.render_mesh.params",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
             let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("wgcloth.render_mesh"),
                 layout: kernels.skin_group(),
@@ -350,15 +353,5 @@ impl GpuRenderMesh {
         let bytes = u64::from(self.vertex_count) * u64::from(self.layout.stride) * 4;
         let parts = read_buffers(&self.device, &self.queue, &[(&self.vertices, 0, bytes)])?;
         Ok(bytemuck::pod_collect_to_vec(&parts[0]))
-    }
-}
-
-/// `items`, or one zeroed item where there are none (a buffer is never
-/// empty).
-fn pad_empty<T: bytemuck::Pod>(items: &[T]) -> Vec<T> {
-    if items.is_empty() {
-        vec![T::zeroed()]
-    } else {
-        items.to_vec()
     }
 }

@@ -15,6 +15,7 @@ use super::path_cost::{self, AdapterCost};
 use super::plan::{self, Plan, PlanInputs};
 use super::readback;
 use super::semi_filter::SemiFilter;
+use super::DrawRange;
 use crate::aggregation::Aggregation;
 use crate::budget::{self, Counts};
 use crate::cpu::filter::FilterSystem;
@@ -907,6 +908,18 @@ impl GpuSolver {
     /// Number of indices in [`GpuSolver::index_buffer`].
     pub fn index_count(&self) -> u32 {
         self.params.triangle_count * 3
+    }
+
+    /// The buffers and range that draw the cloth (see [`DrawRange`]): all
+    /// of [`GpuSolver::index_buffer`], from vertex 0.
+    pub fn draw_range(&self) -> DrawRange<'_> {
+        DrawRange {
+            positions: self.positions_buffer(),
+            normals: self.normals_buffer(),
+            index_buffer: self.index_buffer(),
+            indices: 0..self.index_count(),
+            base_vertex: 0,
+        }
     }
 
     /// Compute dispatches per step in the last [`GpuSolver::encode_steps`]

@@ -132,14 +132,24 @@ fn pool_index(word: &str, size: usize, what: &str) -> Result<u32, String> {
     let i: i64 = word
         .parse()
         .map_err(|_| format!("face corner {what} index `{word}` is not a whole number"))?;
-    let resolved = if i > 0 { i - 1 } else { size as i64 + i };
-    if i == 0 || resolved < 0 || resolved >= size as i64 {
-        return Err(format!(
+    resolve(i, size).ok_or_else(|| {
+        format!(
             "face corner {what} index {word} is out of range: {size} `{what}` lines are \
              above this line"
-        ));
-    }
-    Ok(resolved as u32)
+        )
+    })
+}
+
+/// An OBJ index `i` into a list of `size` so far, 0-based: 1-based from
+/// the start, or negative from the last one; `None` out of range (0
+/// included).
+fn resolve(i: i64, size: usize) -> Option<u32> {
+    let resolved = if i > 0 {
+        i - 1
+    } else {
+        (size as i64).checked_add(i)?
+    };
+    (i != 0 && (0..size as i64).contains(&resolved)).then_some(resolved as u32)
 }
 
 /// `a b c [d]` corners (each `v[/vt][/vn]`) → the face, its indices 0-based,
@@ -179,12 +189,7 @@ fn face(
                 format!("face corner `{word}` does not start with a vertex number")
             }
         })?;
-        // 1-based from the start, or negative from the last vertex so far.
-        let resolved = if i > 0 { i - 1 } else { vertices as i64 + i };
-        if i == 0 || resolved < 0 || resolved >= vertices as i64 {
-            return Err(out_of_range());
-        }
-        *slot = resolved as u32;
+        *slot = resolve(i, vertices).ok_or_else(out_of_range)?;
         for ((k, what), part) in [(0, "vt"), (1, "vn")].into_iter().zip(parts) {
             if !part.is_empty() {
                 extra[k] = pool_index(part, pools[k], what)?;

@@ -9,7 +9,7 @@ use super::png_writer::{self, frame_name, Frame, PngWriter};
 use super::{Camera, FrameTarget, Renderer, COLOR_FORMAT, DEPTH_FORMAT};
 use crate::budget;
 use crate::error::{Error, Result};
-use crate::gpu::{guarded, readback, GpuKernels, GpuRenderMesh, GpuSolver, SkinLayout, StepPath};
+use crate::gpu::{guarded, readback, GpuKernels, GpuSolver, StepPath};
 use crate::scene::animation::Animation;
 use crate::scene::Scene;
 
@@ -321,11 +321,7 @@ pub fn render_scene_on_path(
         if options.strain {
             renderer.show_strain(device, &model, &solver);
         }
-        let meshes = embeddings
-            .iter()
-            .map(|e| GpuRenderMesh::new(&solver, e, SkinLayout::POSITION_NORMAL))
-            .collect::<Result<Vec<_>>>()?;
-        renderer.set_render_meshes(meshes)?;
+        renderer.set_embeddings(&solver, &embeddings)?;
         Ok(renderer)
     })?;
     let animation = scene.animation(&model);

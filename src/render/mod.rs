@@ -34,6 +34,7 @@ use crate::gpu::{guarded, DrawRange, GpuRenderMesh, GpuSolver, SkinLayout};
 use crate::kernel_config::{MAX_CAPSULES, MAX_SPHERES};
 use crate::model::Model;
 use crate::params::{Capsule, Params, Sphere};
+use crate::render_mesh::Embedding;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 /// Default colour format of the targets the renderer draws into, and the
@@ -540,6 +541,18 @@ impl Renderer {
         Ok(())
     }
 
+    /// Draws the render meshes of `embeddings` (a scene's:
+    /// [`Scene::embeddings`](crate::Scene::embeddings)) on `solver`'s cloth
+    /// in place of it from now on, each made with
+    /// [`SkinLayout::POSITION_NORMAL`] (see [`Renderer::set_render_meshes`]).
+    pub fn set_embeddings(&mut self, solver: &GpuSolver, embeddings: &[Embedding]) -> Result<()> {
+        let meshes = embeddings
+            .iter()
+            .map(|e| GpuRenderMesh::new(solver, e, SkinLayout::POSITION_NORMAL))
+            .collect::<Result<Vec<_>>>()?;
+        self.set_render_meshes(meshes)
+    }
+
     /// Records the `skin` pass of each render mesh
     /// ([`Renderer::set_render_meshes`]) into `encoder`, from its cloth,
     /// whose normals must have been recorded since its last step; before
@@ -568,13 +581,7 @@ impl Renderer {
                 pass.draw_indexed(0..m.index_count(), 0, 0..1);
             }
         } else {
-            self.draw_mesh(
-                pass,
-                [solver.positions_buffer(), solver.normals_buffer()],
-                solver.index_buffer(),
-                0..solver.index_count(),
-                0,
-            );
+            self.draw_range(pass, &solver.draw_range());
         }
         self.draw_colliders(pass);
     }
@@ -588,13 +595,7 @@ impl Renderer {
     /// [`Renderer::draw_colliders`], once per pass.
     pub fn draw_batch_cloth(&self, pass: &mut wgpu::RenderPass<'_>, range: &DrawRange<'_>) {
         pass.set_bind_group(0, &self.bind_group, &[]);
-        self.draw_mesh(
-            pass,
-            [range.positions, range.normals],
-            range.index_buffer,
-            range.indices.clone(),
-            range.base_vertex,
-        );
+        self.draw_range(pass, range);
     }
 
     /// Records the ground, the spheres and the capsules into `pass` (what
@@ -614,21 +615,14 @@ impl Renderer {
         }
     }
 
-    /// A shaded cloth from its position and normal vertex buffers, its
-    /// `indices` of `index_buffer` relative to `base_vertex`.
-    fn draw_mesh(
-        &self,
-        pass: &mut wgpu::RenderPass<'_>,
-        [positions, normals]: [&wgpu::Buffer; 2],
-        index_buffer: &wgpu::Buffer,
-        indices: std::ops::Range<u32>,
-        base_vertex: i32,
-    ) {
+    /// A shaded cloth where `range` places it: its position and normal
+    /// vertex buffers, its indices relative to its base vertex.
+    fn draw_range(&self, pass: &mut wgpu::RenderPass<'_>, range: &DrawRange<'_>) {
         pass.set_pipeline(&self.cloth);
-        pass.set_vertex_buffer(0, positions.slice(..));
-        pass.set_vertex_buffer(1, normals.slice(..));
-        pass.set_index_buffer(index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(indices, base_vertex, 0..1);
+        pass.set_vertex_buffer(0, range.positions.slice(..));
+        pass.set_vertex_buffer(1, range.normals.slice(..));
+        pass.set_index_buffer(range.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(range.indices.clone(), range.base_vertex, 0..1);
     }
 
     /// Records the render meshes' `skin` passes

@@ -249,7 +249,7 @@ fn check_closed(mesh: &Mesh, faces: &[([u32; 3], usize)]) -> std::result::Result
 
 /// Which part of a triangle is nearest a point.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Feature {
+pub(crate) enum Feature {
     /// Corner 0, 1 or 2.
     Vertex(usize),
     /// The side from corner `k` to corner `k + 1`.
@@ -260,7 +260,7 @@ enum Feature {
 
 /// The point of triangle `t` nearest `x`, and which feature it lies on
 /// (Ericson, "Real-Time Collision Detection", 5.1.5).
-fn closest_on_triangle(t: &[DVec3; 3], x: DVec3) -> (DVec3, Feature) {
+pub(crate) fn closest_on_triangle(t: &[DVec3; 3], x: DVec3) -> (DVec3, Feature) {
     let [a, b, c] = *t;
     let (ab, ac, ap) = (b - a, c - a, x - a);
     let (d1, d2) = (ab.dot(ap), ac.dot(ap));

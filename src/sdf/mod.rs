@@ -23,8 +23,8 @@ use std::sync::Arc;
 
 use glam::{DQuat, DVec3};
 
-pub(crate) use bake::check_resolution;
 pub use bake::{bake, bake_until, MAX_GRID_CELLS, MAX_RESOLUTION, MIN_RESOLUTION};
+pub(crate) use bake::{check_resolution, closest_on_triangle};
 
 /// The default `resolution`: 64 cells along the mesh's longest side puts a
 /// cell of 1.6 cm on a 1 m table, finer than the few-centimetre cells of

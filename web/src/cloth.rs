@@ -4,7 +4,7 @@
 
 use wasm_bindgen::JsValue;
 use wgcloth::glam::{Vec2, Vec3};
-use wgcloth::gpu::{GpuKernels, GpuRenderMesh, SkinLayout};
+use wgcloth::gpu::GpuKernels;
 use wgcloth::params::Integrator;
 use wgcloth::render::{Camera, Renderer, RendererFormats};
 use wgcloth::render_mesh::Embedding;
@@ -55,7 +55,7 @@ pub struct Cloth {
     grab: Option<Grab>,
     frames_since_check: u32,
     /// The scene's render meshes, embedded in the cloth (each solver gets
-    /// its own [`GpuRenderMesh`]es, which the renderer draws).
+    /// its own, which the renderer draws).
     embeddings: Vec<Embedding>,
 }
 
@@ -116,7 +116,7 @@ impl Cloth {
                 depth: DEPTH_FORMAT,
             },
         )?;
-        renderer.set_render_meshes(render_meshes(&embeddings, &solver)?)?;
+        renderer.set_embeddings(&solver, &embeddings)?;
         let animation = scene.animation(&model);
         Ok(Cloth {
             scene,
@@ -250,23 +250,11 @@ impl Cloth {
         if let Some(state) = state {
             hand_over(&mut solver, state, &self.model.pinned)?;
         }
-        self.renderer
-            .set_render_meshes(render_meshes(&self.embeddings, &solver)?)?;
+        self.renderer.set_embeddings(&solver, &self.embeddings)?;
         self.solver = solver;
         self.scene.params.integrator = integrator;
         Ok(())
     }
-}
-
-/// The render meshes of `embeddings` on `solver`.
-fn render_meshes(
-    embeddings: &[Embedding],
-    solver: &GpuSolver,
-) -> wgcloth::Result<Vec<GpuRenderMesh>> {
-    embeddings
-        .iter()
-        .map(|e| GpuRenderMesh::new(solver, e, SkinLayout::POSITION_NORMAL))
-        .collect()
 }
 
 /// The scene's camera at time `t` \[s\]: following its character if it

@@ -385,13 +385,7 @@ impl GpuBatch {
     pub fn draw_range(&self, id: ClothId) -> Result<DrawRange<'_>> {
         match self.member(id)? {
             Member::Table(c) => Ok(c.draw_range(&self.table)),
-            Member::Solo(solver) => Ok(DrawRange {
-                positions: solver.positions_buffer(),
-                normals: solver.normals_buffer(),
-                index_buffer: solver.index_buffer(),
-                indices: 0..solver.index_count(),
-                base_vertex: 0,
-            }),
+            Member::Solo(solver) => Ok(solver.draw_range()),
         }
     }
 
