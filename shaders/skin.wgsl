@@ -11,7 +11,7 @@ fn skin(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let s = skin_vertex(embedded[i]);
-    let base = i * skin_params.stride;
+    let base = skin_params.base + i * skin_params.stride;
     let p = base + skin_params.position;
     skinned[p] = s.position.x;
     skinned[p + 1u] = s.position.y;

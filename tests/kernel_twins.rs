@@ -1542,31 +1542,42 @@ fn normals_matches_its_twin() {
         .unwrap_or_else(|e| panic!("{e}"));
 }
 
-#[test]
-fn skin_matches_its_twin() {
+/// Words 0 and 4 of each vertex are left out of the skin tests' layout:
+/// the pass must not touch them.
+const SKIN_LAYOUT: SkinLayout = SkinLayout {
+    stride: 8,
+    position: 1,
+    normal: Some(5),
+    uv: None,
+};
+
+/// The skin tests' cloth after 300 steps on a lone solver, its two-layer
+/// render mesh's embedding and that render mesh in [`SKIN_LAYOUT`].
+fn skinned_solver() -> (
+    wgcloth::Model,
+    wgcloth::render_mesh::Embedding,
+    wgcloth::GpuSolver,
+    GpuRenderMesh,
+) {
     let params = params(Explicit);
     let model = grid(13, 9, corners(), &params);
     let (_, embedding) = embedded(&model);
     let ctx = gpu_common::gpu();
-    // Words 0 and 4 of each vertex are left out: the pass must not touch
-    // them.
-    let layout = SkinLayout {
-        stride: 8,
-        position: 1,
-        normal: Some(5),
-        uv: None,
-    };
-    // A lone solver's cloth.
     let mut solver = wgcloth::GpuSolver::with_kernels(ctx.kernels(), &ctx.queue, &model, &params)
         .expect("GPU solver");
     solver.step(300).expect("steps");
-    let mesh = GpuRenderMesh::new(&solver, &embedding, layout).expect("render mesh");
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    solver.encode_normals(&mut encoder);
-    mesh.encode(&mut encoder);
-    ctx.queue.submit([encoder.finish()]);
-    let (x, normals) = positions_and_normals(&solver);
-    check_skin("a solver's cloth", &model, &embedding, &mesh, &x, &normals);
+    let mesh = GpuRenderMesh::new(&solver, &embedding, SKIN_LAYOUT).expect("render mesh");
+    (model, embedding, solver, mesh)
+}
+
+#[test]
+fn skin_matches_its_twin() {
+    let ctx = gpu_common::gpu();
+    let params = params(Explicit);
+    let layout = SKIN_LAYOUT;
+    // A lone solver's cloth.
+    let (model, embedding, solver, mesh) = skinned_solver();
+    skin_and_check("a solver's cloth", &model, &embedding, &solver, &mesh, 0.0);
     // The second cloth of a batch: its indices and vertices past the
     // first cloth's.
     let mut batch = wgcloth::gpu::GpuBatch::with_kernels(ctx.kernels(), &ctx.queue);
@@ -1593,12 +1604,121 @@ fn skin_matches_its_twin() {
         &mesh,
         &x,
         &normals,
+        0.0,
     );
+}
+
+/// A word no pass writes (`-1.5`: neither a position of these cloths nor
+/// a unit normal's component, nor zero, which the render mesh's own
+/// buffer starts with).
+const HOST_BLANK: f32 = -1.5;
+
+/// A host's buffer of [`HOST_BLANK`] words with room for the mesh at
+/// byte `offset` and 64 words after it.
+fn host_buffer(
+    ctx: &wgcloth::gpu::GpuContext,
+    offset: u64,
+    vertices: usize,
+    usage: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    use wgpu::util::DeviceExt;
+    let words = offset as usize / 4 + vertices * 8 + 64;
+    ctx.device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("test host vertices"),
+            contents: bytemuck::cast_slice(&vec![HOST_BLANK; words]),
+            usage,
+        })
+}
+
+#[test]
+fn skin_writes_into_a_host_buffer() {
+    let ctx = gpu_common::gpu();
+    let layout = SKIN_LAYOUT;
+    let (model, embedding, solver, mut mesh) = skinned_solver();
+    let n = embedding.vertex_count();
+    // Past a storage-offset boundary by a word: the binding starts at the
+    // boundary and the kernel adds the word.
+    let offset = 260;
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let host = host_buffer(ctx, offset, n, usage);
+    // Refusals first: the mesh keeps its own buffer after each.
+    let refused = [
+        (
+            host_buffer(ctx, offset, n, wgpu::BufferUsages::COPY_SRC),
+            offset,
+            layout,
+            "STORAGE",
+        ),
+        (host.clone(), offset + 2, layout, "a multiple of 4"),
+        (host.clone(), host.size() - 4, layout, "room for"),
+        (
+            host.clone(),
+            offset,
+            SkinLayout {
+                uv: Some(6),
+                ..layout
+            },
+            "texture coordinates",
+        ),
+    ];
+    for (buffer, at, l, says) in &refused {
+        let e = mesh
+            .write_into(buffer, *at, *l)
+            .expect_err("a bad target")
+            .to_string();
+        assert!(e.contains(says), "{e}: should say {says}");
+        assert_eq!(mesh.vertex_offset(), 0, "{e}");
+    }
+    mesh.write_into(&host, offset, layout)
+        .expect("the host's buffer");
+    assert_eq!(
+        (mesh.vertex_buffer(), mesh.vertex_offset()),
+        (&host, offset)
+    );
+    skin_and_check(
+        "a host's buffer",
+        &model,
+        &embedding,
+        &solver,
+        &mesh,
+        HOST_BLANK,
+    );
+    // Nothing before the mesh or after it was written.
+    let all: Vec<f32> = bytemuck::pod_collect_to_vec(
+        &readback::read_buffers(&ctx.device, &ctx.queue, &[(&host, 0, host.size())])
+            .expect("read-back")[0],
+    );
+    let (head, rest) = all.split_at(offset as usize / 4);
+    let tail = &rest[n * 8..];
+    assert!(
+        head.iter().chain(tail).all(|&w| w == HOST_BLANK),
+        "a word outside the render mesh's range of the host's buffer was written"
+    );
+}
+
+/// Records `solver`'s normals and `mesh`'s pass, and checks what it wrote
+/// ([`check_skin`]).
+fn skin_and_check(
+    what: &str,
+    model: &wgcloth::Model,
+    embedding: &wgcloth::render_mesh::Embedding,
+    solver: &wgcloth::GpuSolver,
+    mesh: &GpuRenderMesh,
+    blank: f32,
+) {
+    let ctx = gpu_common::gpu();
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    solver.encode_normals(&mut encoder);
+    mesh.encode(&mut encoder);
+    ctx.queue.submit([encoder.finish()]);
+    let (x, normals) = positions_and_normals(solver);
+    check_skin(what, model, embedding, mesh, &x, &normals, blank);
 }
 
 /// The vertex buffer `mesh`'s pass wrote (of the layout of
 /// [`skin_matches_its_twin`]) against the twin from the same positions
-/// `x` and normals.
+/// `x` and normals; the words outside the layout must still be `blank`.
 fn check_skin(
     what: &str,
     model: &wgcloth::Model,
@@ -1606,6 +1726,7 @@ fn check_skin(
     mesh: &GpuRenderMesh,
     x: &[Vec3<f32>],
     normals: &[Vec3<f32>],
+    blank: f32,
 ) {
     let words = mesh.read_vertices().expect("read-back");
     let (p, n): (Vec<_>, Vec<_>) = embedding
@@ -1622,7 +1743,7 @@ fn check_skin(
         cpu_words.extend([p.x, p.y, p.z, n.x, n.y, n.z]);
     }
     assert!(
-        words.chunks(8).all(|v| v[0] == 0.0 && v[4] == 0.0),
+        words.chunks(8).all(|v| v[0] == blank && v[4] == blank),
         "{what}: a word outside the layout was written"
     );
     let what = format!("skinned vertices of {what}");

@@ -32,6 +32,9 @@ struct SkinParams {
     // indices count from in `cloth_x` and `cloth_normals`.
     first_index: u32,
     base_vertex: i32,
+    // The first render vertex's word in `skinned` (which is bound from a
+    // storage-offset boundary below it in a host's buffer).
+    base: u32,
 }
 
 const NO_NORMAL: u32 = 0xffffffffu;

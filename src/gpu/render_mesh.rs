@@ -1,6 +1,10 @@
 //! A render mesh on the device: its embedding uploaded once, and one
 //! `skin` dispatch a frame that writes its vertices into a vertex buffer
-//! the host draws (see [`crate::render_mesh`]).
+//! the host draws (see [`crate::render_mesh`]): the render mesh's own, or
+//! a range of the host's ([`GpuRenderMesh::write_into`]: a game engine's
+//! mesh slab).
+
+use std::num::NonZeroU64;
 
 use super::buffers::init;
 use super::errors::guarded;
@@ -83,7 +87,7 @@ impl SkinLayout {
 
 /// The `skin` kernel's uniform block (`SkinParams` in `shaders/skin.wgsl`).
 #[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct SkinParams {
     count: u32,
     stride: u32,
@@ -91,7 +95,8 @@ struct SkinParams {
     normal: u32,
     first_index: u32,
     base_vertex: i32,
-    pad: [u32; 2],
+    base: u32,
+    pad: u32,
 }
 
 /// `SkinParams::normal` when no normal is written (`NO_NORMAL`).
@@ -102,12 +107,22 @@ const NO_NORMAL: u32 = u32::MAX;
 /// [`GpuRenderMesh::encode`]) and index buffer.
 #[derive(Debug)]
 pub struct GpuRenderMesh {
+    /// The buffer the pass writes: the render mesh's own, or the host's.
     vertices: wgpu::Buffer,
+    /// The first render vertex's byte in `vertices`.
+    offset: u64,
     indices: wgpu::Buffer,
     index_count: u32,
     vertex_count: u32,
     layout: SkinLayout,
+    params: SkinParams,
+    /// The embedding and the uniform block, bound with `vertices` and the
+    /// cloth's buffers (`cloth`: positions, normals, indices) in `group`.
+    embedded: wgpu::Buffer,
+    uniform: wgpu::Buffer,
+    cloth: [wgpu::Buffer; 3],
     group: wgpu::BindGroup,
+    kernels: GpuKernels,
     pipeline: wgpu::ComputePipeline,
     device: wgpu::Device,
     queue: wgpu::Queue,
@@ -253,56 +268,146 @@ impl GpuRenderMesh {
                 normal: layout.normal.unwrap_or(NO_NORMAL),
                 first_index: range.indices.start,
                 base_vertex: range.base_vertex,
-                pad: [0; 2],
+                base: 0,
+                pad: 0,
             };
             let uniform = init(
                 device,
                 "wgcloth.render_mesh.params",
                 bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             );
-            let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("wgcloth.render_mesh"),
-                layout: kernels.skin_group(),
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: embedded.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: vertices.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: uniform.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: range.positions.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: range.normals.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 5,
-                        resource: range.index_buffer.as_entire_binding(),
-                    },
-                ],
-            });
+            let cloth = [
+                range.positions.clone(),
+                range.normals.clone(),
+                range.index_buffer.clone(),
+            ];
+            let group = bind(kernels, &embedded, &uniform, &cloth, &vertices, 0, bytes);
             Ok(GpuRenderMesh {
                 vertices,
+                offset: 0,
                 indices,
                 index_count: flat.len() as u32,
                 vertex_count: n as u32,
                 layout,
+                params,
+                embedded,
+                uniform,
+                cloth,
                 group,
+                kernels: kernels.clone(),
                 pipeline,
                 device: device.clone(),
                 queue: queue.clone(),
             })
         })
+    }
+
+    /// From now on, writes the render mesh's vertices into the host's
+    /// `buffer` from byte `offset` (a multiple of 4) in `layout`, and
+    /// leaves the words between its attributes as they are: a game
+    /// engine's mesh slab, whose texture coordinates, tangents and colours
+    /// are its own (so `layout` has no `uv`). The buffer needs
+    /// [`wgpu::BufferUsages::STORAGE`]. Called again with the same buffer,
+    /// offset and layout it does nothing, so a host may call it every frame
+    /// (a slab moves when meshes are added). The render mesh's own vertex
+    /// buffer is dropped. Refused: a layout with texture coordinates or
+    /// that [`GpuRenderMesh::new`] refuses, an offset not a multiple of 4,
+    /// a buffer without `STORAGE` or too small for the vertices, a range
+    /// longer than one storage binding on this device.
+    pub fn write_into(
+        &mut self,
+        buffer: &wgpu::Buffer,
+        offset: u64,
+        layout: SkinLayout,
+    ) -> Result<()> {
+        if *buffer == self.vertices && offset == self.offset && layout == self.layout {
+            return Ok(());
+        }
+        layout.check()?;
+        let refuse = |key: &str, allowed: String, got: String| Error::InvalidParameter {
+            key: format!("GpuRenderMesh::write_into {key}"),
+            allowed,
+            got,
+        };
+        if let Some(uv) = layout.uv {
+            return Err(refuse(
+                "layout.uv",
+                "None: a host's buffer holds its own texture coordinates".into(),
+                format!("Some({uv})"),
+            ));
+        }
+        if !offset.is_multiple_of(4) {
+            return Err(refuse(
+                "offset",
+                "a multiple of 4 bytes".into(),
+                offset.to_string(),
+            ));
+        }
+        if !buffer.usage().contains(wgpu::BufferUsages::STORAGE) {
+            return Err(refuse(
+                "buffer",
+                "a buffer with STORAGE usage".into(),
+                format!("{:?}", buffer.usage()),
+            ));
+        }
+        let bytes = u64::from(self.vertex_count) * u64::from(layout.stride) * 4;
+        let end = offset
+            .checked_add(bytes)
+            .filter(|&end| end <= buffer.size())
+            .ok_or_else(|| {
+                refuse(
+                    "offset",
+                    format!(
+                        "room for {} vertices of {} words in the buffer's {} bytes",
+                        self.vertex_count,
+                        layout.stride,
+                        buffer.size()
+                    ),
+                    offset.to_string(),
+                )
+            })?;
+        // Bound from the alignment boundary below the first vertex; the
+        // kernel adds the words from there.
+        let limits = self.device.limits();
+        let align = u64::from(limits.min_storage_buffer_offset_alignment);
+        let start = offset / align * align;
+        if end - start > limits.max_storage_buffer_binding_size {
+            return Err(refuse(
+                "offset",
+                format!(
+                    "a range of at most {} bytes on this device",
+                    limits.max_storage_buffer_binding_size
+                ),
+                format!("{} bytes from {start}", end - start),
+            ));
+        }
+        let params = SkinParams {
+            stride: layout.stride,
+            position: layout.position,
+            normal: layout.normal.unwrap_or(NO_NORMAL),
+            base: ((offset - start) / 4) as u32,
+            ..self.params
+        };
+        let group = guarded(&self.device, "the render mesh's target", None, || {
+            self.queue
+                .write_buffer(&self.uniform, 0, bytemuck::bytes_of(&params));
+            Ok(bind(
+                &self.kernels,
+                &self.embedded,
+                &self.uniform,
+                &self.cloth,
+                buffer,
+                start,
+                end - start,
+            ))
+        })?;
+        self.group = group;
+        self.params = params;
+        self.vertices = buffer.clone();
+        self.offset = offset;
+        self.layout = layout;
+        Ok(())
     }
 
     /// Records the `skin` pass into `encoder`: one dispatch that writes the
@@ -321,9 +426,17 @@ impl GpuRenderMesh {
     }
 
     /// The vertex buffer: [`GpuRenderMesh::vertex_count`] vertices of
-    /// [`GpuRenderMesh::layout`], written by [`GpuRenderMesh::encode`].
+    /// [`GpuRenderMesh::layout`] from byte [`GpuRenderMesh::vertex_offset`],
+    /// written by [`GpuRenderMesh::encode`] (the host's after
+    /// [`GpuRenderMesh::write_into`]).
     pub fn vertex_buffer(&self) -> &wgpu::Buffer {
         &self.vertices
+    }
+
+    /// The first render vertex's byte in [`GpuRenderMesh::vertex_buffer`]
+    /// (0 unless [`GpuRenderMesh::write_into`] said otherwise).
+    pub fn vertex_offset(&self) -> u64 {
+        self.offset
     }
 
     /// The render mesh's triangles (`u32`, three per triangle) as an index
@@ -347,11 +460,57 @@ impl GpuRenderMesh {
         self.layout
     }
 
-    /// Reads the vertex buffer back: `vertex_count × stride` words (native
-    /// only; for tests and the CLI, never per frame).
+    /// Reads the vertex buffer back: `vertex_count × stride` words from
+    /// [`GpuRenderMesh::vertex_offset`] (native only; for tests and the
+    /// CLI, never per frame; a host's buffer needs `COPY_SRC`).
     pub fn read_vertices(&self) -> Result<Vec<f32>> {
         let bytes = u64::from(self.vertex_count) * u64::from(self.layout.stride) * 4;
-        let parts = read_buffers(&self.device, &self.queue, &[(&self.vertices, 0, bytes)])?;
+        let parts = read_buffers(
+            &self.device,
+            &self.queue,
+            &[(&self.vertices, self.offset, bytes)],
+        )?;
         Ok(bytemuck::pod_collect_to_vec(&parts[0]))
     }
+}
+
+/// The `skin` kernel's bind group: the embedding, `size` bytes of `target`
+/// from byte `start`, the uniform block and the cloth's positions, normals
+/// and indices.
+fn bind(
+    kernels: &GpuKernels,
+    embedded: &wgpu::Buffer,
+    uniform: &wgpu::Buffer,
+    cloth: &[wgpu::Buffer; 3],
+    target: &wgpu::Buffer,
+    start: u64,
+    size: u64,
+) -> wgpu::BindGroup {
+    fn whole(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+        wgpu::BindGroupEntry {
+            binding,
+            resource: buffer.as_entire_binding(),
+        }
+    }
+    kernels
+        .device()
+        .create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("wgcloth.render_mesh"),
+            layout: kernels.skin_group(),
+            entries: &[
+                whole(0, embedded),
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: target,
+                        offset: start,
+                        size: NonZeroU64::new(size),
+                    }),
+                },
+                whole(2, uniform),
+                whole(3, &cloth[0]),
+                whole(4, &cloth[1]),
+                whole(5, &cloth[2]),
+            ],
+        })
 }
