@@ -11,6 +11,10 @@
 //! fixed 1/60 s of simulated time each (whatever the frame took) and
 //! writes the last with Bevy's screenshot API, then exits; `--headless`
 //! does it with no window or display (rendered offscreen).
+//! The cape is drawn through the scene's detailed render mesh
+//! (`scenes/cape_detail.obj`, a [`ClothRenderMesh`]: a hem and thousands
+//! of vertices skinned on the GPU from the coarse simulation, whose own
+//! mesh is hidden); `--coarse` draws the simulation's mesh instead.
 //! `--check-pins` reads the cape back every frame and prints, for each
 //! read-back, how far its pinned particles are from where the character's
 //! pose at the cloth's simulated time puts them (`pins: steps S error E
@@ -24,7 +28,8 @@ use common::{Capture, Frames, Orbit};
 use wgcloth::scene::animation::Character;
 use wgcloth::Scene;
 use wgcloth_bevy::{
-    CapsuleCollider, Cloth, ClothPins, ClothPlugin, ClothReadback, ClothState, ClothStepping,
+    CapsuleCollider, Cloth, ClothPins, ClothPlugin, ClothReadback, ClothRenderMesh, ClothState,
+    ClothStepping,
 };
 
 /// Simulated time per frame with `--frames` \[s\]: the cape scene's 60
@@ -33,10 +38,18 @@ const FRAME_SECONDS: f64 = 1.0 / 60.0;
 
 fn main() -> anyhow::Result<()> {
     let mut check_pins = false;
+    let mut coarse = false;
     let capture = Capture::parse(std::env::args().skip(1), |arg, _| {
-        Ok(arg == "--check-pins" && {
-            check_pins = true;
-            true
+        Ok(match arg {
+            "--check-pins" => {
+                check_pins = true;
+                true
+            }
+            "--coarse" => {
+                coarse = true;
+                true
+            }
+            _ => false,
         })
     })?;
     let mut scene = Scene::builtin("cape")?;
@@ -65,6 +78,7 @@ fn main() -> anyhow::Result<()> {
             cloth,
             scene,
             check_pins,
+            coarse,
         })
         .add_systems(Startup, setup)
         .add_systems(Update, (walk, common::orbit_with_mouse));
@@ -93,6 +107,9 @@ struct Setup {
     scene: Scene,
     /// `--check-pins`: the cape is read back every frame.
     check_pins: bool,
+    /// `--coarse`: the simulation's own mesh is drawn, not the scene's
+    /// render meshes.
+    coarse: bool,
 }
 
 /// The character's root entity (its pose is the script's).
@@ -105,6 +122,7 @@ fn setup(
     walk: Res<Walk>,
     mut meshes: ResMut<Assets<Mesh>>,
     mut materials: ResMut<Assets<StandardMaterial>>,
+    mut exit: MessageWriter<AppExit>,
 ) {
     let skin = materials.add(StandardMaterial {
         base_color: Color::srgb(0.55, 0.58, 0.62),
@@ -136,21 +154,38 @@ fn setup(
         commands.entity(body).add_child(limb);
     }
     // The cape, pinned to the body where it rests at the start.
+    let red = materials.add(StandardMaterial {
+        base_color: Color::srgb(0.75, 0.08, 0.06),
+        perceptual_roughness: 0.85,
+        double_sided: true,
+        cull_mode: None,
+        ..default()
+    });
     let cape = commands
         .spawn((
             setup.cloth.clone(),
-            MeshMaterial3d(materials.add(StandardMaterial {
-                base_color: Color::srgb(0.75, 0.08, 0.06),
-                perceptual_roughness: 0.85,
-                double_sided: true,
-                cull_mode: None,
-                ..default()
-            })),
+            MeshMaterial3d(red.clone()),
             ClothPins::all_to(body),
         ))
         .id();
     if setup.check_pins {
         commands.entity(cape).insert(ClothReadback);
+    }
+    // Drawn through its detailed meshes: the simulation's own is hidden.
+    if !setup.coarse {
+        match ClothRenderMesh::from_scene(cape, &setup.cloth, &setup.scene) {
+            Ok(detailed) if !detailed.is_empty() => {
+                commands.entity(cape).insert(Visibility::Hidden);
+                for r in detailed {
+                    commands.spawn((r, MeshMaterial3d(red.clone())));
+                }
+            }
+            Ok(_) => {}
+            Err(e) => {
+                error!("the cape's render mesh: {e}");
+                exit.write(AppExit::error());
+            }
+        }
     }
     // The ground at the scene's height.
     let ground = setup.scene.params.ground.map_or(0.0, |g| g.height) as f32;

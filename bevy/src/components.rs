@@ -12,6 +12,7 @@ use bevy::prelude::*;
 use wgcloth::glam::DVec3;
 use wgcloth::mesh::Placement;
 use wgcloth::model::Pin;
+use wgcloth::render_mesh::{area_normals, Embedding, RenderMesh};
 use wgcloth::{Model, Params, Scene};
 
 /// A cloth the plugin simulates on Bevy's render device and draws through
@@ -116,33 +117,7 @@ impl Cloth {
 /// cloth's vertices are its particles, kept as they are.
 pub(crate) fn triangle_mesh(mesh: &Mesh, weld: bool) -> wgcloth::Result<wgcloth::mesh::Mesh> {
     const WHAT: &str = "the Bevy mesh";
-    let fail = |message: String| wgcloth::Error::Mesh {
-        path: WHAT.into(),
-        message,
-    };
-    if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
-        return Err(fail(format!(
-            "topology {:?}: a triangle list is needed",
-            mesh.primitive_topology()
-        )));
-    }
-    let mut positions: Vec<DVec3> = match mesh.attribute(Mesh::ATTRIBUTE_POSITION) {
-        Some(VertexAttributeValues::Float32x3(p)) => {
-            p.iter().map(|&p| Vec3::from(p).as_dvec3()).collect()
-        }
-        _ => return Err(fail("no Float32x3 positions".into())),
-    };
-    let mut indices: Vec<u32> = match mesh.indices() {
-        Some(Indices::U32(i)) => i.clone(),
-        Some(Indices::U16(i)) => i.iter().map(|&i| u32::from(i)).collect(),
-        None => (0..positions.len() as u32).collect(),
-    };
-    if !indices.len().is_multiple_of(3) {
-        return Err(fail(format!(
-            "{} indices is not a whole number of triangles",
-            indices.len()
-        )));
-    }
+    let (mut positions, mut indices) = triangle_list(mesh, WHAT)?;
     if weld {
         let mut first: HashMap<[u64; 3], u32> = HashMap::new();
         let mut welded = Vec::new();
@@ -167,6 +142,194 @@ pub(crate) fn triangle_mesh(mesh: &Mesh, weld: bool) -> wgcloth::Result<wgcloth:
         .map(|t| [t[0], t[1], t[2]])
         .collect();
     wgcloth::mesh::Mesh::from_triangles(WHAT, positions, &triangles)
+}
+
+/// A detailed mesh that follows a [`Cloth`] (a garment over its coarse
+/// simulation: a hem, a lining, thousands of vertices): each vertex is
+/// embedded once, here, in the cloth's rest shape (its nearest cloth
+/// triangle, a place on it and an offset along the normal), and each
+/// frame one compute pass writes its positions and normals into the
+/// entity's mesh from the cloth's as they lie on the device
+/// (`wgcloth::gpu::GpuRenderMesh`). Bevy's pipelines draw the mesh with
+/// the entity's own material; its texture coordinates, tangents and other
+/// attributes are never touched.
+///
+/// The vertices are world positions \[m\] (the entity stays at the
+/// identity transform, as a cloth's does). The plugin gives the entity a
+/// [`Mesh3d`] of [`ClothRenderMesh::mesh`] unless it has one; a mesh of
+/// its own must have the embedded mesh's vertices in its order, with
+/// uncompressed `Float32x3` positions and normals. To draw only the
+/// detailed mesh, give the cloth's entity [`Visibility::Hidden`] (it is
+/// still simulated). A render mesh whose cloth is despawned or failed is
+/// left where it was last drawn; one that cannot be bound is a
+/// [`ClothFailed`] for its entity.
+#[derive(Component, Clone, Debug)]
+#[require(Transform, Visibility, NoFrustumCulling)]
+pub struct ClothRenderMesh {
+    cloth: Entity,
+    mesh: Arc<RenderMesh>,
+    embedding: Arc<Embedding>,
+}
+
+impl ClothRenderMesh {
+    /// `mesh` embedded in `of` (the cloth entity `cloth`'s [`Cloth`]),
+    /// refused where a vertex lies farther than `max_distance` \[m\] from
+    /// the cloth at rest (the error names the vertex).
+    pub fn new(
+        cloth: Entity,
+        of: &Cloth,
+        mesh: RenderMesh,
+        max_distance: f64,
+    ) -> wgcloth::Result<ClothRenderMesh> {
+        let embedding = Embedding::new(of.model(), &mesh, max_distance)?;
+        Ok(ClothRenderMesh {
+            cloth,
+            mesh: Arc::new(mesh),
+            embedding: Arc::new(embedding),
+        })
+    }
+
+    /// The render meshes of a wgcloth scene (`[cloth] render_mesh`,
+    /// `[[render_mesh]]`) over its cloth `of` (built by
+    /// [`Cloth::from_scene`] from the same scene), in order.
+    pub fn from_scene(
+        cloth: Entity,
+        of: &Cloth,
+        scene: &Scene,
+    ) -> wgcloth::Result<Vec<ClothRenderMesh>> {
+        scene
+            .render_meshes
+            .iter()
+            .map(|r| ClothRenderMesh::new(cloth, of, r.mesh.clone(), r.max_distance))
+            .collect()
+    }
+
+    /// A Bevy mesh the game holds (a triangle list of world positions
+    /// \[m\] at the cloth's rest shape; its normals and `UV_0` if it has
+    /// them, else area-weighted normals), embedded as by
+    /// [`ClothRenderMesh::new`]. Spawn it with a [`Mesh3d`] of that same
+    /// mesh to keep its textures' attributes.
+    pub fn from_mesh(
+        cloth: Entity,
+        of: &Cloth,
+        mesh: &Mesh,
+        max_distance: f64,
+    ) -> wgcloth::Result<ClothRenderMesh> {
+        ClothRenderMesh::new(cloth, of, render_mesh_of(mesh)?, max_distance)
+    }
+
+    /// The cloth entity the mesh follows.
+    pub fn cloth(&self) -> Entity {
+        self.cloth
+    }
+
+    /// Where each vertex lies on the cloth.
+    pub fn embedding(&self) -> &Embedding {
+        &self.embedding
+    }
+
+    /// The embedding, shared with the render world.
+    pub(crate) fn shared_embedding(&self) -> &Arc<Embedding> {
+        &self.embedding
+    }
+
+    /// The Bevy mesh at rest: positions \[m\], normals, texture
+    /// coordinates where the mesh has them, its triangles; the plugin
+    /// overwrites positions and normals on the GPU each frame.
+    pub fn mesh(&self) -> Mesh {
+        let f32x3 =
+            |v: &[DVec3]| -> Vec<[f32; 3]> { v.iter().map(|p| p.as_vec3().to_array()).collect() };
+        let mesh = Mesh::new(
+            PrimitiveTopology::TriangleList,
+            RenderAssetUsages::default(),
+        )
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, f32x3(&self.mesh.positions))
+        .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, f32x3(&self.mesh.normals))
+        .with_inserted_indices(Indices::U32(
+            self.mesh.triangles.iter().flatten().copied().collect(),
+        ));
+        match &self.mesh.uvs {
+            Some(uvs) => mesh.with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs.clone()),
+            None => mesh,
+        }
+    }
+}
+
+/// A Bevy triangle-list `mesh` as a render mesh: its positions, its
+/// normals (area-weighted where it has none) and `UV_0`, its triangles.
+fn render_mesh_of(mesh: &Mesh) -> wgcloth::Result<RenderMesh> {
+    const WHAT: &str = "the Bevy render mesh";
+    let fail = |message: String| wgcloth::Error::Mesh {
+        path: WHAT.into(),
+        message,
+    };
+    let (positions, indices) = triangle_list(mesh, WHAT)?;
+    let triangles: Vec<[u32; 3]> = indices
+        .chunks_exact(3)
+        .map(|t| [t[0], t[1], t[2]])
+        .collect();
+    if let Some(t) = triangles
+        .iter()
+        .position(|t| t.iter().any(|&i| i as usize >= positions.len()))
+    {
+        return Err(fail(format!(
+            "triangle {t}: {:?} names a vertex past the {} it has",
+            triangles[t],
+            positions.len()
+        )));
+    }
+    let normals = match mesh.attribute(Mesh::ATTRIBUTE_NORMAL) {
+        Some(VertexAttributeValues::Float32x3(n)) => n
+            .iter()
+            .map(|&n| Vec3::from(n).as_dvec3().normalize_or_zero())
+            .collect(),
+        _ => area_normals(&positions, &triangles),
+    };
+    let uvs = match mesh.attribute(Mesh::ATTRIBUTE_UV_0) {
+        Some(VertexAttributeValues::Float32x2(t)) => Some(t.clone()),
+        _ => None,
+    };
+    Ok(RenderMesh {
+        name: WHAT.into(),
+        source: (0..positions.len() as u32).collect(),
+        positions,
+        normals,
+        uvs,
+        triangles,
+    })
+}
+
+/// A Bevy triangle-list `mesh`'s positions \[m\] and indices (a whole
+/// number of triangles); `what` names it in errors.
+fn triangle_list(mesh: &Mesh, what: &str) -> wgcloth::Result<(Vec<DVec3>, Vec<u32>)> {
+    let fail = |message: String| wgcloth::Error::Mesh {
+        path: what.into(),
+        message,
+    };
+    if mesh.primitive_topology() != PrimitiveTopology::TriangleList {
+        return Err(fail(format!(
+            "topology {:?}: a triangle list is needed",
+            mesh.primitive_topology()
+        )));
+    }
+    let positions: Vec<DVec3> = match mesh.attribute(Mesh::ATTRIBUTE_POSITION) {
+        Some(VertexAttributeValues::Float32x3(p)) => {
+            p.iter().map(|&p| Vec3::from(p).as_dvec3()).collect()
+        }
+        _ => return Err(fail("no Float32x3 positions".into())),
+    };
+    let indices: Vec<u32> = match mesh.indices() {
+        Some(Indices::U32(i)) => i.clone(),
+        Some(Indices::U16(i)) => i.iter().map(|&i| u32::from(i)).collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    if !indices.len().is_multiple_of(3) {
+        return Err(fail(format!(
+            "{} indices is not a whole number of triangles",
+            indices.len()
+        )));
+    }
+    Ok((positions, indices))
 }
 
 /// A sphere collider: centred on its entity's [`GlobalTransform`]
@@ -345,10 +508,11 @@ pub struct ClothSlot {
 /// A cloth the plugin could not build or step: the device refused it
 /// (limits, memory), a setting was invalid (more than 16 colliders), or
 /// its state stopped being finite; or a [`ClothMeshCollider`] whose mesh
-/// could not be baked. The message is wgcloth's, for a user.
+/// could not be baked; or a [`ClothRenderMesh`] that could not be bound
+/// to its mesh. The message is wgcloth's, for a user.
 #[derive(Message, Clone, Debug)]
 pub struct ClothFailed {
-    /// The cloth's entity (or the mesh collider's).
+    /// The cloth's entity (or the mesh collider's, or the render mesh's).
     pub entity: Entity,
     /// What went wrong.
     pub message: String,

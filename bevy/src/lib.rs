@@ -37,8 +37,10 @@
 //!   and `RenderQueue` (one [`wgcloth::gpu::GpuBatch`] per time step),
 //!   sets gravity, wind, colliders ([`SphereCollider`], [`CapsuleCollider`],
 //!   [`ClothMeshCollider`]) and pins, and records the steps, the normals and a pass that writes
-//!   them into each cloth's mesh into Bevy's command encoder at the start
-//!   of its render graph; Bevy's pipelines then draw the mesh as any other.
+//!   them into each cloth's mesh, and the skinning pass of each
+//!   [`ClothRenderMesh`] (a detailed mesh that follows a cloth), into Bevy's
+//!   command encoder at the start of its render graph; Bevy's pipelines
+//!   then draw the meshes as any other.
 //!   Nothing is read back unless a cloth asks ([`ClothReadback`]).
 
 #![deny(missing_docs)]
@@ -55,7 +57,7 @@ use bevy::transform::TransformSystems;
 
 pub use components::{
     CapsuleCollider, Cloth, ClothFailed, ClothGravity, ClothMeshCollider, ClothPins, ClothReadback,
-    ClothSlot, ClothState, ClothStepping, ClothWind, SphereCollider,
+    ClothRenderMesh, ClothSlot, ClothState, ClothStepping, ClothWind, SphereCollider,
 };
 
 /// The WGSL of the pass that writes a cloth's vertices into its mesh (for
@@ -95,6 +97,7 @@ impl Plugin for ClothPlugin {
                 PostUpdate,
                 (
                     main_world::attach_meshes,
+                    main_world::attach_render_meshes,
                     main_world::advance_clock,
                     main_world::resolve_pins,
                     main_world::bake_mesh_colliders,
@@ -117,7 +120,11 @@ impl Plugin for ClothPlugin {
             .init_resource::<render::ClothWorld>()
             .add_systems(
                 ExtractSchedule,
-                (render::extract, render::extract_colliders),
+                (
+                    render::extract,
+                    render::extract_colliders,
+                    render::extract_render_meshes,
+                ),
             )
             .add_systems(
                 Render,

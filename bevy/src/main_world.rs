@@ -11,8 +11,8 @@ use wgcloth::sdf::DistanceGrid;
 use wgcloth::PinTarget;
 
 use crate::components::{
-    triangle_mesh, Cloth, ClothFailed, ClothMeshCollider, ClothPins, ClothSlot, ClothState,
-    ClothStepping,
+    triangle_mesh, Cloth, ClothFailed, ClothMeshCollider, ClothPins, ClothRenderMesh, ClothSlot,
+    ClothState, ClothStepping,
 };
 
 /// The fixed-step clocks: one per time step `dt` (keyed by its bits), as
@@ -71,6 +71,19 @@ pub(crate) fn attach_meshes(
         commands
             .entity(entity)
             .insert(Mesh3d(meshes.add(cloth.mesh())));
+    }
+}
+
+/// Gives a render mesh without a mesh the mesh it embeds.
+pub(crate) fn attach_render_meshes(
+    mut commands: Commands,
+    mut meshes: ResMut<Assets<Mesh>>,
+    skins: Query<(Entity, &ClothRenderMesh), Without<Mesh3d>>,
+) {
+    for (entity, skin) in &skins {
+        commands
+            .entity(entity)
+            .insert(Mesh3d(meshes.add(skin.mesh())));
     }
 }
 

@@ -1,7 +1,8 @@
 //! The `cape` example on an X server of the test's own (Xvfb) with the
 //! test adapter (lavapipe in CI): its screenshots at two frame counts show
-//! the cape, and the cape moved between them (the character runs off
-//! with it); read back every frame, the cape's pinned particles stay on
+//! the cape, drawn through its detailed render mesh (the simulation's own
+//! mesh is hidden, so every cape pixel is the render mesh's), and the cape
+//! moved between them (the character runs off with it); read back every frame, the cape's pinned particles stay on
 //! the character's shoulders as it jogs and turns. Xvfb missing is a
 //! failure naming the package, never a skip.
 
@@ -35,7 +36,7 @@ const EARLY: u32 = 20;
 const LATE: u32 = 100;
 /// How far the cape's centre on the screen must move between them
 /// \[pixels\]: it rides about 110 pixels with the character; a cape left
-/// at rest (its mesh never written) moves 16, as the character in front
+/// at rest (its render mesh never skinned) moves 16, as the character in front
 /// of it changes what shows.
 const MIN_SHIFT: f32 = 50.0;
 /// How far a pinned particle may be from its place on the character \[m\]

@@ -2,8 +2,10 @@
 //! the test adapter, lavapipe in CI), driven frame by frame with a fixed
 //! number of steps a frame: the cloth it steps is the standalone solver's
 //! bit for bit, a collider moved by a system pushes the cloth (a sphere,
-//! and a mesh collider baked from a Bevy mesh), and a despawned cloth's
-//! slot is reused.
+//! and a mesh collider baked from a Bevy mesh), a despawned cloth's slot
+//! is reused, and a render mesh's vertices in Bevy's vertex slab are the
+//! CPU twin's skinning of the cloth read back (its texture coordinates
+//! untouched).
 
 use std::sync::{Mutex, PoisonError};
 
@@ -32,6 +34,12 @@ const MAX_FRAMES: u32 = 200;
 /// world updated in the same thread as the main world (no pipelining, so
 /// frame `k`'s steps are recorded in frame `k`), stepping `steps` a frame.
 fn app(steps: u32) -> App {
+    app_with(steps, |_| {})
+}
+
+/// [`app`], with `before_finish` run on it before its plugins finish
+/// (when the render world makes its resources from their settings).
+fn app_with(steps: u32, before_finish: impl FnOnce(&mut App)) -> App {
     let mut app = App::new();
     app.add_plugins(
         DefaultPlugins
@@ -49,6 +57,7 @@ fn app(steps: u32) -> App {
     while app.plugins_state() == PluginsState::Adding {
         bevy::tasks::tick_global_task_pools_on_main_thread();
     }
+    before_finish(&mut app);
     app.finish();
     app.cleanup();
     app
@@ -329,5 +338,212 @@ fn a_bevy_mesh_is_a_cloth_with_a_particle_per_vertex() -> anyhow::Result<()> {
         .expect_err("a line list is no cloth")
         .to_string();
     assert!(refused.contains("triangle list"), "{refused}");
+    Ok(())
+}
+
+// The render-mesh tests share the core's two-layer render mesh.
+#[path = "../../tests/gpu_common/layers.rs"]
+mod layers;
+
+/// What [`read_slab`] saw of the probed mesh in the render world: its
+/// slice of the vertex slab, and the word offsets of its position, normal
+/// and texture coordinates and its stride.
+#[derive(Clone, Debug, Default)]
+struct Slab {
+    words: Vec<f32>,
+    stride: usize,
+    position: usize,
+    normal: usize,
+    uv: usize,
+}
+
+/// The mesh whose slab slice [`read_slab`] reads, and what it read.
+type Probed = (Option<AssetId<Mesh>>, Option<Slab>);
+
+/// [`Probed`], shared by both worlds.
+#[derive(Resource, Clone, Default)]
+struct Probe(std::sync::Arc<Mutex<Probed>>);
+
+/// Reads the probed mesh's vertices out of Bevy's vertex slab after the
+/// frame was submitted (the slabs have `COPY_SRC` in this test).
+fn read_slab(
+    probe: Res<Probe>,
+    allocator: Res<bevy::render::mesh::allocator::MeshAllocator>,
+    meshes: Res<bevy::render::render_asset::RenderAssets<bevy::render::mesh::RenderMesh>>,
+    device: Res<bevy::render::renderer::RenderDevice>,
+    queue: Res<bevy::render::renderer::RenderQueue>,
+) {
+    let mut probe = probe.0.lock().unwrap_or_else(PoisonError::into_inner);
+    let Some(id) = probe.0 else { return };
+    let (Some(slice), Some(mesh)) = (allocator.mesh_vertex_slice(&id), meshes.get(id)) else {
+        return;
+    };
+    let layout = mesh.layout.0.layout();
+    let word = |attribute: bevy::mesh::MeshVertexAttribute| {
+        let at = mesh
+            .layout
+            .0
+            .attribute_ids()
+            .iter()
+            .position(|a| *a == attribute.id);
+        at.map_or(usize::MAX, |i| layout.attributes[i].offset as usize / 4)
+    };
+    let stride = layout.array_stride;
+    let start = u64::from(slice.range.start) * stride;
+    let size = u64::from(slice.range.end - slice.range.start) * stride;
+    let queue: &wgpu::Queue = &queue;
+    let Ok(bytes) = wgcloth::gpu::readback::read_buffers(
+        device.wgpu_device(),
+        queue,
+        &[(slice.buffer, start, size)],
+    ) else {
+        return;
+    };
+    probe.1 = Some(Slab {
+        words: bytemuck::pod_collect_to_vec(&bytes[0]),
+        stride: stride as usize / 4,
+        position: word(Mesh::ATTRIBUTE_POSITION),
+        normal: word(Mesh::ATTRIBUTE_NORMAL),
+        uv: word(Mesh::ATTRIBUTE_UV_0),
+    });
+}
+
+/// How far the plugin's skinned positions \[m\] and normals may be from the
+/// CPU twin's on the cloth read back from the same frame: the twin is the
+/// kernel operation for operation, and the device's vertex normals differ
+/// from the twin's by an ulp or two where it fuses a multiply-add
+/// (kernel_twins' `normals_matches_its_twin`), which moves a vertex by that
+/// ulp times its offset and turns its normal by a few ulps (about 1e-7).
+/// 1e-5 is a hundred times that, and a thousand times below a vertex
+/// written one vertex over (the layers' spacing is centimetres) or a
+/// render mesh left at rest (it falls tens of centimetres).
+const SKIN_TOLERANCE: f32 = 1e-5;
+/// Frames of the render-mesh test: 0.3 s of the hanging cloth's 1 ms
+/// steps, in which its free edge falls about 0.4 m.
+const RENDER_MESH_FRAMES: u64 = 30;
+/// The least distance the render mesh's lowest-falling vertex must have
+/// fallen from rest \[m\], so that a mesh never written fails the test.
+const MIN_FALL: f32 = 0.05;
+
+#[test]
+fn a_render_mesh_follows_its_cloth_in_the_meshs_own_layout() -> anyhow::Result<()> {
+    use wgcloth::real::Vec3 as V;
+    use wgcloth_bevy::ClothRenderMesh;
+    let _one = ONE_APP.lock().unwrap_or_else(PoisonError::into_inner);
+    let scene = Scene::builtin("hanging")?;
+    let cloth = Cloth::from_scene(&scene)?;
+    let (render, _) = layers::embedded(cloth.model());
+    // As a Bevy mesh with texture coordinates, which the pass must leave
+    // as they are (a vertex of 8 words: position, normal, uv).
+    let mut mesh = ClothRenderMesh::new(
+        Entity::PLACEHOLDER,
+        &cloth,
+        render.clone(),
+        layers::MAX_DISTANCE,
+    )?
+    .mesh();
+    let n = render.vertex_count();
+    let uvs: Vec<[f32; 2]> = (0..n).map(|i| [i as f32, -(i as f32)]).collect();
+    mesh.insert_attribute(Mesh::ATTRIBUTE_UV_0, uvs.clone());
+
+    let probe = Probe::default();
+    let mut app = app_with(STEPS_PER_FRAME, |app| {
+        app.insert_resource(probe.clone());
+        let render_app = app.sub_app_mut(bevy::render::RenderApp);
+        render_app
+            .world_mut()
+            .resource_mut::<bevy::render::mesh::allocator::MeshAllocatorSettings>()
+            .extra_buffer_usages |= wgpu::BufferUsages::COPY_SRC;
+        render_app.insert_resource(probe.clone()).add_systems(
+            bevy::render::Render,
+            read_slab.in_set(bevy::render::RenderSystems::Cleanup),
+        );
+    });
+    let c = app.world_mut().spawn((cloth.clone(), ClothReadback)).id();
+    let skin = ClothRenderMesh::from_mesh(c, &cloth, &mesh, layers::MAX_DISTANCE)?;
+    let handle = app.world_mut().resource_mut::<Assets<Mesh>>().add(mesh);
+    probe.0.lock().unwrap_or_else(PoisonError::into_inner).0 = Some(handle.id());
+    app.world_mut().spawn((skin.clone(), Mesh3d(handle)));
+    let steps = u64::from(STEPS_PER_FRAME) * RENDER_MESH_FRAMES;
+    let state = state_after(&mut app, c, steps, STEPS_PER_FRAME)?;
+    // Paused now: a few more frames skin the same cloth again.
+    for _ in 0..3 {
+        app.update();
+    }
+    let slab = probe
+        .0
+        .lock()
+        .unwrap_or_else(PoisonError::into_inner)
+        .1
+        .clone();
+    let slab = Context::context(slab, "the render world never read the render mesh's slab")?;
+    assert_eq!(slab.stride, 8, "{slab:?}");
+    assert_eq!(slab.words.len(), n * slab.stride);
+
+    let x: Vec<V<f32>> = state
+        .positions
+        .iter()
+        .map(|p| V::new(p.x, p.y, p.z))
+        .collect();
+    let (p, nn) = wgcloth::cpu::skin::skin(cloth.model(), &x, skin.embedding());
+    let mut worst = 0.0f32;
+    let mut fell = 0.0f32;
+    for k in 0..n {
+        let v = &slab.words[k * slab.stride..(k + 1) * slab.stride];
+        let at = |w: usize| Vec3::new(v[w], v[w + 1], v[w + 2]);
+        let (gp, gn) = (at(slab.position), at(slab.normal));
+        worst = worst
+            .max(gp.distance(Vec3::new(p[k].x, p[k].y, p[k].z)))
+            .max(gn.distance(Vec3::new(nn[k].x, nn[k].y, nn[k].z)));
+        fell = fell.max(render.positions[k].y as f32 - gp.y);
+        assert_eq!(
+            [v[slab.uv], v[slab.uv + 1]],
+            uvs[k],
+            "vertex {k}'s texture coordinates were overwritten"
+        );
+    }
+    assert!(
+        worst <= SKIN_TOLERANCE,
+        "the plugin's render mesh is {worst} from the CPU twin's (at most {SKIN_TOLERANCE})"
+    );
+    assert!(
+        fell >= MIN_FALL,
+        "the render mesh fell {fell} m from rest (at least {MIN_FALL} m): it is not following"
+    );
+    Ok(())
+}
+
+#[test]
+fn a_render_mesh_of_another_mesh_is_refused_by_name() -> anyhow::Result<()> {
+    use wgcloth_bevy::{ClothFailed, ClothRenderMesh};
+    let _one = ONE_APP.lock().unwrap_or_else(PoisonError::into_inner);
+    let scene = Scene::builtin("hanging")?;
+    let cloth = Cloth::from_scene(&scene)?;
+    let (render, _) = layers::embedded(cloth.model());
+    // Far from the cloth: refused when made, naming the vertex.
+    let mut far = render.clone();
+    far.positions[7].y += 1.0;
+    let e = ClothRenderMesh::new(Entity::PLACEHOLDER, &cloth, far, layers::MAX_DISTANCE)
+        .expect_err("a vertex a metre off")
+        .to_string();
+    assert!(e.contains("vertex 7"), "{e}");
+    // Drawn through a mesh that is not the embedded one: a ClothFailed
+    // for the render mesh's entity.
+    let mut app = app(1);
+    let c = app.world_mut().spawn(cloth.clone()).id();
+    let skin = ClothRenderMesh::new(c, &cloth, render, layers::MAX_DISTANCE)?;
+    let other = app
+        .world_mut()
+        .resource_mut::<Assets<Mesh>>()
+        .add(Plane3d::default().mesh().size(1.0, 1.0).build());
+    let r = app.world_mut().spawn((skin, Mesh3d(other))).id();
+    let message = frames_until(&mut app, "a ClothFailed for the render mesh", |world| {
+        world
+            .resource_mut::<Messages<ClothFailed>>()
+            .drain()
+            .find(|f| f.entity == r)
+            .map(|f| f.message)
+    })?;
+    assert!(message.contains("vertices"), "{message}");
     Ok(())
 }

@@ -16,14 +16,15 @@ use bevy::render::mesh::RenderMesh;
 use bevy::render::render_asset::RenderAssets;
 use bevy::render::renderer::{RenderContext, RenderDevice, RenderQueue};
 use bevy::render::Extract;
-use wgcloth::gpu::{ClothId, GpuBatch, GpuKernels};
+use wgcloth::gpu::{ClothId, DrawRange, GpuBatch, GpuKernels, GpuRenderMesh, SkinLayout};
 use wgcloth::params::{Capsule, Sphere};
+use wgcloth::render_mesh::Embedding;
 use wgcloth::sdf::{DistanceGrid, MeshCollider, MeshPose};
 use wgcloth::PinTarget;
 
 use crate::components::{
-    CapsuleCollider, Cloth, ClothGravity, ClothMeshCollider, ClothReadback, ClothSlot, ClothState,
-    ClothWind, SphereCollider,
+    CapsuleCollider, Cloth, ClothGravity, ClothMeshCollider, ClothReadback, ClothRenderMesh,
+    ClothSlot, ClothState, ClothWind, SphereCollider,
 };
 use crate::main_world::{BakedMesh, ClothClock, PinTargets, Report, Reports};
 pub(crate) use write::SOURCE as WRITE_VERTICES_WGSL;
@@ -37,6 +38,15 @@ struct ExtractedCloth {
     mesh: AssetId<Mesh>,
     pins: Vec<PinTarget>,
     readback: bool,
+}
+
+/// One render mesh as the main world has it this frame.
+#[derive(Clone, Debug)]
+struct ExtractedSkin {
+    entity: Entity,
+    cloth: Entity,
+    embedding: Arc<Embedding>,
+    mesh: AssetId<Mesh>,
 }
 
 /// A collider's pose this frame: a sphere's centre, or a capsule's ends
@@ -73,6 +83,7 @@ const PARKED: wgcloth::glam::DVec3 = wgcloth::glam::DVec3::new(0.0, -1.0e5, 0.0)
 #[derive(Resource, Default, Debug)]
 pub(crate) struct Extracted {
     cloths: Vec<ExtractedCloth>,
+    skins: Vec<ExtractedSkin>,
     spheres: Vec<(Entity, ColliderPose)>,
     capsules: Vec<(Entity, ColliderPose)>,
     meshes: Vec<(Entity, MeshBody)>,
@@ -118,6 +129,22 @@ pub(crate) fn extract(
     extracted.steps.clone_from(&clock.steps);
     extracted.gravity = gravity.as_ref().map(|g| g.0);
     extracted.wind = wind.as_deref().copied();
+}
+
+/// Copies this frame's render meshes.
+pub(crate) fn extract_render_meshes(
+    mut extracted: ResMut<Extracted>,
+    skins: Extract<Query<(Entity, &ClothRenderMesh, &Mesh3d)>>,
+) {
+    extracted.skins.clear();
+    extracted
+        .skins
+        .extend(skins.iter().map(|(entity, r, mesh)| ExtractedSkin {
+            entity,
+            cloth: r.cloth(),
+            embedding: r.shared_embedding().clone(),
+            mesh: mesh.id(),
+        }));
 }
 
 /// Copies this frame's collider poses (and mesh colliders' grids).
@@ -234,6 +261,33 @@ struct Inner {
     cloths: HashMap<Entity, RenderCloth>,
     /// Cloths that failed to build, not retried while they exist.
     failed: HashSet<Entity>,
+    skins: HashMap<Entity, Skin>,
+    /// Render meshes that could not be bound, not retried while they exist.
+    failed_skins: HashSet<Entity>,
+}
+
+/// A render mesh on the device, skinned from its cloth into its mesh.
+#[derive(Debug)]
+struct Skin {
+    gpu: GpuRenderMesh,
+    /// What it was built over: the embedding and where its cloth lies (a
+    /// batch's buffers move when cloths are added).
+    embedding: Arc<Embedding>,
+    over: Over,
+}
+
+/// Where a cloth lies in its batch's buffers: its positions, normals and
+/// index buffers, its first index and base vertex.
+type Over = (wgpu::Buffer, wgpu::Buffer, wgpu::Buffer, u32, i32);
+
+fn over(range: &DrawRange<'_>) -> Over {
+    (
+        range.positions.clone(),
+        range.normals.clone(),
+        range.index_buffer.clone(),
+        range.indices.start,
+        range.base_vertex,
+    )
 }
 
 impl ClothWorld {
@@ -405,7 +459,7 @@ pub(crate) fn prepare(
             .draw_range(cloth.id)
             .map_err(|e| e.to_string())
             .and_then(|range| {
-                let words = vertex_words(&mesh.layout)?;
+                let words = vertex_words(&mesh.layout, "the cloth's mesh")?;
                 cloth.write.update(
                     device,
                     queue,
@@ -423,6 +477,97 @@ pub(crate) fn prepare(
     }
     let failed = &inner.failed;
     inner.cloths.retain(|e, _| !failed.contains(e));
+    prepare_skins(inner, &extracted.skins, &allocator, &meshes, &reports);
+}
+
+/// Builds each render mesh over its cloth (again where the cloth moved in
+/// its batch's buffers) and points it at its mesh's slice of the vertex
+/// slab; frees those whose entity is gone.
+fn prepare_skins(
+    inner: &mut Inner,
+    skins: &[ExtractedSkin],
+    allocator: &MeshAllocator,
+    meshes: &RenderAssets<RenderMesh>,
+    reports: &Reports,
+) {
+    let present: HashSet<Entity> = skins.iter().map(|s| s.entity).collect();
+    inner.skins.retain(|e, _| present.contains(e));
+    inner.failed_skins.retain(|e| present.contains(e));
+    for s in skins {
+        if inner.failed_skins.contains(&s.entity) {
+            continue;
+        }
+        let (Some(cloth), Some(slice), Some(mesh)) = (
+            inner.cloths.get(&s.cloth),
+            allocator.mesh_vertex_slice(&s.mesh),
+            meshes.get(s.mesh),
+        ) else {
+            // The cloth is not built (or gone), or the mesh not uploaded:
+            // not drawn this frame, or left where it was.
+            inner.skins.remove(&s.entity);
+            continue;
+        };
+        let Some(group) = inner.groups.get(&cloth.group) else {
+            continue;
+        };
+        let bound = group
+            .batch
+            .draw_range(cloth.id)
+            .map_err(|e| e.to_string())
+            .and_then(|range| {
+                let here = over(&range);
+                let stale = inner
+                    .skins
+                    .get(&s.entity)
+                    .is_none_or(|k| !Arc::ptr_eq(&k.embedding, &s.embedding) || k.over != here);
+                if stale {
+                    let gpu = GpuRenderMesh::in_batch(
+                        &group.batch,
+                        cloth.id,
+                        &s.embedding,
+                        SkinLayout::POSITION_NORMAL,
+                    )
+                    .map_err(|e| e.to_string())?;
+                    inner.skins.insert(
+                        s.entity,
+                        Skin {
+                            gpu,
+                            embedding: s.embedding.clone(),
+                            over: here,
+                        },
+                    );
+                }
+                let vertices = slice.range.end - slice.range.start;
+                let want = s.embedding.vertex_count();
+                if vertices as usize != want {
+                    return Err(format!(
+                        "the render mesh's mesh has {vertices} vertices; its embedding has \
+                         {want} (the mesh must be the embedded one, in its order)"
+                    ));
+                }
+                let (stride, position, normal) =
+                    vertex_words(&mesh.layout, "the render mesh's mesh")?;
+                let layout = SkinLayout {
+                    stride,
+                    position,
+                    normal: Some(normal),
+                    uv: None,
+                };
+                let offset = u64::from(slice.range.start) * u64::from(stride) * 4;
+                match inner.skins.get_mut(&s.entity) {
+                    Some(skin) => skin
+                        .gpu
+                        .write_into(slice.buffer, offset, layout)
+                        .map_err(|e| e.to_string()),
+                    None => Ok(()),
+                }
+            });
+        if let Err(message) = bound {
+            inner.skins.remove(&s.entity);
+            inner.failed_skins.insert(s.entity);
+            reports.post(Report::Failed(s.entity, message));
+        }
+    }
 }
 
 /// Sets one cloth's gravity, wind, colliders and pin targets for this
@@ -595,6 +740,10 @@ pub(crate) fn record(mut context: RenderContext, world: Res<ClothWorld>) {
     });
     for cloth in inner.cloths.values() {
         cloth.write.record(&mut pass, pipeline);
+    }
+    drop(pass);
+    for skin in inner.skins.values() {
+        skin.gpu.encode(encoder);
     }
 }
 

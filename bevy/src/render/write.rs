@@ -106,12 +106,17 @@ impl WritePipeline {
 }
 
 /// Word offsets of the position and normal in a mesh's vertex, and its
-/// stride: both must be uncompressed `Float32x3`.
-pub(crate) fn vertex_words(layout: &MeshVertexBufferLayoutRef) -> Result<(u32, u32, u32), String> {
+/// stride: both must be uncompressed `Float32x3`. `what` names the mesh in
+/// messages ("the cloth's mesh").
+pub(crate) fn vertex_words(
+    layout: &MeshVertexBufferLayoutRef,
+    what: &str,
+) -> Result<(u32, u32, u32), String> {
     if !layout.0.get_attribute_compression().is_empty() {
-        return Err("the cloth's mesh has compressed vertex attributes; \
-                    a cloth needs Float32x3 positions and normals"
-            .into());
+        return Err(format!(
+            "{what} has compressed vertex attributes; \
+             it needs Float32x3 positions and normals"
+        ));
     }
     let find = |attribute: MeshVertexAttribute, name: &str| {
         let at = layout
@@ -122,10 +127,10 @@ pub(crate) fn vertex_words(layout: &MeshVertexBufferLayoutRef) -> Result<(u32, u
         match at.and_then(|i| layout.0.layout().attributes.get(i)) {
             Some(a) if a.format == wgpu::VertexFormat::Float32x3 => Ok((a.offset / 4) as u32),
             Some(a) => Err(format!(
-                "the cloth's mesh has {name} of format {:?}; a cloth needs Float32x3",
+                "{what} has {name} of format {:?}; it needs Float32x3",
                 a.format
             )),
-            None => Err(format!("the cloth's mesh has no {name}")),
+            None => Err(format!("{what} has no {name}")),
         }
     };
     let position = find(Mesh::ATTRIBUTE_POSITION, "positions")?;
