@@ -81,17 +81,22 @@ impl Bending {
     /// `stiffness` \[N·m\] and damping `damping` \[s\] for the rest
     /// positions `rest` and the triangles `triangles` (whose interior edges
     /// carry it; an edge shared by more than two triangles is left out, as
-    /// a boundary edge is). Refuses a rest shape that is not flat
-    /// (`material.bending`, naming the edge).
+    /// a boundary edge is). An edge on a clamp (both ends `pinned`, one
+    /// opposite vertex pinned and the other free) weighs [`CLAMP_WEIGHT`].
+    /// Refuses a rest shape that is not flat (`material.bending`, naming
+    /// the edge).
     pub fn new(
         rest: &[DVec3],
         triangles: &[[u32; 3]],
         stiffness: f64,
         damping: f64,
+        pinned: &[bool],
     ) -> Result<Bending> {
         let terms = stencils(rest, triangles, stiffness)?.into_iter().map(|s| {
             let entries = std::array::from_fn::<_, 4, _>(|k| (s.particles[k], s.weights[k]));
-            (entries.to_vec(), s.scale)
+            let [a, b, c, d] = s.particles;
+            let scale = s.scale * clamp_scale(&[a, b], [c, d], pinned);
+            (entries.to_vec(), scale)
         });
         Bending::assemble(rest.len(), terms, damping)
     }
@@ -105,7 +110,9 @@ impl Bending {
     /// cloth's edge), and `∂²/∂u∂v` at every cell's centre, counted twice.
     /// For an isometric deformation `|∇²x|² = κ₁² + κ₂²`: the plate energy
     /// with no Poisson coupling, isotropic for every quadratic shape, and
-    /// its free edges are a free plate's (`docs/integrators.md`).
+    /// its free edges are a free plate's (`docs/integrators.md`). A second
+    /// difference on a clamp (its middle particle `pinned` with one
+    /// neighbour, the other free) weighs [`CLAMP_WEIGHT`].
     pub fn grid(
         nx: usize,
         ny: usize,
@@ -113,6 +120,7 @@ impl Bending {
         hy: f64,
         stiffness: f64,
         damping: f64,
+        pinned: &[bool],
     ) -> Result<Bending> {
         let idx = |r: usize, c: usize| (r * nx + c) as u32;
         let share = |k: usize, n: usize, h: f64| if k == 0 || k + 1 == n { h / 2.0 } else { h };
@@ -123,20 +131,16 @@ impl Bending {
         };
         for r in 0..ny {
             for c in 1..nx.saturating_sub(1) {
-                let w = hx * share(r, ny, hy);
-                terms.push((
-                    second(idx(r, c - 1), idx(r, c), idx(r, c + 1), hx),
-                    stiffness * w,
-                ));
+                let (a, p, b) = (idx(r, c - 1), idx(r, c), idx(r, c + 1));
+                let w = hx * share(r, ny, hy) * clamp_scale(&[p], [a, b], pinned);
+                terms.push((second(a, p, b, hx), stiffness * w));
             }
         }
         for c in 0..nx {
             for r in 1..ny.saturating_sub(1) {
-                let w = hy * share(c, nx, hx);
-                terms.push((
-                    second(idx(r - 1, c), idx(r, c), idx(r + 1, c), hy),
-                    stiffness * w,
-                ));
+                let (a, p, b) = (idx(r - 1, c), idx(r, c), idx(r + 1, c));
+                let w = hy * share(c, nx, hx) * clamp_scale(&[p], [a, b], pinned);
+                terms.push((second(a, p, b, hy), stiffness * w));
             }
         }
         let k = 1.0 / (hx * hy);
@@ -254,6 +258,38 @@ impl Bending {
     }
 }
 
+/// How much more a bending term on a clamp weighs than elsewhere.
+///
+/// A clamp is where pinned particles hold the cloth's slope: a term whose
+/// `inner` particles (a second difference's middle, a hinge's edge) are all
+/// pinned with exactly one of its `outer` ones (the neighbours across)
+/// pinned and the other free. Such a term measures the curvature at the
+/// clamp from a pinned neighbour that lies where the clamped cloth would
+/// continue straight, which halves it: for a beam clamped at `x₀` with
+/// `y(x) ≈ ½ κ x²`, `(y₋₁ − 2y₀ + y₁)/h² = κ/2`. The second-order clamp
+/// treatment mirrors the free neighbour instead (the ghost point
+/// `y₋₁ = y₁` of a clamped beam's finite differences), doubling the
+/// curvature and so quadrupling the term's energy; and the term's share of
+/// the cloth is the half cell on the free side of the clamp, not a whole
+/// cell. Together: twice the weight. Its Euler–Lagrange equation at the
+/// first free particle is then the clamped beam's second-order
+/// `B (7y₁ − 4y₂ + y₃)/h⁴`, where the plain weight gives
+/// `B (6y₁ − 4y₂ + y₃)/h⁴`, a clamp half a cell behind the pins (first
+/// order). The operator stays constant: it depends on which particles the
+/// model pins, not on where they are.
+pub const CLAMP_WEIGHT: f64 = 2.0;
+
+/// [`CLAMP_WEIGHT`] for a term on a clamp, else 1 (`pinned` shorter than
+/// a particle's index counts it free).
+fn clamp_scale<const N: usize>(inner: &[u32; N], outer: [u32; 2], pinned: &[bool]) -> f64 {
+    let held = |p: u32| pinned.get(p as usize).copied().unwrap_or(false);
+    if inner.iter().all(|&p| held(p)) && (held(outer[0]) != held(outer[1])) {
+        CLAMP_WEIGHT
+    } else {
+        1.0
+    }
+}
+
 /// The stencil of every interior edge of `triangles`, in the order of the
 /// edges' first appearance; refuses a rest fold above [`FLAT_REST_ANGLE`].
 fn stencils(rest: &[DVec3], triangles: &[[u32; 3]], stiffness: f64) -> Result<Vec<Stencil>> {
@@ -365,7 +401,7 @@ mod tests {
     #[test]
     fn flat_sheet_stores_nothing_and_rows_sum_to_zero() {
         let (x, cells) = square(6);
-        let b = Bending::new(&x, &alternating_split(&cells, 7), 1e-3, 0.0).unwrap();
+        let b = Bending::new(&x, &alternating_split(&cells, 7), 1e-3, 0.0, &[]).unwrap();
         assert!(b.energy(&x).abs() < ROUNDING * 1e-3);
         for p in 0..x.len() {
             assert!(b.apply_row(&x, p).length() < ROUNDING);
@@ -377,7 +413,7 @@ mod tests {
     fn curved_rest_shape_is_refused() {
         let (mut x, cells) = square(4);
         x[12].y = 0.05;
-        let err = Bending::new(&x, &alternating_split(&cells, 5), 1e-3, 0.0).unwrap_err();
+        let err = Bending::new(&x, &alternating_split(&cells, 5), 1e-3, 0.0, &[]).unwrap_err();
         assert!(err.to_string().contains("material.bending"), "{err}");
     }
 }

@@ -315,6 +315,7 @@ impl Material {
                     hy,
                     self.bending,
                     self.damping,
+                    &model.pinned,
                 )?)
             }
             (None, true) => Some(Bending::new(
@@ -322,6 +323,7 @@ impl Material {
                 &model.triangles,
                 self.bending,
                 self.damping,
+                &model.pinned,
             )?),
         };
         Ok(())

@@ -26,7 +26,7 @@ fn grid(n: usize, size: f64) -> (Vec<DVec3>, Bending) {
         .collect();
     (
         x,
-        Bending::grid(n, n, h, h, 1.0, 0.0).expect("grid operator"),
+        Bending::grid(n, n, h, h, 1.0, 0.0, &[]).expect("grid operator"),
     )
 }
 
@@ -43,7 +43,7 @@ fn mesh(rows: usize) -> (Vec<DVec3>, Bending) {
         })
         .collect();
     let triangles: Vec<[u32; 3]> = triangles.iter().map(|t| t.map(|p| p as u32)).collect();
-    let b = Bending::new(&x, &triangles, 1.0, 0.0).expect("mesh operator");
+    let b = Bending::new(&x, &triangles, 1.0, 0.0, &[]).expect("mesh operator");
     (x, b)
 }
 
@@ -134,34 +134,90 @@ fn a_sheet_bent_into_a_cylinder_stores_half_b_kappa_squared_per_area() {
     }
 }
 
-/// The issue's bound on `H/W` against the heavy elastica.
-const ELASTICA_TOLERANCE: f64 = 0.05;
+/// How far the settled tip's drop may lie from the heavy elastica's,
+/// relative, for a strip clamped as a user clamps it (every particle at
+/// `x ≤ 0` pinned) at 16 segments and above over `Γ = 10⁻² … 10²`: the
+/// issue's 2 %. Measured: 0.39 % at small `Γ` and 0.73 % at `Γ = 100` at
+/// 16 segments, a quarter of that at 32. The clamp half a cell behind the
+/// pins (`bending::CLAMP_WEIGHT` 1, tried) is 12.9 % off at 16 segments.
+const CLAMPED_DROP_TOLERANCE: f64 = 0.02;
+
+/// How far `H/W` (tip drop over reach) may lie from the elastica's at 32
+/// segments: 1.1 % measured at `Γ = 100`, where the strip turns down
+/// within a tenth of its length of the clamp and the reach, a small
+/// number, carries the error (4.1 % at 16 segments, 18 % at 8).
+const CLAMPED_SHAPE_TOLERANCE: f64 = 0.02;
+
+/// How far the same strip's drop at 15 and at 30 segments may differ,
+/// relative: the issue's 1 %. Measured 0.60 % at `Γ = 100`, 0.33 % at
+/// `Γ = 1`; the issue measured 6.5 % with the clamp half a cell behind the
+/// pins.
+const RESOLUTION_AGREEMENT: f64 = 0.01;
+
+/// The least order of convergence of the drop at the clamp, from 8 to 16
+/// segments at `Γ = 1`: 1.99 measured (the deviation falls 3.98× per
+/// halving); the clamp half a cell behind the pins converges at first
+/// order (1.04, tried).
+const CLAMP_ORDER: f64 = 1.8;
+
+/// The tip drop of a strip of `segments` at `gamma` over the elastica's,
+/// less one.
+fn drop_deviation(segments: usize, gamma: f64) -> f64 {
+    let run =
+        settle_material(segments, MATERIAL_ROWS, gamma, Integrator::Implicit).expect("settles");
+    assert!(run.settled, "{segments} segments, Γ = {gamma}: {run:?}");
+    let tip = elastica::tip(gamma).expect("elastica");
+    run.drop / tip.drop - 1.0
+}
 
 #[test]
-fn a_material_cantilever_follows_the_elastica_and_converges() {
-    // 8 segments: 2.0 % at Γ = 100 at most (measured), nothing calibrated.
-    for gamma in [0.01, 1.0, 10.0, 100.0] {
-        let run = settle_material(8, MATERIAL_ROWS, gamma, Integrator::Implicit).expect("settles");
-        let tip = elastica::tip(gamma).expect("elastica");
-        let deviation = (run.drop / run.reach) / (tip.drop / tip.reach) - 1.0;
-        assert!(run.settled, "Γ = {gamma}: {run:?}");
+fn a_material_cantilever_clamped_where_it_stands_follows_the_elastica() {
+    for gamma in [0.01, 0.1, 1.0, 10.0, 100.0] {
+        let d = drop_deviation(16, gamma);
         assert!(
-            deviation.abs() < ELASTICA_TOLERANCE,
-            "Γ = {gamma}: H/W deviates by {deviation}"
+            d.abs() < CLAMPED_DROP_TOLERANCE,
+            "16 segments, Γ = {gamma}: the drop deviates by {d}"
         );
     }
-    // Second order in the cell size: doubling the resolution divides the
-    // drop's deviation by about 4 (3.7 measured at Γ = 1); 3 leaves room
-    // and still fails a first-order scheme (2).
-    let deviation = |segments| {
-        let run =
-            settle_material(segments, MATERIAL_ROWS, 1.0, Integrator::Implicit).expect("settles");
-        let tip = elastica::tip(1.0).expect("elastica");
-        (run.drop - tip.drop).abs() / tip.drop
-    };
-    let (coarse, fine) = (deviation(8), deviation(16));
-    assert!(coarse / fine > 3.0, "deviation {coarse} at 8, {fine} at 16");
+    for gamma in [1.0, 100.0] {
+        let run = settle_material(32, MATERIAL_ROWS, gamma, Integrator::Implicit).expect("settles");
+        let tip = elastica::tip(gamma).expect("elastica");
+        let drop = run.drop / tip.drop - 1.0;
+        let shape = (run.drop / run.reach) / (tip.drop / tip.reach) - 1.0;
+        assert!(
+            drop.abs() < CLAMPED_DROP_TOLERANCE && shape.abs() < CLAMPED_SHAPE_TOLERANCE,
+            "32 segments, Γ = {gamma}: the drop deviates by {drop}, H/W by {shape}"
+        );
+    }
 }
+
+#[test]
+fn a_material_cantilever_converges_at_second_order_at_the_clamp() {
+    let (coarse, fine) = (drop_deviation(8, 1.0), drop_deviation(16, 1.0));
+    let order = (coarse / fine).abs().log2();
+    assert!(
+        order >= CLAMP_ORDER,
+        "order {order} (deviation {coarse} at 8 segments, {fine} at 16)"
+    );
+    for gamma in [1.0, 100.0] {
+        let drop = |segments| {
+            settle_material(segments, MATERIAL_ROWS, gamma, Integrator::Implicit)
+                .expect("settles")
+                .drop
+        };
+        let (a, b) = (drop(15), drop(30));
+        assert!(
+            (a - b).abs() / b < RESOLUTION_AGREEMENT,
+            "Γ = {gamma}: drop {a} at 15 segments, {b} at 30"
+        );
+    }
+}
+
+/// How far the rigidity ASTM D1388's overhang implies may lie from the
+/// material's: the issue's 2 % at 16 segments (0.69 % measured, the strip
+/// clamped where the table ends; −13.1 % with the clamp half a cell behind
+/// the pins, tried).
+const OVERHANG_TOLERANCE: f64 = 0.02;
 
 /// Steps of the stiff-bending runs (1 s at 1/60 s).
 const STIFF_STEPS: u64 = 60;
@@ -214,9 +270,9 @@ fn stiff_bending_is_stable_implicitly_and_holds_a_sheet_up() {
 
 #[test]
 fn the_overhang_test_recovers_the_bending_stiffness() {
-    // A cotton shirting: 0.12 kg/m², 5 µN·m; 0.09 % measured at 16 segments.
+    // A cotton shirting: 0.12 kg/m², 5 µN·m.
     let o = overhang(0.12, 5e-6, 16).expect("overhang");
-    assert!(o.deviation.abs() < ELASTICA_TOLERANCE, "{o:?}");
+    assert!(o.deviation.abs() < OVERHANG_TOLERANCE, "{o:?}");
     assert!((o.gamma - 8.0).abs() < 0.1, "{o:?}");
 }
 
@@ -246,7 +302,7 @@ fn bending_refusals_name_the_key_and_what_is_allowed() {
     x[40].y += 0.05;
     let (_, triangles) = irregular_sheet(1.0, 9);
     let triangles: Vec<[u32; 3]> = triangles.iter().map(|t| t.map(|p| p as u32)).collect();
-    let e = Bending::new(&x, &triangles, 1e-3, 0.0).expect_err("refused");
+    let e = Bending::new(&x, &triangles, 1e-3, 0.0, &[]).expect_err("refused");
     assert!(
         e.to_string().contains("material.bending") && e.to_string().contains("flat"),
         "{e}"

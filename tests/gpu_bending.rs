@@ -49,11 +49,12 @@ fn with_bending(model: Model, mesh: bool) -> Model {
             &model.triangles,
             BENDING,
             BENDING_DAMPING,
+            &model.pinned,
         )
         .expect("a flat mesh")
     } else {
         let (hx, hy) = (1.0 / (NX - 1) as f64, 1.0 / (NY - 1) as f64);
-        Bending::grid(NX, NY, hx, hy, BENDING, BENDING_DAMPING).expect("a grid")
+        Bending::grid(NX, NY, hx, hy, BENDING, BENDING_DAMPING, &model.pinned).expect("a grid")
     });
     model
 }
@@ -177,7 +178,7 @@ fn an_explicit_solver_built_through_the_api_refuses_a_bending_too_stiff_for_its_
     let model = {
         let mut m = grid(NX, NY, corners(), &params);
         let (hx, hy) = (1.0 / (NX - 1) as f64, 1.0 / (NY - 1) as f64);
-        m.bending = Some(Bending::grid(NX, NY, hx, hy, 10.0, 0.0).expect("a grid"));
+        m.bending = Some(Bending::grid(NX, NY, hx, hy, 10.0, 0.0, &[]).expect("a grid"));
         m
     };
     let refusals = [

@@ -1103,7 +1103,7 @@ fn semi_cg(bending: bool) -> Twins {
     let mut model = without_grid(&grid(NX, NY, corners(), &p));
     if bending {
         let (hx, hy) = (1.0 / (NX - 1) as f64, 1.0 / (NY - 1) as f64);
-        let b = wgcloth::bending::Bending::grid(NX, NY, hx, hy, BENDING.0, BENDING.1);
+        let b = wgcloth::bending::Bending::grid(NX, NY, hx, hy, BENDING.0, BENDING.1, &[]);
         model.bending = Some(b.unwrap_or_else(|e| panic!("bending: {e}")));
     }
     Twins::unchecked(&model, &p, false, WARM_STEPS)

@@ -340,7 +340,8 @@ pub const MATERIAL_STRETCH_OVER_TENSION: f64 = 1e5;
 /// `density` \[kg/m²\] and `bending` \[N·m\], stretch stiff enough to be
 /// inextensible, shear a tenth of that and no damping, on a grid of
 /// `segments` square cells along the free length and `rows` particles
-/// across, clamped as the chord strips are.
+/// across, clamped where a user clamps it (every particle at `x ≤ 0`
+/// pinned: its first two columns).
 fn material_strip(
     segments: usize,
     rows: usize,
@@ -349,16 +350,17 @@ fn material_strip(
     integrator: Integrator,
 ) -> Result<(Model, Params)> {
     let gravity = -Params::default().gravity.y;
-    // The clamp is midway between the two pinned columns (the first
-    // second difference, at the second column, is the clamp's joint): the
-    // columns sit at (c − 1/2) h, the clamp at 0 and the tip at L.
-    let h = length / (segments as f64 + 0.5);
+    // Clamped as a user clamps it: every particle at x ≤ 0 is pinned (the
+    // columns sit at (c − 1) h, the clamp is the second, at 0, and the tip
+    // at L); the bending operator treats that column as a clamp
+    // (`bending::CLAMP_WEIGHT`).
+    let h = length / segments as f64;
     let nx = segments + 2;
     let spec = ClothSpec {
         nx,
         ny: rows,
         size: [(nx - 1) as f64 * h, (rows - 1) as f64 * h],
-        origin: DVec3::new(-0.5 * h, 0.0, 0.0),
+        origin: DVec3::new(-h, 0.0, 0.0),
         orientation: Orientation::Horizontal,
         mass: 1.0,
         pins: (0..rows)
@@ -723,10 +725,9 @@ pub fn overhang(density: f64, bending: f64, segments: usize) -> Result<Overhang>
 
 /// Where the clamped plate of [`plate_drop`] is held: every particle with
 /// `x ≤` this \[m\] is pinned (the plate lies on a table up to there). A
-/// column of every grid of `2ᵏ + 1` particles a side lies on it, so the
-/// grids' clamps differ only by the half cell before the first free
-/// column (a first-order effect); the irregular meshes' clamp follows
-/// their vertices.
+/// column of every grid of `2ᵏ + 1` particles a side lies on it, the
+/// clamp the bending operator weights as one (`bending::CLAMP_WEIGHT`);
+/// the irregular meshes' clamp follows their vertices.
 pub const PLATE_CLAMP: f64 = 0.125;
 
 /// `Γ = ρ g L³ / B` of the clamped plate over its overhang `L = 1 −`
