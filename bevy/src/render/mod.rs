@@ -515,6 +515,23 @@ fn prepare_skins(
             .draw_range(cloth.id)
             .map_err(|e| e.to_string())
             .and_then(|range| {
+                // The mesh is checked before anything is built over it.
+                let vertices = slice.range.end - slice.range.start;
+                let want = s.embedding.vertex_count();
+                if vertices as usize != want {
+                    return Err(format!(
+                        "the render mesh's mesh has {vertices} vertices; its embedding has \
+                         {want} (the mesh must be the embedded one, in its order)"
+                    ));
+                }
+                let (stride, position, normal) =
+                    vertex_words(&mesh.layout, "the render mesh's mesh")?;
+                let layout = SkinLayout {
+                    stride,
+                    position,
+                    normal: Some(normal),
+                    uv: None,
+                };
                 let here = over(&range);
                 let stale = inner
                     .skins
@@ -537,22 +554,6 @@ fn prepare_skins(
                         },
                     );
                 }
-                let vertices = slice.range.end - slice.range.start;
-                let want = s.embedding.vertex_count();
-                if vertices as usize != want {
-                    return Err(format!(
-                        "the render mesh's mesh has {vertices} vertices; its embedding has \
-                         {want} (the mesh must be the embedded one, in its order)"
-                    ));
-                }
-                let (stride, position, normal) =
-                    vertex_words(&mesh.layout, "the render mesh's mesh")?;
-                let layout = SkinLayout {
-                    stride,
-                    position,
-                    normal: Some(normal),
-                    uv: None,
-                };
                 let offset = u64::from(slice.range.start) * u64::from(stride) * 4;
                 match inner.skins.get_mut(&s.entity) {
                     Some(skin) => skin
