@@ -33,7 +33,42 @@ use glam::DVec3;
 
 use crate::budget::try_vec;
 use crate::error::{Error, Result};
+use crate::material::WarpWeft;
 use crate::params::format_number;
+
+/// The plane in which a fabric of bending stiffness `B₁` along the warp
+/// and `B₂` along the weft bends as an isotropic one: warp coordinates
+/// divided by `α = (B₁/B₂)^(1/8)`, weft coordinates multiplied by it (the
+/// map keeps areas), and the isotropic stiffness `√(B₁ B₂)`.
+///
+/// With `u = α u'` and `v = v'/α`, `∂²/∂u'² = α² ∂²/∂u²` and
+/// `∂²/∂v'² = α⁻² ∂²/∂v²`, so `√(B₁B₂) ∫ |∇'²x|² du' dv'` is
+/// `∫ B₁ x_uu² + B₂ x_vv² + 2 √(B₁B₂) x_uv²  du dv`: a strip bent along
+/// the warp stores `½ B₁ κ²`, along the weft `½ B₂ κ²`, and the twist
+/// term is the geometric mean's (`docs/materials.md` gives a bias strip's
+/// stiffness). Both operators are the isotropic ones on the mapped rest
+/// shape, so they keep their order, symmetry and clamp.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Metric {
+    /// `α`: 1 for an isotropic stiffness.
+    pub stretch: f64,
+    /// `√(B₁ B₂)` \[N·m\].
+    pub stiffness: f64,
+}
+
+impl Metric {
+    /// The plane of `stiffness` (both directions `> 0`, or isotropic).
+    pub fn of(stiffness: WarpWeft) -> Metric {
+        Metric {
+            stretch: if stiffness.is_isotropic() {
+                1.0
+            } else {
+                (stiffness.warp / stiffness.weft).powf(0.125)
+            },
+            stiffness: stiffness.geometric_mean(),
+        }
+    }
+}
 
 /// The largest fold \[rad\] of the rest shape about any interior edge that
 /// still counts as flat: the quadratic model's energy is measured from a
@@ -83,21 +118,27 @@ impl Bending {
     /// carry it; an edge shared by more than two triangles is left out, as
     /// a boundary edge is). An edge on a clamp (both ends `pinned`, one
     /// opposite vertex pinned and the other free) weighs [`CLAMP_WEIGHT`].
-    /// Refuses a rest shape that is not flat (`material.bending`, naming
-    /// the edge).
+    /// A stiffness that differs between warp and weft takes each
+    /// triangle's warp direction from `warps` (unit, in its plane; unused,
+    /// and may be empty, for an isotropic one) and computes each hinge's
+    /// weights in [`Metric`]'s plane. Refuses a rest shape that is not flat
+    /// (`material.bending`, naming the edge).
     pub fn new(
         rest: &[DVec3],
         triangles: &[[u32; 3]],
-        stiffness: f64,
+        stiffness: impl Into<WarpWeft>,
+        warps: &[DVec3],
         damping: f64,
         pinned: &[bool],
     ) -> Result<Bending> {
-        let terms = stencils(rest, triangles, stiffness)?.into_iter().map(|s| {
-            let entries = std::array::from_fn::<_, 4, _>(|k| (s.particles[k], s.weights[k]));
-            let [a, b, c, d] = s.particles;
-            let scale = s.scale * clamp_scale(&[a, b], [c, d], pinned);
-            (entries.to_vec(), scale)
-        });
+        let terms = stencils(rest, triangles, stiffness.into(), warps)?
+            .into_iter()
+            .map(|s| {
+                let entries = std::array::from_fn::<_, 4, _>(|k| (s.particles[k], s.weights[k]));
+                let [a, b, c, d] = s.particles;
+                let scale = s.scale * clamp_scale(&[a, b], [c, d], pinned);
+                (entries.to_vec(), scale)
+            });
         Bending::assemble(rest.len(), terms, damping)
     }
 
@@ -112,16 +153,20 @@ impl Bending {
     /// with no Poisson coupling, isotropic for every quadratic shape, and
     /// its free edges are a free plate's (`docs/integrators.md`). A second
     /// difference on a clamp (its middle particle `pinned` with one
-    /// neighbour, the other free) weighs [`CLAMP_WEIGHT`].
+    /// neighbour, the other free) weighs [`CLAMP_WEIGHT`]. The warp runs
+    /// along the rows; a stiffness that differs between warp and weft is
+    /// the isotropic operator in [`Metric`]'s plane.
     pub fn grid(
         nx: usize,
         ny: usize,
         hx: f64,
         hy: f64,
-        stiffness: f64,
+        stiffness: impl Into<WarpWeft>,
         damping: f64,
         pinned: &[bool],
     ) -> Result<Bending> {
+        let metric = Metric::of(stiffness.into());
+        let (hx, hy, stiffness) = (hx / metric.stretch, hy * metric.stretch, metric.stiffness);
         let idx = |r: usize, c: usize| (r * nx + c) as u32;
         let share = |k: usize, n: usize, h: f64| if k == 0 || k + 1 == n { h / 2.0 } else { h };
         let mut terms: Vec<(Vec<(u32, f64)>, f64)> = Vec::new();
@@ -292,30 +337,40 @@ fn clamp_scale<const N: usize>(inner: &[u32; N], outer: [u32; 2], pinned: &[bool
 
 /// The stencil of every interior edge of `triangles`, in the order of the
 /// edges' first appearance; refuses a rest fold above [`FLAT_REST_ANGLE`].
-fn stencils(rest: &[DVec3], triangles: &[[u32; 3]], stiffness: f64) -> Result<Vec<Stencil>> {
+/// An anisotropic `stiffness` computes each hinge's weights and areas in
+/// [`Metric`]'s plane, its warp the mean of its two triangles' `warps`.
+fn stencils(
+    rest: &[DVec3],
+    triangles: &[[u32; 3]],
+    stiffness: WarpWeft,
+    warps: &[DVec3],
+) -> Result<Vec<Stencil>> {
     use std::collections::HashMap;
     // Each edge (ends ascending) → (its first triangle's opposite vertex,
-    // the other's, how many triangles share it).
-    let mut edges: HashMap<(u32, u32), (u32, u32, u32)> = HashMap::new();
+    // the other's, how many triangles share it, the two triangles).
+    type Sides = (u32, u32, u32, [usize; 2]);
+    let mut edges: HashMap<(u32, u32), Sides> = HashMap::new();
     let mut order = Vec::new();
-    for t in triangles {
+    for (n, t) in triangles.iter().enumerate() {
         for k in 0..3 {
             let (a, b, c) = (t[k], t[(k + 1) % 3], t[(k + 2) % 3]);
             let key = (a.min(b), a.max(b));
             let entry = edges.entry(key).or_insert_with(|| {
                 order.push(key);
-                (c, u32::MAX, 0)
+                (c, u32::MAX, 0, [n, n])
             });
             if entry.2 == 1 {
                 entry.1 = c;
+                entry.3[1] = n;
             }
             entry.2 += 1;
         }
     }
+    let metric = Metric::of(stiffness);
     let x = |p: u32| rest[p as usize];
     let mut out = Vec::new();
     for key in order {
-        let (c, d, count) = edges[&key];
+        let (c, d, count, pair) = edges[&key];
         if count != 2 {
             continue;
         }
@@ -325,10 +380,9 @@ fn stencils(rest: &[DVec3], triangles: &[[u32; 3]], stiffness: f64) -> Result<Ve
         if !(area0 > 0.0 && area1 > 0.0) {
             continue;
         }
-        let (ca0, ca1) = (cot(x0, x1, x2), cot(x1, x0, x2));
-        let (cb0, cb1) = (cot(x0, x1, x3), cot(x1, x0, x3));
-        let weights = [ca1 + cb1, ca0 + cb0, -(ca0 + ca1), -(cb0 + cb1)];
-        // The rest fold: |K| = 2|e| sin(θ/2).
+        // The rest fold: |K| = 2|e| sin(θ/2), with the rest shape's own
+        // weights.
+        let weights = cot_weights(x0, x1, x2, x3);
         let k = x0 * weights[0] + x1 * weights[1] + x2 * weights[2] + x3 * weights[3];
         let edge = (x1 - x0).length();
         let fold = 2.0 * (k.length() / (2.0 * edge)).min(1.0).asin();
@@ -342,18 +396,54 @@ fn stencils(rest: &[DVec3], triangles: &[[u32; 3]], stiffness: f64) -> Result<Ve
                     format_number(fold),
                     format_number(FLAT_REST_ANGLE)
                 ),
-                got: format_number(stiffness),
+                got: stiffness.to_string(),
             });
         }
+        let (weights, areas) = if metric.stretch == 1.0 {
+            (weights, area0 + area1)
+        } else {
+            let [w0, w1] = pair.map(|t| warps.get(t).copied().unwrap_or(DVec3::ZERO));
+            // The warp is an axis: a face whose `u` runs the other way
+            // (across a texture seam) gives the same one.
+            let warp = w0 + w1 * w0.dot(w1).signum();
+            let [y0, y1, y2, y3] = in_metric([x0, x1, x2, x3], warp, metric);
+            let areas = 0.5 * (twice_area(y0, y1, y2) + twice_area(y0, y1, y3));
+            (cot_weights(y0, y1, y2, y3), areas)
+        };
         out.push(Stencil {
             particles: [a, b, c, d],
             weights,
-            scale: stiffness / (area0 + area1),
+            scale: metric.stiffness / areas,
         });
     }
     Ok(out)
 }
 
+/// The cotangent weights of the hinge `x₀ x₁` between the triangles
+/// `x₀ x₁ x₂` and `x₀ x₁ x₃` (module docs).
+fn cot_weights(x0: DVec3, x1: DVec3, x2: DVec3, x3: DVec3) -> [f64; 4] {
+    let (ca0, ca1) = (cot(x0, x1, x2), cot(x1, x0, x2));
+    let (cb0, cb1) = (cot(x0, x1, x3), cot(x1, x0, x3));
+    [ca1 + cb1, ca0 + cb0, -(ca0 + ca1), -(cb0 + cb1)]
+}
+
+/// A flat hinge's four points in `metric`'s plane: coordinates about the
+/// first point along the warp (`warp` projected into the hinge's plane)
+/// divided by `α`, across it multiplied by `α`.
+fn in_metric(points: [DVec3; 4], warp: DVec3, metric: Metric) -> [DVec3; 4] {
+    let [x0, x1, x2, _] = points;
+    let normal = (x1 - x0).cross(x2 - x0).normalize_or_zero();
+    let along = (warp - normal * normal.dot(warp)).normalize_or_zero();
+    let across = normal.cross(along);
+    points.map(|p| {
+        let d = p - x0;
+        DVec3::new(
+            d.dot(along) / metric.stretch,
+            d.dot(across) * metric.stretch,
+            0.0,
+        )
+    })
+}
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -401,7 +491,7 @@ mod tests {
     #[test]
     fn flat_sheet_stores_nothing_and_rows_sum_to_zero() {
         let (x, cells) = square(6);
-        let b = Bending::new(&x, &alternating_split(&cells, 7), 1e-3, 0.0, &[]).unwrap();
+        let b = Bending::new(&x, &alternating_split(&cells, 7), 1e-3, &[], 0.0, &[]).unwrap();
         assert!(b.energy(&x).abs() < ROUNDING * 1e-3);
         for p in 0..x.len() {
             assert!(b.apply_row(&x, p).length() < ROUNDING);
@@ -409,11 +499,37 @@ mod tests {
         }
     }
 
+    /// A woven mesh operator is the isotropic one of `√(B₁B₂)` on the rest
+    /// shape mapped into [`Metric`]'s plane, hinge by hinge.
+    #[test]
+    fn a_woven_mesh_operator_is_the_isotropic_one_in_the_metric_plane() {
+        let (x, cells) = square(6);
+        let triangles = alternating_split(&cells, 7);
+        let woven = WarpWeft {
+            warp: 4e-3,
+            weft: 1e-3,
+        };
+        let warps = vec![DVec3::X; triangles.len()];
+        let b = Bending::new(&x, &triangles, woven, &warps, 0.0, &[]).unwrap();
+        let alpha = 4f64.powf(0.125);
+        let mapped: Vec<DVec3> = x
+            .iter()
+            .map(|p| DVec3::new(p.x / alpha, 0.0, p.z * alpha))
+            .collect();
+        let iso = Bending::new(&mapped, &triangles, 2e-3, &[], 0.0, &[]).unwrap();
+        assert_eq!(b.columns, iso.columns);
+        for (a, e) in b.coefficients.iter().zip(&iso.coefficients) {
+            assert!((a - e).abs() <= ROUNDING * e.abs().max(1.0), "{a} vs {e}");
+        }
+        let plain = Bending::new(&x, &triangles, 2e-3, &[], 0.0, &[]).unwrap();
+        assert_ne!(b.coefficients, plain.coefficients);
+    }
+
     #[test]
     fn curved_rest_shape_is_refused() {
         let (mut x, cells) = square(4);
         x[12].y = 0.05;
-        let err = Bending::new(&x, &alternating_split(&cells, 5), 1e-3, 0.0, &[]).unwrap_err();
+        let err = Bending::new(&x, &alternating_split(&cells, 5), 1e-3, &[], 0.0, &[]).unwrap_err();
         assert!(err.to_string().contains("material.bending"), "{err}");
     }
 }

@@ -18,6 +18,15 @@
 //!   1998): an equilateral lattice's uniaxial stiffness is `Y`, its shear
 //!   stiffness `3Y/8` whatever `S` is;
 //! - damping is stiffness-proportional (Rayleigh): `kd = β k`.
+//!
+//! A woven fabric's stretch and bending differ along its warp and weft
+//! ([`WarpWeft`]): the warp runs along a grid's rows (its first axis) or a
+//! mesh's texture coordinate `u`. A rectangular cell's sides then take
+//! `C11 = p` along the warp and `C22 = q` along the weft in place of `u`,
+//! with `p = (Y₁ + √(Y₁² + 4S² Y₁/Y₂)) / 2` and `q = p Y₂/Y₁`, which make
+//! the uniaxial stiffnesses `Y₁` and `Y₂` and the shear stiffness `S`
+//! exactly; a side at `θ` to the warp takes `q + (p − q) cos²θ`, and a
+//! triangle's side `Y₂ + (Y₁ − Y₂) cos²θ` in place of `Y`.
 
 use std::collections::HashMap;
 
@@ -30,22 +39,111 @@ use crate::params::{
     check, format_below, format_number, Integrator, Params, SpringKind, SpringParams,
 };
 
+/// A property of a woven fabric along its two thread directions: the warp
+/// (a grid's rows, a mesh's `u`) and the weft (a grid's columns, a mesh's
+/// `v`). The same value along both is an isotropic fabric's one number.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WarpWeft {
+    /// Along the warp.
+    pub warp: f64,
+    /// Along the weft.
+    pub weft: f64,
+}
+
+impl WarpWeft {
+    /// The same value along both directions.
+    pub const fn both(value: f64) -> WarpWeft {
+        WarpWeft {
+            warp: value,
+            weft: value,
+        }
+    }
+
+    /// Whether both directions have the same value.
+    pub fn is_isotropic(&self) -> bool {
+        self.warp == self.weft
+    }
+
+    /// The value along a direction at `θ` to the warp, given `cos²θ`:
+    /// `weft + (warp − weft) cos²θ`, each direction's own value on its
+    /// axis, and exactly the one value of an isotropic fabric whatever
+    /// `cos2` is.
+    pub fn along(&self, cos2: f64) -> f64 {
+        if self.is_isotropic() {
+            self.warp
+        } else {
+            self.weft + (self.warp - self.weft) * cos2
+        }
+    }
+
+    /// The greater of the two.
+    pub fn max(&self) -> f64 {
+        self.warp.max(self.weft)
+    }
+
+    /// `√(warp · weft)`: exactly the one value of an isotropic fabric.
+    pub fn geometric_mean(&self) -> f64 {
+        if self.is_isotropic() {
+            self.warp
+        } else {
+            (self.warp * self.weft).sqrt()
+        }
+    }
+
+    /// The key and value of each direction for messages: `key` alone for
+    /// an isotropic value, else `key.warp` and `key.weft`.
+    fn keyed(&self, key: &str) -> Vec<(String, f64)> {
+        if self.is_isotropic() {
+            vec![(key.to_string(), self.warp)]
+        } else {
+            vec![
+                (format!("{key}.warp"), self.warp),
+                (format!("{key}.weft"), self.weft),
+            ]
+        }
+    }
+}
+
+impl From<f64> for WarpWeft {
+    fn from(value: f64) -> WarpWeft {
+        WarpWeft::both(value)
+    }
+}
+
+impl std::fmt::Display for WarpWeft {
+    /// `5`, or `{ warp = 5, weft = 2 }` as a scene file writes it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if self.is_isotropic() {
+            write!(f, "{}", format_number(self.warp))
+        } else {
+            write!(
+                f,
+                "{{ warp = {}, weft = {} }}",
+                format_number(self.warp),
+                format_number(self.weft)
+            )
+        }
+    }
+}
+
 /// A membrane material: what `[material]` gives.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Material {
     /// Areal density \[kg/m²\], `> 0`.
     pub density: f64,
-    /// Stretch stiffness \[N/m\]: force per unit width per unit strain of a
-    /// strip pulled along either cloth axis (free to narrow), `> 0`.
-    pub stretch: f64,
+    /// Stretch stiffness \[N/m\] along the warp and the weft: force per
+    /// unit width per unit strain of a strip pulled along that direction
+    /// (free to narrow), `> 0`.
+    pub stretch: WarpWeft,
     /// In-plane shear stiffness \[N/m\]: shear force per unit width per
     /// radian of shear, `> 0`. A triangle mesh has no shear springs: its
     /// shear stiffness is its lattice's (see the module docs).
     pub shear: f64,
     /// Bending stiffness per unit width \[N·m\] (moment per unit width per
-    /// unit curvature), `≥ 0`, acted on by the linear bending model of
-    /// [`crate::bending`]; `0`: the cloth does not resist bending.
-    pub bending: f64,
+    /// unit curvature) of a strip bent along the warp and along the weft,
+    /// `≥ 0` (both `0` or both positive), acted on by the linear bending
+    /// model of [`crate::bending`]; `0`: the cloth does not resist bending.
+    pub bending: WarpWeft,
     /// Stiffness-proportional damping time constant `β` \[s\]: each spring's
     /// damping is `kd = β k`, `≥ 0`.
     pub damping: f64,
@@ -71,9 +169,9 @@ impl Default for Material {
     fn default() -> Self {
         Material {
             density: 0.3,
-            stretch: 50.0,
+            stretch: WarpWeft::both(50.0),
             shear: 20.0,
-            bending: 0.0,
+            bending: WarpWeft::both(0.0),
             damping: 1e-3,
         }
     }
@@ -162,8 +260,9 @@ pub fn check_explicit_bending(model: &Model, params: &Params) -> Result<()> {
 
 impl Material {
     /// Refuses a non-positive or non-finite density, stretch or shear
-    /// stiffness, a damping outside `0..=1` s, and a non-zero bending
-    /// stiffness (not implemented yet), naming the `material.*` key.
+    /// stiffness, a bending stiffness outside `0..=1` N·m or zero along one
+    /// direction only, and a damping outside `0..=1` s, naming the
+    /// `material.*` key (`material.stretch.warp` for one direction).
     pub fn validate(&self) -> Result<()> {
         check(
             "material.density",
@@ -171,23 +270,36 @@ impl Material {
             self.density > 0.0,
             "> 0 (kg/m²)",
         )?;
-        for (key, value) in [
-            ("material.stretch", self.stretch),
-            ("material.shear", self.shear),
-        ] {
+        let stiffness = self
+            .stretch
+            .keyed("material.stretch")
+            .into_iter()
+            .chain([("material.shear".to_string(), self.shear)]);
+        for (key, value) in stiffness {
             check(
-                key,
+                &key,
                 value,
                 value > 0.0 && value <= MAX_STIFFNESS,
                 "0 < stiffness ≤ 1e6 (N/m, per unit width)",
             )?;
         }
-        check(
-            "material.bending",
-            self.bending,
-            (0.0..=MAX_BENDING).contains(&self.bending),
-            "0 ≤ bending ≤ 1 (N·m, per unit width)",
-        )?;
+        for (key, value) in self.bending.keyed("material.bending") {
+            check(
+                &key,
+                value,
+                (0.0..=MAX_BENDING).contains(&value),
+                "0 ≤ bending ≤ 1 (N·m, per unit width)",
+            )?;
+        }
+        if (self.bending.warp > 0.0) != (self.bending.weft > 0.0) {
+            return Err(invalid(
+                "material.bending",
+                "a bending stiffness along both the warp and the weft, or 0 along both (a \
+                 fabric that resists bending one way resists it every way)"
+                    .to_string(),
+                self.bending,
+            ));
+        }
         check(
             "material.damping",
             self.damping,
@@ -196,9 +308,16 @@ impl Material {
         )
     }
 
+    /// Whether the stretch or the bending differs between warp and weft,
+    /// so that the cloth needs to know where its warp runs.
+    pub fn is_anisotropic(&self) -> bool {
+        !(self.stretch.is_isotropic() && self.bending.is_isotropic())
+    }
+
     /// The spring kinds a cloth of this material has, for
     /// [`Params::springs`]: stretch and shear springs with the material's
-    /// stiffnesses and damping `β ×` those as their kinds' nominal
+    /// stiffnesses (the stiffer direction's stretch) and damping `β ×`
+    /// those as their kinds' nominal
     /// constants (each spring's own follow from the geometry, see
     /// [`Material::apply`]), the stretch springs' default fix-up limit, no
     /// bend springs.
@@ -211,7 +330,7 @@ impl Material {
         };
         [
             kind(
-                self.stretch,
+                self.stretch.max(),
                 defaults[SpringKind::Stretch.index()].max_stretch,
             ),
             kind(self.shear, None),
@@ -226,40 +345,60 @@ impl Material {
         let Some(headroom) = explicit_headroom(model, params) else {
             return Ok(());
         };
+        let most = if self.bending.is_isotropic() {
+            format!("{} N·m", format_below(self.bending.warp * headroom))
+        } else {
+            format!(
+                "{} N·m along the warp and {} N·m along the weft",
+                format_below(self.bending.warp * headroom),
+                format_below(self.bending.weft * headroom)
+            )
+        };
         Err(invalid(
             "material.bending",
             format!(
-                "at most {} N·m for the explicit integrator at dt = {} s on this cloth \
+                "at most {most} for the explicit integrator at dt = {} s on this cloth \
                  ({EXPLICIT_RULE}); give a smaller bending, a smaller dt, or the implicit or \
                  semi-implicit integrator, which are stable at any bending",
-                format_below(self.bending * headroom),
                 format_number(params.dt)
             ),
-            format_number(self.bending),
+            self.bending,
         ))
     }
 
-    /// `u = (Y + √(Y² + 4S²)) / 2` \[N/m\]: a rectangular cell's `C11` (and
-    /// `C22`) for which the uniaxial stiffness is `Y` with shear springs of
-    /// shear stiffness `S` (`docs/materials.md`).
-    fn axial(&self) -> f64 {
-        let (y, s) = (self.stretch, self.shear);
-        0.5 * (y + (y * y + 4.0 * s * s).sqrt())
+    /// A rectangular cell's `C11 = p` along the warp and `C22 = q` along
+    /// the weft \[N/m\] for which the uniaxial stiffnesses are `Y₁` and
+    /// `Y₂` with shear springs of shear stiffness `S` (`C12 = C66 = S`):
+    /// `p − S²/q = Y₁` and `q − S²/p = Y₂` give
+    /// `p = (Y₁ + √(Y₁² + 4S² Y₁/Y₂)) / 2` and `q = p Y₂/Y₁`; an isotropic
+    /// fabric's `u = (Y + √(Y² + 4S²)) / 2` along both (`docs/materials.md`).
+    fn axial(&self) -> WarpWeft {
+        let (y1, y2, s) = (self.stretch.warp, self.stretch.weft, self.shear);
+        let p = 0.5 * (y1 + (y1 * y1 + 4.0 * s * s * (y1 / y2)).sqrt());
+        WarpWeft {
+            warp: p,
+            weft: p * (y2 / y1),
+        }
     }
 
     /// Gives `model` (built with [`Material::spring_params`]) this
     /// material's masses, per-spring constants and, with a bending
     /// stiffness, its bending operator ([`Bending::grid`] on a grid,
     /// [`Bending::new`] on a mesh's triangles). `faces` are its cells as
-    /// cyclic corner lists: quads (a grid's cells, a mesh's quad faces)
-    /// and triangles; the masses come from `model.triangles`. Refuses a
-    /// shear stiffness too large for a cell's aspect ratio (a side would
-    /// get a negative stiffness), naming `material.shear`.
+    /// cyclic corner lists, each with the unit direction of its warp in its
+    /// plane (ignored by an isotropic material): quads (a grid's cells, a
+    /// mesh's quad faces) and triangles, in the order whose drawing
+    /// triangles (a quad `a b c d` as `a b c` and `a c d`) are
+    /// `model.triangles` on a mesh; the masses come from
+    /// `model.triangles`. Refuses a shear stiffness too large for a cell's
+    /// aspect ratio (a side would get a negative stiffness), naming
+    /// `material.shear`.
     pub fn apply<'a>(
         &self,
         model: &mut Model,
-        faces: impl Iterator<Item = &'a [u32]>,
+        faces: impl Iterator<Item = (&'a [u32], DVec3)>,
     ) -> Result<()> {
+        let faces: Vec<(&[u32], DVec3)> = faces.collect();
         let x = &model.rest_positions;
         let mut mass = vec![0.0; model.particle_count()];
         for t in &model.triangles {
@@ -270,7 +409,7 @@ impl Material {
             }
         }
         self.check_f32_masses(&mass)?;
-        let k = self.edge_stiffness(x, faces)?;
+        let k = self.edge_stiffness(x, faces.iter().copied())?;
         let constants = model
             .springs
             .iter()
@@ -298,35 +437,51 @@ impl Material {
                     sp.j,
                     format_number(constants[s].k)
                 ),
-                format_number(self.stretch),
+                self.stretch,
             ));
         }
         model.mass = mass;
         model.own_constants = constants;
-        model.bending = match (&model.grid, self.bending > 0.0) {
-            (_, false) => None,
-            (Some(spec), true) => {
-                let hx = spec.size[0] / (spec.nx - 1) as f64;
-                let hy = spec.size[1] / (spec.ny - 1) as f64;
-                Some(Bending::grid(
-                    spec.nx,
-                    spec.ny,
-                    hx,
-                    hy,
-                    self.bending,
-                    self.damping,
-                    &model.pinned,
-                )?)
-            }
-            (None, true) => Some(Bending::new(
-                &model.rest_positions,
-                &model.triangles,
+        model.bending = if self.bending.warp > 0.0 {
+            Some(self.bending_operator(model, &faces)?)
+        } else {
+            None
+        };
+        Ok(())
+    }
+
+    /// The bending operator of `model` (its rest shape and pins) with this
+    /// material's bending: [`Bending::grid`] on a grid (the warp along its
+    /// rows), [`Bending::new`] on a mesh's triangles, each with the warp of
+    /// the face it is drawn from.
+    fn bending_operator(&self, model: &Model, faces: &[(&[u32], DVec3)]) -> Result<Bending> {
+        if let Some(spec) = &model.grid {
+            let hx = spec.size[0] / (spec.nx - 1) as f64;
+            let hy = spec.size[1] / (spec.ny - 1) as f64;
+            return Bending::grid(
+                spec.nx,
+                spec.ny,
+                hx,
+                hy,
                 self.bending,
                 self.damping,
                 &model.pinned,
-            )?),
-        };
-        Ok(())
+            );
+        }
+        let warps: Vec<DVec3> = faces
+            .iter()
+            .flat_map(|&(corners, warp)| {
+                std::iter::repeat_n(warp, if corners.len() == 4 { 2 } else { 1 })
+            })
+            .collect();
+        Bending::new(
+            &model.rest_positions,
+            &model.triangles,
+            self.bending,
+            &warps,
+            self.damping,
+            &model.pinned,
+        )
     }
 
     /// Refuses a density whose particle masses (`mass`, from the rest
@@ -355,30 +510,39 @@ impl Material {
 
     /// The stiffness \[N/m\] each face gives its sides and diagonals
     /// (module docs), summed per edge (ends in ascending order), for the
-    /// rest positions `x`; refuses a shear stiffness too large for a quad.
+    /// rest positions `x` and each face's warp direction (unit, in its
+    /// plane); refuses a shear stiffness too large for a quad.
     pub fn edge_stiffness<'a>(
         &self,
         x: &[DVec3],
-        faces: impl Iterator<Item = &'a [u32]>,
+        faces: impl Iterator<Item = (&'a [u32], DVec3)>,
     ) -> Result<HashMap<(u32, u32), f64>> {
         let mut k: HashMap<(u32, u32), f64> = HashMap::new();
         let mut add = |i: u32, j: u32, value: f64| {
             *k.entry((i.min(j), i.max(j))).or_insert(0.0) += value;
         };
         let l2 = |i: u32, j: u32| x[i as usize].distance_squared(x[j as usize]);
-        for face in faces {
+        // cos² of the angle between the side i j and the warp.
+        let cos2 = |i: u32, j: u32, warp: DVec3| {
+            let side = x[j as usize] - x[i as usize];
+            side.dot(warp).powi(2) / side.length_squared()
+        };
+        let axial = self.axial();
+        for (face, warp) in faces {
             match *face {
                 [a, b, c] => {
                     let area = triangle_area(x[a as usize], x[b as usize], x[c as usize]);
                     for (i, j) in [(a, b), (b, c), (c, a)] {
-                        add(i, j, self.stretch * area / l2(i, j));
+                        let stretch = self.stretch.along(cos2(i, j, warp));
+                        add(i, j, stretch * area / l2(i, j));
                     }
                 }
                 [a, b, c, d] => {
                     let [pa, pb, pc, pd] = [a, b, c, d].map(|p| x[p as usize]);
                     let area = triangle_area(pa, pb, pc) + triangle_area(pa, pc, pd);
                     for (i, j) in [(a, b), (b, c), (c, d), (d, a)] {
-                        add(i, j, self.quad_side(l2(i, j), area)?);
+                        let along = axial.along(cos2(i, j, warp));
+                        add(i, j, self.quad_side(along, l2(i, j), area)?);
                     }
                     for (i, j) in [(a, c), (b, d)] {
                         add(i, j, self.shear * l2(i, j) / (2.0 * area));
@@ -390,11 +554,21 @@ impl Material {
         Ok(k)
     }
 
+    /// Refuses a shear stiffness too large for a grid's cells, `w` \[m\]
+    /// along the warp by `h` \[m\] along the weft (what [`Material::apply`]
+    /// would refuse).
+    pub fn check_grid_cell(&self, w: f64, h: f64) -> Result<()> {
+        let axial = self.axial();
+        self.quad_side(axial.warp, w * w, w * h)?;
+        self.quad_side(axial.weft, h * h, w * h).map(|_| ())
+    }
+
     /// The stiffness \[N/m\] a quad cell of area `area` \[m²\] gives a
-    /// side of rest length `√l2` \[m\]: `(u − S L⁴/A²) · A / (2 L²)`,
+    /// side of rest length `√l2` \[m\] whose `C11` along it is `axial`
+    /// \[N/m\] ([`Material::axial`]): `(axial − S L⁴/A²) · A / (2 L²)`,
     /// refused where it is not positive.
-    pub fn quad_side(&self, l2: f64, area: f64) -> Result<f64> {
-        let share = self.axial() - self.shear * l2 * l2 / (area * area);
+    fn quad_side(&self, axial: f64, l2: f64, area: f64) -> Result<f64> {
+        let share = axial - self.shear * l2 * l2 / (area * area);
         if share > 0.0 {
             Ok(share * area / (2.0 * l2))
         } else {
@@ -410,10 +584,10 @@ impl Material {
         invalid(
             "material.shear",
             format!(
-                "a shear stiffness S with S × r² < (stretch + √(stretch² + 4 S²)) / 2 for the \
-                 cloth's most elongated cell, whose side / height ratio is r = {} (else that \
-                 side's spring would get a negative stiffness); give a smaller shear or cells \
-                 closer to square",
+                "a shear stiffness S with S × r² < C for the cloth's most elongated cell, \
+                 whose side / height ratio is r = {} and C = (Y + √(Y² + 4 S² Y / Y')) / 2 along \
+                 that side (Y the stretch along it, Y' across it; else that side's spring would \
+                 get a negative stiffness); give a smaller shear or cells closer to square",
                 format_number(ratio)
             ),
             format_number(self.shear),
@@ -424,4 +598,53 @@ impl Material {
 /// Area of the triangle `a b c` \[m²\].
 fn triangle_area(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     0.5 * (b - a).cross(c - a).length()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Rounding of a few dozen `f64` operations on numbers of order 1e3.
+    const ROUNDING: f64 = 1e-12;
+
+    /// A periodic lattice of `w × h` cells of a woven material, its warp
+    /// along `x`: the in-plane stiffness its springs homogenise to
+    /// (`C = Σ k L² n⊗n⊗n⊗n / A` per cell, each side shared by two cells)
+    /// has the uniaxial stiffnesses `C11 − C12²/C22` along the warp and
+    /// `C22 − C12²/C11` along the weft the material gives, and the shear
+    /// stiffness `C66` its `shear`.
+    #[test]
+    fn a_woven_cell_has_each_directions_stretch_and_the_shear() {
+        for (w, h) in [(1.0, 1.0), (0.5, 0.8)] {
+            let material = Material {
+                stretch: WarpWeft {
+                    warp: 900.0,
+                    weft: 150.0,
+                },
+                shear: 30.0,
+                ..Material::default()
+            };
+            let x = [
+                DVec3::ZERO,
+                DVec3::new(w, 0.0, 0.0),
+                DVec3::new(w, 0.0, h),
+                DVec3::new(0.0, 0.0, h),
+            ];
+            let cell: &[u32] = &[0, 1, 2, 3];
+            let k = material
+                .edge_stiffness(&x, std::iter::once((cell, DVec3::X)))
+                .expect("a cell");
+            let (kx, ky, kd) = (k[&(0, 1)], k[&(1, 2)], k[&(0, 2)]);
+            let (area, d2) = (w * h, w * w + h * h);
+            // A side is shared by two cells: per cell, one side of twice
+            // the cell's share; both diagonals are the cell's own.
+            let c11 = (2.0 * kx * w * w + 2.0 * kd * w.powi(4) / d2) / area;
+            let c22 = (2.0 * ky * h * h + 2.0 * kd * h.powi(4) / d2) / area;
+            let c12 = 2.0 * kd * w * w * h * h / d2 / area;
+            let close = |a: f64, b: f64| (a - b).abs() <= ROUNDING * b;
+            assert!(close(c11 - c12 * c12 / c22, 900.0), "{w} × {h}: warp");
+            assert!(close(c22 - c12 * c12 / c11, 150.0), "{w} × {h}: weft");
+            assert!(close(c12, 30.0), "{w} × {h}: shear");
+        }
+    }
 }

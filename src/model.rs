@@ -763,6 +763,16 @@ impl Model {
             })
             .collect()
     }
+
+    /// The warp of a grid cloth: the unit direction along its rows (from
+    /// its first particle to the second), a mesh's or a one-column grid's
+    /// none.
+    pub fn grid_warp(&self) -> DVec3 {
+        match (&self.grid, self.rest_positions.get(..2)) {
+            (Some(_), Some(&[a, b])) => (b - a).normalize_or_zero(),
+            _ => DVec3::ZERO,
+        }
+    }
 }
 
 #[cfg(test)]

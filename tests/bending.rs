@@ -43,7 +43,7 @@ fn mesh(rows: usize) -> (Vec<DVec3>, Bending) {
         })
         .collect();
     let triangles: Vec<[u32; 3]> = triangles.iter().map(|t| t.map(|p| p as u32)).collect();
-    let b = Bending::new(&x, &triangles, 1.0, 0.0, &[]).expect("mesh operator");
+    let b = Bending::new(&x, &triangles, 1.0, &[], 0.0, &[]).expect("mesh operator");
     (x, b)
 }
 
@@ -302,7 +302,7 @@ fn bending_refusals_name_the_key_and_what_is_allowed() {
     x[40].y += 0.05;
     let (_, triangles) = irregular_sheet(1.0, 9);
     let triangles: Vec<[u32; 3]> = triangles.iter().map(|t| t.map(|p| p as u32)).collect();
-    let e = Bending::new(&x, &triangles, 1e-3, 0.0, &[]).expect_err("refused");
+    let e = Bending::new(&x, &triangles, 1e-3, &[], 0.0, &[]).expect_err("refused");
     assert!(
         e.to_string().contains("material.bending") && e.to_string().contains("flat"),
         "{e}"

@@ -48,6 +48,7 @@ fn with_bending(model: Model, mesh: bool) -> Model {
             &model.rest_positions,
             &model.triangles,
             BENDING,
+            &[],
             BENDING_DAMPING,
             &model.pinned,
         )

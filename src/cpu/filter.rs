@@ -326,7 +326,7 @@ mod tests {
     #[test]
     fn filter_matrix_carries_the_bending_operator() {
         let material = Material {
-            bending: 1e-3,
+            bending: 1e-3.into(),
             damping: 0.01,
             ..Material::default()
         };
@@ -343,7 +343,10 @@ mod tests {
         let mut model = Model::new(&spec, &params.springs).unwrap();
         let cells = model.grid_cells();
         material
-            .apply(&mut model, cells.iter().map(|c| &c[..]))
+            .apply(
+                &mut model,
+                cells.iter().map(|c| (&c[..], glam::DVec3::ZERO)),
+            )
             .unwrap();
         let sys = System::<f64>::new(&model, &params);
         let fs = FilterSystem::new(&sys, None);

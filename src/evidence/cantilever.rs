@@ -45,7 +45,7 @@
 use super::{elastica, sheet, Points, Runner};
 use crate::error::{Error, Result};
 use crate::evidence::Backend;
-use crate::material::Material;
+use crate::material::{Material, WarpWeft};
 use crate::model::{ClothSpec, Model, Orientation, Pin};
 use crate::params::{format_number, format_short, Integrator, Params, SpringKind};
 use glam::DVec3;
@@ -336,41 +336,75 @@ pub const MATERIAL_DENSITY: f64 = 1e-3;
 /// `1/`this, far below what the bench resolves.
 pub const MATERIAL_STRETCH_OVER_TENSION: f64 = 1e5;
 
+/// Which way a strip is cut from a woven fabric.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cut {
+    /// Along the warp: the grid's rows run along the strip.
+    Warp,
+    /// Along the weft: the grid's columns run along the strip.
+    Weft,
+}
+
+/// A material strip ready to settle: its model and parameters, the
+/// particles at its free end and the unit direction from the clamp along
+/// it.
+struct Strip {
+    model: Model,
+    params: Params,
+    tips: Vec<usize>,
+    along: DVec3,
+}
+
 /// The material strip of free length `length` \[m\]: a [`Material`] of
 /// `density` \[kg/m²\] and `bending` \[N·m\], stretch stiff enough to be
 /// inextensible, shear a tenth of that and no damping, on a grid of
 /// `segments` square cells along the free length and `rows` particles
-/// across, clamped where a user clamps it (every particle at `x ≤ 0`
-/// pinned: its first two columns).
+/// across, cut from the fabric as `cut` says and clamped where a user
+/// clamps it (every particle at `x ≤ 0` pinned: its first two columns, or
+/// along the weft at `z ≤ 0`, its first two rows).
 fn material_strip(
     segments: usize,
     rows: usize,
     length: f64,
-    (density, bending): (f64, f64),
+    (density, bending): (f64, WarpWeft),
+    cut: Cut,
     integrator: Integrator,
-) -> Result<(Model, Params)> {
+) -> Result<Strip> {
     let gravity = -Params::default().gravity.y;
     // Clamped as a user clamps it: every particle at x ≤ 0 is pinned (the
     // columns sit at (c − 1) h, the clamp is the second, at 0, and the tip
     // at L); the bending operator treats that column as a clamp
     // (`bending::CLAMP_WEIGHT`).
     let h = length / segments as f64;
-    let nx = segments + 2;
+    let long = segments + 2;
+    let weft = cut == Cut::Weft;
+    let (nx, ny) = if weft { (rows, long) } else { (long, rows) };
+    let at = |along: usize, across: usize| {
+        if weft {
+            across + along * nx
+        } else {
+            along + across * nx
+        }
+    };
     let spec = ClothSpec {
         nx,
-        ny: rows,
-        size: [(nx - 1) as f64 * h, (rows - 1) as f64 * h],
-        origin: DVec3::new(-h, 0.0, 0.0),
+        ny,
+        size: [(nx - 1) as f64 * h, (ny - 1) as f64 * h],
+        origin: if weft {
+            DVec3::new(0.0, 0.0, -h)
+        } else {
+            DVec3::new(-h, 0.0, 0.0)
+        },
         orientation: Orientation::Horizontal,
         mass: 1.0,
         pins: (0..rows)
-            .flat_map(|r| [Pin::Index(r * nx), Pin::Index(r * nx + 1)])
+            .flat_map(|r| [Pin::Index(at(0, r)), Pin::Index(at(1, r))])
             .collect(),
     };
     let stretch = MATERIAL_STRETCH_OVER_TENSION * density * gravity * length;
     let material = Material {
         density,
-        stretch,
+        stretch: stretch.into(),
         shear: 0.1 * stretch,
         bending,
         damping: 0.0,
@@ -387,8 +421,14 @@ fn material_strip(
     params.implicit.max_iterations = CG_MAX_ITERATIONS;
     let mut model = Model::new(&spec, &params.springs)?;
     let cells = model.grid_cells();
-    material.apply(&mut model, cells.iter().map(|c| &c[..]))?;
-    Ok((model, params))
+    let warp = model.grid_warp();
+    material.apply(&mut model, cells.iter().map(|c| (&c[..], warp)))?;
+    Ok(Strip {
+        model,
+        params,
+        tips: (0..rows).map(|r| at(long - 1, r)).collect(),
+        along: if weft { DVec3::Z } else { DVec3::X },
+    })
 }
 
 /// A settled strip: tip drop and reach over length, steps, at rest.
@@ -407,9 +447,41 @@ pub fn settle_material(
 ) -> Result<Settled> {
     let gravity = -Params::default().gravity.y;
     let bending = MATERIAL_DENSITY * gravity * LENGTH.powi(3) / gamma;
+    let material = (MATERIAL_DENSITY, bending.into());
+    let strip = material_strip(segments, rows, LENGTH, material, Cut::Warp, integrator)?;
+    settle_strip(&strip, LENGTH)
+}
+
+/// How much stiffer in bending the fabric of [`settle_woven`]'s strips is
+/// along its warp than along its weft: a plain-woven cotton's order
+/// (`docs/materials.md`).
+pub const WOVEN_ANISOTROPY: f64 = 4.0;
+
+/// A settled strip of [`MATERIAL_ROWS`] rows, [`LENGTH`] long, of
+/// [`MATERIAL_DENSITY`], cut as `cut` from a fabric [`WOVEN_ANISOTROPY`]
+/// times stiffer in bending along its warp than its weft, whose stiffness
+/// along the cut gives `Γ = ρ g L³ / B = gamma`.
+pub fn settle_woven(
+    segments: usize,
+    gamma: f64,
+    cut: Cut,
+    integrator: Integrator,
+) -> Result<Settled> {
+    let gravity = -Params::default().gravity.y;
+    let along = MATERIAL_DENSITY * gravity * LENGTH.powi(3) / gamma;
+    let bending = match cut {
+        Cut::Warp => WarpWeft {
+            warp: along,
+            weft: along / WOVEN_ANISOTROPY,
+        },
+        Cut::Weft => WarpWeft {
+            warp: along * WOVEN_ANISOTROPY,
+            weft: along,
+        },
+    };
     let material = (MATERIAL_DENSITY, bending);
-    let (model, params) = material_strip(segments, rows, LENGTH, material, integrator)?;
-    settle_model(segments, rows, LENGTH, &model, &params)
+    let strip = material_strip(segments, MATERIAL_ROWS, LENGTH, material, cut, integrator)?;
+    settle_strip(&strip, LENGTH)
 }
 
 /// Rows of the material strips: three, so that the middle row's
@@ -427,6 +499,27 @@ pub struct Settled {
     pub steps: u64,
     /// `false`: not at rest after [`MAX_STEPS`].
     pub settled: bool,
+}
+
+/// Steps a material strip of free length `length` \[m\] until it is at
+/// rest.
+fn settle_strip(strip: &Strip, length: f64) -> Result<Settled> {
+    let (x, steps, settled) = rest_positions(&strip.model, &strip.params)?;
+    let count = strip.tips.len() as f64;
+    let mean = |f: &dyn Fn(DVec3) -> f64| {
+        strip
+            .tips
+            .iter()
+            .map(|&t| f(DVec3::new(x[t].x, x[t].y, x[t].z)))
+            .sum::<f64>()
+            / (count * length)
+    };
+    Ok(Settled {
+        drop: mean(&|p| -p.y),
+        reach: mean(&|p| p.dot(strip.along)),
+        steps,
+        settled,
+    })
 }
 
 /// Steps `model` until it is at rest.
@@ -631,7 +724,8 @@ pub fn check_overhang(density: f64, bending: f64, segments: usize) -> Result<()>
             segments,
             MATERIAL_ROWS,
             length,
-            (density, bending),
+            (density, bending.into()),
+            Cut::Warp,
             Integrator::Implicit,
         )
         .map_err(|_| Error::InvalidParameter {
@@ -687,14 +781,15 @@ pub fn overhang(density: f64, bending: f64, segments: usize) -> Result<Overhang>
     let target = OVERHANG_ANGLE_DEGREES.to_radians().tan();
     let length_at = |ln_gamma: f64| overhang_length(ln_gamma.exp(), density, bending);
     let tan_at = |length: f64| -> Result<f64> {
-        let (model, params) = material_strip(
+        let strip = material_strip(
             segments,
             MATERIAL_ROWS,
             length,
-            (density, bending),
+            (density, bending.into()),
+            Cut::Warp,
             Integrator::Implicit,
         )?;
-        let run = settle_model(segments, MATERIAL_ROWS, length, &model, &params)?;
+        let run = settle_strip(&strip, length)?;
         Ok(run.drop / run.reach)
     };
     let (mut lo, mut hi) = (OVERHANG_GAMMAS[0].ln(), OVERHANG_GAMMAS[1].ln());
@@ -752,7 +847,11 @@ pub enum PlateMesh {
 /// edge (`x = 1`, every particle within 1 mm of it) over the overhang, and
 /// whether the equilibrium converged.
 pub fn plate_drop(mesh: PlateMesh) -> Result<(f64, bool)> {
-    let scene = plate_scene(mesh)?;
+    scene_drop(&plate_scene(mesh)?)
+}
+
+/// [`plate_drop`]'s measure of a plate's scene.
+fn scene_drop(scene: &crate::scene::Scene) -> Result<(f64, bool)> {
     let model = scene.model()?;
     let edge: Vec<usize> = (0..model.particle_count())
         .filter(|&p| model.rest_positions[p].x > 1.0 - 1e-3)
@@ -766,14 +865,53 @@ pub fn plate_drop(mesh: PlateMesh) -> Result<(f64, bool)> {
 /// implicit integrator at [`SETTLE_DT`], for a host that lets it settle
 /// by steps).
 pub fn plate_scene(mesh: PlateMesh) -> Result<crate::scene::Scene> {
+    let gravity = -Params::default().gravity.y;
+    let overhang = 1.0 - PLATE_CLAMP;
+    let bending = MATERIAL_DENSITY * gravity * overhang.powi(3) / PLATE_GAMMA;
+    woven_plate_scene(mesh, bending.into(), 0.0)
+}
+
+/// The clamped plate of [`plate_drop`] of a fabric of `bending`, its warp
+/// at `warp_degrees` to the overhang (`x`) in the plate's plane: the
+/// fraction of the overhang its free edge drops at rest, and whether the
+/// equilibrium converged. A grid's warp runs along its rows, so on a grid
+/// `warp_degrees` is 0 or 90 (its weft along the overhang: the bending
+/// swapped); the irregular mesh carries texture coordinates turned by it.
+pub fn woven_plate_drop(
+    mesh: PlateMesh,
+    bending: WarpWeft,
+    warp_degrees: f64,
+) -> Result<(f64, bool)> {
+    scene_drop(&woven_plate_scene(mesh, bending, warp_degrees)?)
+}
+
+/// The scene of [`woven_plate_drop`].
+fn woven_plate_scene(
+    mesh: PlateMesh,
+    bending: WarpWeft,
+    warp_degrees: f64,
+) -> Result<crate::scene::Scene> {
     use crate::mesh::{Mesh, MeshCloth};
     use crate::scene::Scene;
     let gravity = -Params::default().gravity.y;
     let overhang = 1.0 - PLATE_CLAMP;
-    let bending = MATERIAL_DENSITY * gravity * overhang.powi(3) / PLATE_GAMMA;
     let stretch = MATERIAL_STRETCH_OVER_TENSION * MATERIAL_DENSITY * gravity * overhang;
     let n = match mesh {
         PlateMesh::Grid(n) | PlateMesh::Irregular(n) => n,
+    };
+    let bending = match (mesh, warp_degrees) {
+        (PlateMesh::Irregular(_), _) | (PlateMesh::Grid(_), 0.0) => bending,
+        (PlateMesh::Grid(_), 90.0) => WarpWeft {
+            warp: bending.weft,
+            weft: bending.warp,
+        },
+        (PlateMesh::Grid(_), _) => {
+            return Err(invalid(
+                "warp_degrees",
+                "0 or 90 on a grid, whose warp runs along its rows",
+                warp_degrees,
+            ))
+        }
     };
     let text = format!(
         "[simulation]\nintegrator = \"implicit\"\ndt = {SETTLE_DT}\n\
@@ -790,16 +928,22 @@ pub fn plate_scene(mesh: PlateMesh) -> Result<crate::scene::Scene> {
     if let PlateMesh::Irregular(rows) = mesh {
         let (obj, _) = sheet::irregular_sheet(1.0, rows);
         // The sheet lies in the xy-plane hanging from y = 0; turn it into
-        // the xz-plane, z from 0 to 1.
+        // the xz-plane, z from 0 to 1, u along the warp, v along the weft.
+        let (sin, cos) = warp_degrees.to_radians().sin_cos();
         let flat: String = obj
             .lines()
-            .map(|l| match l.strip_prefix("v ") {
-                Some(v) => {
-                    let c: Vec<&str> = v.split(' ').collect();
-                    let y: f64 = c[1].parse().unwrap_or(0.0);
-                    format!("v {} 0 {}\n", c[0], -y)
+            .map(|l| {
+                if let Some(v) = l.strip_prefix("v ") {
+                    let c: Vec<f64> = v.split(' ').map(|c| c.parse().unwrap_or(0.0)).collect();
+                    let (x, z) = (c[0], -c[1]);
+                    let (u, v) = (x * cos + z * sin, z * cos - x * sin);
+                    format!("v {x} 0 {z}\nvt {u} {v}\n")
+                } else if let Some(f) = l.strip_prefix("f ") {
+                    let corners: Vec<String> = f.split(' ').map(|k| format!("{k}/{k}")).collect();
+                    format!("f {}\n", corners.join(" "))
+                } else {
+                    format!("{l}\n")
                 }
-                None => format!("{l}\n"),
             })
             .collect();
         let path = std::path::Path::new("plate.obj");
@@ -814,6 +958,57 @@ pub fn plate_scene(mesh: PlateMesh) -> Result<crate::scene::Scene> {
         });
     }
     Ok(scene)
+}
+
+/// Half the side \[m\] of the square table a [`pedestal_drape`] sheet
+/// rests on: a fifth of the sheet's side.
+pub const PEDESTAL_HALF_SIDE: f64 = 0.1;
+
+/// A unit-square sheet of `n × n` particles of [`MATERIAL_DENSITY`] and
+/// `bending`, horizontal, held flat on a square table of half side
+/// [`PEDESTAL_HALF_SIDE`] at its centre (every particle on it pinned) and
+/// draping under its own weight to its static equilibrium: the mean drop
+/// \[m\] of the midpoints of the two edges the warp runs to (`x = 0` and
+/// `x = 1`) and of the two the weft runs to (`z = 0`, `z = 1`), and
+/// whether the equilibrium converged.
+pub fn pedestal_drape(n: usize, bending: WarpWeft) -> Result<([f64; 2], bool)> {
+    use crate::scene::Scene;
+    if !PLATE_ROWS.contains(&n) || n.is_multiple_of(2) {
+        return Err(invalid(
+            "n",
+            &format!(
+                "an odd number of rows from {} to {} (a particle at each edge's midpoint)",
+                PLATE_ROWS.start(),
+                PLATE_ROWS.end()
+            ),
+            n,
+        ));
+    }
+    let gravity = -Params::default().gravity.y;
+    let stretch = MATERIAL_STRETCH_OVER_TENSION * MATERIAL_DENSITY * gravity;
+    let (lo, hi) = (
+        0.5 - PEDESTAL_HALF_SIDE - 1e-9,
+        0.5 + PEDESTAL_HALF_SIDE + 1e-9,
+    );
+    let text = format!(
+        "[simulation]\nintegrator = \"implicit\"\ndt = {SETTLE_DT}\n\
+         [implicit]\ntolerance = {CG_TOLERANCE}\nmax_iterations = {CG_MAX_ITERATIONS}\n\
+         [fixup]\niterations = 0\n\
+         [cloth]\nresolution = [{n}, {n}]\nsize = [1.0, 1.0]\norigin = [0.0, 0.0, 0.0]\n\
+         pins = [{{ box = [[{lo}, -1.0, {lo}], [{hi}, 1.0, {hi}]] }}]\n\
+         [material]\ndensity = {MATERIAL_DENSITY}\nstretch = {stretch}\nshear = {}\n\
+         bending = {bending}\ndamping = 0.0\n",
+        0.1 * stretch
+    );
+    let scene = Scene::from_toml(&text, std::path::Path::new("pedestal.toml"))?;
+    let model = scene.model()?;
+    let rest = super::equilibrium::equilibrium(&model, &scene.params)?;
+    let mid = n / 2;
+    let drop =
+        |particles: [usize; 2]| particles.iter().map(|&p| -rest.positions[p].y).sum::<f64>() / 2.0;
+    let warp = drop([mid * n, mid * n + n - 1]);
+    let weft = drop([mid, (n - 1) * n + mid]);
+    Ok(([warp, weft], rest.converged))
 }
 
 /// One discretisation of the clamped plate of [`plate_drop`] at rest.

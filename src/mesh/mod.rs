@@ -32,7 +32,7 @@ mod uri;
 use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
-use glam::DVec3;
+use glam::{DVec2, DVec3};
 
 use crate::error::{Error, Result};
 use crate::model::MAX_PARTICLES;
@@ -48,6 +48,12 @@ pub const MAX_MESH_BYTES: u64 = 1 << 30;
 /// relative rounding error is ~1e-16 in `f64`), so the face has no usable
 /// normal or area.
 const DEGENERATE_AREA: f64 = 1e-12;
+
+/// The least texture area of a triangle, relative to the product of two
+/// of its texture edges' lengths (the sine of the angle between them), for
+/// its warp to be defined: below it the texture coordinates lie on a line
+/// up to rounding, and `∂x/∂u` divides by nothing.
+const TEXTURE_AREA: f64 = 1e-9;
 
 /// One face: a triangle or (OBJ only) a quad, corners in the file's order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -239,6 +245,58 @@ impl Mesh {
             FacePlace::Gltf(primitive) => format!("{primitive}, triangle {}", f.at),
             FacePlace::Triangles => format!("triangle {}", f.at),
         }
+    }
+
+    /// Each face's warp for the rest positions `rest` (the vertices, as
+    /// placed): the unit direction in which its texture coordinate `u`
+    /// grows (`∂x/∂u` of its first drawing triangle, or a quad's second
+    /// where the first spans no texture area). Says why not, naming the
+    /// face, where a face has no texture coordinates or its texture
+    /// coordinates span no area.
+    pub fn warp_directions(&self, rest: &[DVec3]) -> std::result::Result<Vec<DVec3>, String> {
+        let mut out = Vec::with_capacity(self.faces.len());
+        for (f, face) in self.faces.iter().enumerate() {
+            let uvs = self.attributes.corners.get(f).map(|c| c.map(|[uv, _]| uv));
+            let uv = |k: usize| {
+                uvs.and_then(|c| self.attributes.uvs.get(c[k] as usize))
+                    .map(|&[u, v]| DVec2::new(u, v))
+            };
+            let corners = face.corners();
+            let Some(uv) = (0..corners.len()).map(uv).collect::<Option<Vec<_>>>() else {
+                return Err(format!(
+                    "texture coordinates on every face, u along the warp and v along the weft: \
+                     {} has none",
+                    self.where_face(face)
+                ));
+            };
+            let x = |k: usize| rest[corners[k] as usize];
+            let triangles: &[[usize; 3]] = if face.quad {
+                &[[0, 1, 2], [0, 2, 3]]
+            } else {
+                &[[0, 1, 2]]
+            };
+            let warp = triangles.iter().find_map(|&[a, b, c]| {
+                let (e1, e2) = (x(b) - x(a), x(c) - x(a));
+                let (t1, t2) = (uv[b] - uv[a], uv[c] - uv[a]);
+                let det = t1.perp_dot(t2);
+                let scale = t1.length() * t2.length();
+                // ∂x/∂u: the edges' change per unit u at constant v.
+                (det.abs() > TEXTURE_AREA * scale)
+                    .then(|| ((e1 * t2.y - e2 * t1.y) / det).normalize_or_zero())
+                    .filter(|w| *w != DVec3::ZERO)
+            });
+            match warp {
+                Some(w) => out.push(w),
+                None => {
+                    return Err(format!(
+                        "texture coordinates that span an area on every face (u along the warp, \
+                         v along the weft): {}'s lie on a line",
+                        self.where_face(face)
+                    ))
+                }
+            }
+        }
+        Ok(out)
     }
 
     /// Refuses what the parsers cannot see face by face: no faces,

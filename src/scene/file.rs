@@ -19,7 +19,7 @@ use serde::Deserialize;
 use super::animation::{Character, Key};
 use super::shape::{Exactly, Form, List, Number, Table, Whole};
 use super::CameraSpec;
-use crate::material::Material;
+use crate::material::{Material, WarpWeft};
 use crate::model::{ClothSpec, Orientation, Pin, MAX_PARTICLES};
 use crate::params::{
     Capsule, FilterMethod, FixupMethod, Ground, Integrator, Params, SelfCollision, Sphere,
@@ -148,10 +148,65 @@ struct SpringTable {
 #[serde(deny_unknown_fields)]
 struct MaterialTable {
     density: Option<Number>,
-    stretch: Option<Number>,
+    stretch: Option<Directions>,
     shear: Option<Number>,
-    bending: Option<Number>,
+    bending: Option<Directions>,
     damping: Option<Number>,
+}
+
+/// A fabric property that may differ along the warp and the weft: one
+/// number (both directions), or `{ warp = …, weft = … }`.
+#[derive(Clone, Copy)]
+struct Directions(WarpWeft);
+
+/// Both directions of a [`Directions`] table: neither may be left out.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct DirectionsTable {
+    warp: Number,
+    weft: Number,
+}
+
+impl<'de> Deserialize<'de> for Directions {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct DirectionsVisitor;
+        impl<'de> Visitor<'de> for DirectionsVisitor {
+            type Value = Directions;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("a number, or { warp = …, weft = … } (a number along each direction)")
+            }
+            fn visit_f64<E: de::Error>(self, x: f64) -> Result<Directions, E> {
+                Ok(Directions(WarpWeft::both(x)))
+            }
+            // Integers as `Number` reads them: the nearest f64.
+            fn visit_i64<E: de::Error>(self, i: i64) -> Result<Directions, E> {
+                self.visit_f64(i as f64)
+            }
+            fn visit_u64<E: de::Error>(self, i: u64) -> Result<Directions, E> {
+                self.visit_f64(i as f64)
+            }
+            fn visit_i128<E: de::Error>(self, i: i128) -> Result<Directions, E> {
+                self.visit_f64(i as f64)
+            }
+            fn visit_u128<E: de::Error>(self, i: u128) -> Result<Directions, E> {
+                self.visit_f64(i as f64)
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Directions, A::Error> {
+                let t = DirectionsTable::deserialize(MapAccessDeserializer::new(map))?;
+                Ok(Directions(WarpWeft {
+                    warp: t.warp.0,
+                    weft: t.weft.0,
+                }))
+            }
+        }
+        d.deserialize_any(DirectionsVisitor)
+    }
+}
+
+impl From<Directions> for WarpWeft {
+    fn from(d: Directions) -> WarpWeft {
+        d.0
+    }
 }
 
 #[derive(Deserialize, Default)]

@@ -278,16 +278,50 @@ impl Scene {
             None => {
                 let c = &self.cloth;
                 let (w, h) = (c.size[0] / (c.nx - 1) as f64, c.size[1] / (c.ny - 1) as f64);
-                material.quad_side(w * w, w * h)?;
-                material.quad_side(h * h, w * h).map(|_| ())
+                material.check_grid_cell(w, h)
             }
-            Some(mesh) => material
-                .edge_stiffness(
-                    &mesh.rest_positions(&self.cloth),
-                    mesh.mesh.faces.iter().map(|f| f.corners()),
-                )
-                .map(|_| ()),
+            Some(mesh) => {
+                let rest = mesh.rest_positions(&self.cloth);
+                let warps = Scene::warps(material, mesh, &rest)?;
+                material
+                    .edge_stiffness(
+                        &rest,
+                        mesh.mesh.faces.iter().map(|f| f.corners()).zip(warps),
+                    )
+                    .map(|_| ())
+            }
         }
+    }
+
+    /// Each face's warp on a mesh cloth of `material` at the rest
+    /// positions `rest` ([`Mesh::warp_directions`]), for a material that
+    /// needs it; else no direction, which an isotropic material ignores.
+    /// Refuses a mesh whose faces do not give one, naming the key that
+    /// needs it.
+    fn warps(material: &Material, mesh: &MeshCloth, rest: &[DVec3]) -> Result<Vec<DVec3>> {
+        if !material.is_anisotropic() {
+            return Ok(vec![DVec3::ZERO; mesh.mesh.faces.len()]);
+        }
+        let key = if material.stretch.is_isotropic() {
+            "material.bending"
+        } else {
+            "material.stretch"
+        };
+        mesh.mesh
+            .warp_directions(rest)
+            .map_err(|why| Error::InvalidParameter {
+                key: key.to_string(),
+                allowed: format!(
+                    "one number (the same along warp and weft) on a mesh without a warp: a \
+                     value per direction needs {why} (in {})",
+                    mesh.path.display()
+                ),
+                got: if key == "material.bending" {
+                    material.bending.to_string()
+                } else {
+                    material.stretch.to_string()
+                },
+            })
     }
 
     /// The animation of this scene's `[character]` on `model` (this scene's
@@ -421,11 +455,14 @@ impl Scene {
         if let Some(material) = &self.material {
             match &self.mesh {
                 Some(mesh) => {
-                    material.apply(&mut model, mesh.mesh.faces.iter().map(|f| f.corners()))?
+                    let warps = Scene::warps(material, mesh, &model.rest_positions)?;
+                    let faces = mesh.mesh.faces.iter().map(|f| f.corners());
+                    material.apply(&mut model, faces.zip(warps))?
                 }
                 None => {
                     let cells = model.grid_cells();
-                    material.apply(&mut model, cells.iter().map(|c| &c[..]))?
+                    let warp = model.grid_warp();
+                    material.apply(&mut model, cells.iter().map(|c| (&c[..], warp)))?
                 }
             }
             material.check_explicit(&model, &self.params)?;
