@@ -30,6 +30,17 @@ last_frame table      # a mesh collider: a tablecloth on a table
 "$wgcloth" render cape --seconds 2 --out "$work/cape-detail"
 cp "$(ls "$work/cape-detail"/frame_*.png | tail -n 1)" "$images/cape-detail.png"
 
+# Warp and weft (docs/materials.md): its woven scene as written there, then
+# with warp and weft swapped.
+awk '/<!-- the woven scene/ { found = 1 } found && /^```toml/ { inside = 1; next }
+     inside && /^```/ { exit } inside' docs/materials.md > "$work/woven-warp.toml"
+sed 's/warp = 2.0e-2, weft = 5.0e-3/warp = 5.0e-3, weft = 2.0e-2/' \
+    "$work/woven-warp.toml" > "$work/woven-weft.toml"
+"$wgcloth" render "$work/woven-warp.toml" --out "$work/woven-warp"
+cp "$(ls "$work/woven-warp"/frame_*.png | tail -n 1)" "$images/woven-warp.png"
+"$wgcloth" render "$work/woven-weft.toml" --out "$work/woven-weft"
+cp "$(ls "$work/woven-weft"/frame_*.png | tail -n 1)" "$images/woven-weft.png"
+
 target/release/examples/cape "$images/cape.png"
 target/release/examples/batch "$images/batch.png"
 xvfb-run -a target/release/examples/viewer --frames 60 --drag 400,153:620,43 \
