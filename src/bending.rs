@@ -444,6 +444,7 @@ fn in_metric(points: [DVec3; 4], warp: DVec3, metric: Metric) -> [DVec3; 4] {
         )
     })
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,7 +8,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use common::{differing, irregular_sheet};
-
+use wgcloth::evidence::sheet::textured_irregular_sheet;
 use wgcloth::mesh::{Mesh, MeshCloth};
 use wgcloth::model::Model;
 use wgcloth::{CpuSolver, Scene, Vector};
@@ -191,22 +191,8 @@ fn hanging_woven(
     );
     let mut scene = load(&text).expect("loads");
     if let Some(rows) = mesh_rows {
-        let (obj, _) = irregular_sheet(width, rows);
         // Texture coordinates from the positions: the warp along x.
-        let obj: String = obj
-            .lines()
-            .map(|l| match (l.strip_prefix("v "), l.strip_prefix("f ")) {
-                (Some(v), _) => {
-                    let c: Vec<&str> = v.split(' ').collect();
-                    format!("{l}\nvt {} {}\n", c[0], c[1])
-                }
-                (_, Some(f)) => {
-                    let corners: Vec<String> = f.split(' ').map(|k| format!("{k}/{k}")).collect();
-                    format!("f {}\n", corners.join(" "))
-                }
-                _ => format!("{l}\n"),
-            })
-            .collect();
+        let obj = textured_irregular_sheet(width, rows, |[x, y]| ([x, y, 0.0], [x, y]));
         let mesh = Mesh::parse(obj.as_bytes(), Path::new("sheet.obj"), None, &|_| {
             Err("no external files".to_string())
         })

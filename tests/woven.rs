@@ -7,8 +7,7 @@
 use std::path::Path;
 
 use wgcloth::evidence::cantilever::{
-    pedestal_drape, settle_woven, woven_plate_drop, Cut, PlateMesh, MATERIAL_DENSITY, PLATE_CLAMP,
-    PLATE_GAMMA,
+    pedestal_drape, plate_bending, settle_woven, woven_plate_drop, Cut, PlateMesh, MATERIAL_DENSITY,
 };
 use wgcloth::evidence::elastica;
 use wgcloth::material::WarpWeft;
@@ -52,12 +51,6 @@ fn a_woven_strip_hangs_alike_at_two_resolutions() {
     let (a, b) = (drop(15), drop(30));
     println!("15 segments {a}, 30 segments {b}");
     assert!((a - b).abs() / b < RESOLUTION_AGREEMENT, "{a} vs {b}");
-}
-
-/// The clamped plate's bending stiffness along its overhang \[N·m\] at
-/// `PLATE_GAMMA`.
-fn plate_bending() -> f64 {
-    MATERIAL_DENSITY * 9.81 * (1.0 - PLATE_CLAMP).powi(3) / PLATE_GAMMA
 }
 
 /// On a mesh the woven operator is Bergou's in the metric plane

@@ -345,7 +345,7 @@ pub enum Cut {
     Weft,
 }
 
-/// A material strip ready to settle: its model and parameters, the
+/// A strip ready to settle: its model and parameters, the
 /// particles at its free end and the unit direction from the clamp along
 /// it.
 struct Strip {
@@ -434,7 +434,14 @@ fn material_strip(
 /// A settled strip: tip drop and reach over length, steps, at rest.
 fn settle(segments: usize, k: f64, integrator: Integrator) -> Result<Settled> {
     let (model, params) = strip(segments, k, integrator)?;
-    settle_model(segments, ROWS, LENGTH, &model, &params)
+    let nx = segments + 2;
+    let strip = Strip {
+        model,
+        params,
+        tips: (0..ROWS).map(|r| r * nx + nx - 1).collect(),
+        along: DVec3::X,
+    };
+    settle_strip(&strip, LENGTH)
 }
 
 /// A settled material strip of `rows` rows at `Γ` ([`LENGTH`] long, of
@@ -445,9 +452,7 @@ pub fn settle_material(
     gamma: f64,
     integrator: Integrator,
 ) -> Result<Settled> {
-    let gravity = -Params::default().gravity.y;
-    let bending = MATERIAL_DENSITY * gravity * LENGTH.powi(3) / gamma;
-    let material = (MATERIAL_DENSITY, bending.into());
+    let material = (MATERIAL_DENSITY, bending_at(gamma, LENGTH).into());
     let strip = material_strip(segments, rows, LENGTH, material, Cut::Warp, integrator)?;
     settle_strip(&strip, LENGTH)
 }
@@ -467,8 +472,7 @@ pub fn settle_woven(
     cut: Cut,
     integrator: Integrator,
 ) -> Result<Settled> {
-    let gravity = -Params::default().gravity.y;
-    let along = MATERIAL_DENSITY * gravity * LENGTH.powi(3) / gamma;
+    let along = bending_at(gamma, LENGTH);
     let bending = match cut {
         Cut::Warp => WarpWeft {
             warp: along,
@@ -482,6 +486,13 @@ pub fn settle_woven(
     let material = (MATERIAL_DENSITY, bending);
     let strip = material_strip(segments, MATERIAL_ROWS, LENGTH, material, cut, integrator)?;
     settle_strip(&strip, LENGTH)
+}
+
+/// The bending stiffness \[N·m\] that gives a length `length` \[m\] of a
+/// material of [`MATERIAL_DENSITY`] `Γ = ρ g L³ / B = gamma`.
+fn bending_at(gamma: f64, length: f64) -> f64 {
+    let gravity = -Params::default().gravity.y;
+    MATERIAL_DENSITY * gravity * length.powi(3) / gamma
 }
 
 /// Rows of the material strips: three, so that the middle row's
@@ -501,8 +512,7 @@ pub struct Settled {
     pub settled: bool,
 }
 
-/// Steps a material strip of free length `length` \[m\] until it is at
-/// rest.
+/// Steps a strip of free length `length` \[m\] until it is at rest.
 fn settle_strip(strip: &Strip, length: f64) -> Result<Settled> {
     let (x, steps, settled) = rest_positions(&strip.model, &strip.params)?;
     let count = strip.tips.len() as f64;
@@ -517,27 +527,6 @@ fn settle_strip(strip: &Strip, length: f64) -> Result<Settled> {
     Ok(Settled {
         drop: mean(&|p| -p.y),
         reach: mean(&|p| p.dot(strip.along)),
-        steps,
-        settled,
-    })
-}
-
-/// Steps `model` until it is at rest.
-fn settle_model(
-    segments: usize,
-    rows: usize,
-    length: f64,
-    model: &Model,
-    params: &Params,
-) -> Result<Settled> {
-    let nx = segments + 2;
-    let tips: Vec<usize> = (0..rows).map(|r| r * nx + nx - 1).collect();
-    let (x, steps, settled) = rest_positions(model, params)?;
-    let mean =
-        |f: &dyn Fn(usize) -> f64| tips.iter().map(|&t| f(t)).sum::<f64>() / (rows as f64 * length);
-    Ok(Settled {
-        drop: mean(&|t| -x[t].y),
-        reach: mean(&|t| x[t].x),
         steps,
         settled,
     })
@@ -865,10 +854,36 @@ fn scene_drop(scene: &crate::scene::Scene) -> Result<(f64, bool)> {
 /// implicit integrator at [`SETTLE_DT`], for a host that lets it settle
 /// by steps).
 pub fn plate_scene(mesh: PlateMesh) -> Result<crate::scene::Scene> {
+    woven_plate_scene(mesh, plate_bending().into(), 0.0)
+}
+
+/// The bending stiffness \[N·m\] of [`plate_drop`]'s plate: its overhang
+/// `1 −` [`PLATE_CLAMP`] at [`PLATE_GAMMA`].
+pub fn plate_bending() -> f64 {
+    bending_at(PLATE_GAMMA, 1.0 - PLATE_CLAMP)
+}
+
+/// The scene file of a horizontal unit-square sheet of `n × n` particles
+/// (`x` and `z` from 0 to 1 at `y = 0`) of [`MATERIAL_DENSITY`] and
+/// `bending`, every particle in the box `table` (two corners \[m\])
+/// pinned, its stretch [`MATERIAL_STRETCH_OVER_TENSION`] times the tension
+/// per unit width of a length `hanging` \[m\] of it under gravity, its
+/// shear a tenth of that, undamped, for the implicit integrator at
+/// [`SETTLE_DT`] without a fix-up.
+fn sheet_scene(n: usize, table: [[f64; 3]; 2], hanging: f64, bending: WarpWeft) -> String {
     let gravity = -Params::default().gravity.y;
-    let overhang = 1.0 - PLATE_CLAMP;
-    let bending = MATERIAL_DENSITY * gravity * overhang.powi(3) / PLATE_GAMMA;
-    woven_plate_scene(mesh, bending.into(), 0.0)
+    let stretch = MATERIAL_STRETCH_OVER_TENSION * MATERIAL_DENSITY * gravity * hanging;
+    let [[x0, y0, z0], [x1, y1, z1]] = table;
+    format!(
+        "[simulation]\nintegrator = \"implicit\"\ndt = {SETTLE_DT}\n\
+         [implicit]\ntolerance = {CG_TOLERANCE}\nmax_iterations = {CG_MAX_ITERATIONS}\n\
+         [fixup]\niterations = 0\n\
+         [cloth]\nresolution = [{n}, {n}]\nsize = [1.0, 1.0]\norigin = [0.0, 0.0, 0.0]\n\
+         pins = [{{ box = [[{x0:?}, {y0:?}, {z0:?}], [{x1:?}, {y1:?}, {z1:?}]] }}]\n\
+         [material]\ndensity = {MATERIAL_DENSITY}\nstretch = {stretch}\nshear = {}\n\
+         bending = {bending}\ndamping = 0.0\n",
+        0.1 * stretch
+    )
 }
 
 /// The clamped plate of [`plate_drop`] of a fabric of `bending`, its warp
@@ -893,9 +908,6 @@ fn woven_plate_scene(
 ) -> Result<crate::scene::Scene> {
     use crate::mesh::{Mesh, MeshCloth};
     use crate::scene::Scene;
-    let gravity = -Params::default().gravity.y;
-    let overhang = 1.0 - PLATE_CLAMP;
-    let stretch = MATERIAL_STRETCH_OVER_TENSION * MATERIAL_DENSITY * gravity * overhang;
     let n = match mesh {
         PlateMesh::Grid(n) | PlateMesh::Irregular(n) => n,
     };
@@ -913,39 +925,17 @@ fn woven_plate_scene(
             ))
         }
     };
-    let text = format!(
-        "[simulation]\nintegrator = \"implicit\"\ndt = {SETTLE_DT}\n\
-         [implicit]\ntolerance = {CG_TOLERANCE}\nmax_iterations = {CG_MAX_ITERATIONS}\n\
-         [fixup]\niterations = 0\n\
-         [cloth]\nresolution = [{n}, {n}]\nsize = [1.0, 1.0]\norigin = [0.0, 0.0, 0.0]\n\
-         pins = [{{ box = [[-1.0, -1.0, -1.0], [{}, 1.0, 2.0]] }}]\n\
-         [material]\ndensity = {MATERIAL_DENSITY}\nstretch = {stretch}\nshear = {}\n\
-         bending = {bending}\ndamping = 0.0\n",
-        PLATE_CLAMP + 1e-9,
-        0.1 * stretch
-    );
+    let table = [[-1.0, -1.0, -1.0], [PLATE_CLAMP + 1e-9, 1.0, 2.0]];
+    let text = sheet_scene(n, table, 1.0 - PLATE_CLAMP, bending);
     let mut scene = Scene::from_toml(&text, std::path::Path::new("plate.toml"))?;
     if let PlateMesh::Irregular(rows) = mesh {
-        let (obj, _) = sheet::irregular_sheet(1.0, rows);
         // The sheet lies in the xy-plane hanging from y = 0; turn it into
         // the xz-plane, z from 0 to 1, u along the warp, v along the weft.
         let (sin, cos) = warp_degrees.to_radians().sin_cos();
-        let flat: String = obj
-            .lines()
-            .map(|l| {
-                if let Some(v) = l.strip_prefix("v ") {
-                    let c: Vec<f64> = v.split(' ').map(|c| c.parse().unwrap_or(0.0)).collect();
-                    let (x, z) = (c[0], -c[1]);
-                    let (u, v) = (x * cos + z * sin, z * cos - x * sin);
-                    format!("v {x} 0 {z}\nvt {u} {v}\n")
-                } else if let Some(f) = l.strip_prefix("f ") {
-                    let corners: Vec<String> = f.split(' ').map(|k| format!("{k}/{k}")).collect();
-                    format!("f {}\n", corners.join(" "))
-                } else {
-                    format!("{l}\n")
-                }
-            })
-            .collect();
+        let flat = sheet::textured_irregular_sheet(1.0, rows, |[x, y]| {
+            let z = -y;
+            ([x, 0.0, z], [x * cos + z * sin, z * cos - x * sin])
+        });
         let path = std::path::Path::new("plate.obj");
         let parsed = Mesh::parse(flat.as_bytes(), path, None, &|_| {
             Err("no external files".to_string())
@@ -984,22 +974,11 @@ pub fn pedestal_drape(n: usize, bending: WarpWeft) -> Result<([f64; 2], bool)> {
             n,
         ));
     }
-    let gravity = -Params::default().gravity.y;
-    let stretch = MATERIAL_STRETCH_OVER_TENSION * MATERIAL_DENSITY * gravity;
     let (lo, hi) = (
         0.5 - PEDESTAL_HALF_SIDE - 1e-9,
         0.5 + PEDESTAL_HALF_SIDE + 1e-9,
     );
-    let text = format!(
-        "[simulation]\nintegrator = \"implicit\"\ndt = {SETTLE_DT}\n\
-         [implicit]\ntolerance = {CG_TOLERANCE}\nmax_iterations = {CG_MAX_ITERATIONS}\n\
-         [fixup]\niterations = 0\n\
-         [cloth]\nresolution = [{n}, {n}]\nsize = [1.0, 1.0]\norigin = [0.0, 0.0, 0.0]\n\
-         pins = [{{ box = [[{lo}, -1.0, {lo}], [{hi}, 1.0, {hi}]] }}]\n\
-         [material]\ndensity = {MATERIAL_DENSITY}\nstretch = {stretch}\nshear = {}\n\
-         bending = {bending}\ndamping = 0.0\n",
-        0.1 * stretch
-    );
+    let text = sheet_scene(n, [[lo, -1.0, lo], [hi, 1.0, hi]], 1.0, bending);
     let scene = Scene::from_toml(&text, std::path::Path::new("pedestal.toml"))?;
     let model = scene.model()?;
     let rest = super::equilibrium::equilibrium(&model, &scene.params)?;

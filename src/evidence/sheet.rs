@@ -16,6 +16,40 @@ pub fn noise(seed: u64) -> f64 {
 /// by up to `JITTER` of a side; `rows` rows of vertices. Returns the OBJ text and
 /// its triangles.
 pub fn irregular_sheet(width: f64, rows: usize) -> (String, Vec<[usize; 3]>) {
+    let (positions, triangles) = irregular_layout(width, rows);
+    let mut obj = String::new();
+    for p in &positions {
+        obj.push_str(&format!("v {} {} 0\n", p[0], p[1]));
+    }
+    for t in &triangles {
+        obj.push_str(&format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1));
+    }
+    (obj, triangles)
+}
+
+/// The OBJ text of [`irregular_sheet`]'s mesh with texture coordinates:
+/// `place` takes each vertex's `[x, y]` on the sheet to its position and
+/// its `[u, v]`.
+pub fn textured_irregular_sheet(
+    width: f64,
+    rows: usize,
+    place: impl Fn([f64; 2]) -> ([f64; 3], [f64; 2]),
+) -> String {
+    let (positions, triangles) = irregular_layout(width, rows);
+    let mut obj = String::new();
+    for &p in &positions {
+        let ([x, y, z], [u, v]) = place(p);
+        obj.push_str(&format!("v {x} {y} {z}\nvt {u} {v}\n"));
+    }
+    for t in &triangles {
+        let [a, b, c] = t.map(|k| k + 1);
+        obj.push_str(&format!("f {a}/{a} {b}/{b} {c}/{c}\n"));
+    }
+    obj
+}
+
+/// [`irregular_sheet`]'s vertices `[x, y]` and triangles.
+fn irregular_layout(width: f64, rows: usize) -> (Vec<[f64; 2]>, Vec<[usize; 3]>) {
     /// How far inner vertices move, as a fraction of the side.
     const JITTER: f64 = 0.1;
     let dy = 1.0 / (rows - 1) as f64;
@@ -64,12 +98,5 @@ pub fn irregular_sheet(width: f64, rows: usize) -> (String, Vec<[usize; 3]>) {
             }
         }
     }
-    let mut obj = String::new();
-    for p in &positions {
-        obj.push_str(&format!("v {} {} 0\n", p[0], p[1]));
-    }
-    for t in &triangles {
-        obj.push_str(&format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1));
-    }
-    (obj, triangles)
+    (positions, triangles)
 }

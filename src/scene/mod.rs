@@ -302,10 +302,10 @@ impl Scene {
         if !material.is_anisotropic() {
             return Ok(vec![DVec3::ZERO; mesh.mesh.faces.len()]);
         }
-        let key = if material.stretch.is_isotropic() {
-            "material.bending"
+        let (key, value) = if material.stretch.is_isotropic() {
+            ("material.bending", material.bending)
         } else {
-            "material.stretch"
+            ("material.stretch", material.stretch)
         };
         mesh.mesh
             .warp_directions(rest)
@@ -316,11 +316,7 @@ impl Scene {
                      value per direction needs {why} (in {})",
                     mesh.path.display()
                 ),
-                got: if key == "material.bending" {
-                    material.bending.to_string()
-                } else {
-                    material.stretch.to_string()
-                },
+                got: value.to_string(),
             })
     }
 
