@@ -169,7 +169,9 @@ pub mod work {
     /// x (as `u32` bits): the steps this particle has finished, counted by
     /// the steps' last kernels (a per-particle clock, so no kernel reads a
     /// count another invocation of its own dispatch is changing); the
-    /// moving colliders' and pins' time. yzw unused.
+    /// moving colliders' and pins' time. yzw: the friction impulse \[N·s\]
+    /// the particle takes in the next implicit step if it slides on a
+    /// contact (the CPU's `Workspace::friction`).
     pub const CLOCK: u32 = 18;
     /// Number of sections.
     pub const COUNT: u32 = 19;
@@ -349,6 +351,13 @@ pub mod filter_kind {
     pub const FIXED: f32 = 1.0;
     /// The particle may only move in a plane (a contact).
     pub const PLANE: f32 = 2.0;
+    /// The particle is held by static friction at a contact: fixed at
+    /// the collider's velocity (the CPU's `Filter::Held`).
+    pub const HELD: f32 = 3.0;
+    /// `W_DV_PREV`'s w for a contact that static friction holds in the
+    /// next step (the CPU's `Workspace::held`); every other particle's
+    /// is 0.
+    pub const HELD_NEXT: f32 = 1.0;
 }
 
 // The slots fit their buffers, and the fix-up's three flags the words
@@ -434,10 +443,12 @@ fn wgsl_u32() -> Vec<(String, u32)> {
 }
 
 /// `(WGSL name, value)` of every `f32` constant.
-const WGSL_F32: [(&str, f32); 3] = [
+const WGSL_F32: [(&str, f32); 5] = [
     ("FILTER_FREE", filter_kind::FREE),
     ("FILTER_FIXED", filter_kind::FIXED),
     ("FILTER_PLANE", filter_kind::PLANE),
+    ("FILTER_HELD", filter_kind::HELD),
+    ("HELD_NEXT", filter_kind::HELD_NEXT),
 ];
 
 /// Every constant of this module as WGSL (`generated/config.wgsl`): the

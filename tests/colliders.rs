@@ -364,3 +364,55 @@ fn sphere_velocity_is_read_from_the_scene_file() {
     // A real number type is still what the f32 mirror converts.
     assert_eq!(f32::from_f64(scene.params.spheres[0].velocity.z), -2.0);
 }
+
+/// The built-in `drape` moved 0.2 m off the ball's centre: the longer
+/// overhang pulls the cloth sideways over the ball, where friction 0.5
+/// must hold it (the cloth reaches the ball at about step 27 and wraps
+/// its side by step 40).
+fn off_centre_drape() -> (Model, Params) {
+    let mut scene = Scene::builtin("drape").expect("built in");
+    scene.cloth.origin = DVec3::new(-0.3, 0.6, -0.5);
+    (scene.model().expect("valid"), scene.params)
+}
+
+/// Steps the off-centre drape runs in `f64`: 3 s at 1/120 s.
+const DRAPE_STEPS: u64 = 360;
+/// Steps the GPU runs against its mirror: past the ball's side.
+const DRAPE_GPU_STEPS: u32 = 48;
+/// The fastest particle of the drape at 3 s \[m/s\] is 0.022 here (the
+/// hanging edge's last slow swing); a cloth sliding off the ball would
+/// go at the ball's scale, √(2 g r) ≈ 2.6 m/s, so a tenth of a metre per
+/// second separates resting from sliding with room either side.
+const RESTING_SPEED: f64 = 0.1;
+
+#[test]
+fn a_cloth_dropped_off_centre_on_a_ball_comes_to_rest_held_by_static_friction() {
+    let (model, params) = off_centre_drape();
+    let mut f64s = CpuSolver::<f64>::new(&model, &params).expect("valid");
+    for step in 1..=DRAPE_STEPS {
+        if let Err(e) = f64s.step() {
+            panic!("step {step}: {e}");
+        }
+    }
+    let v = f64s.velocities();
+    let fastest = v.iter().map(|v| v.length()).fold(0.0, f64::max);
+    let held = v.iter().filter(|v| **v == DVec3::ZERO).count();
+    eprintln!("fastest {fastest:.4} m/s, {held} particles held");
+    assert!(
+        fastest < RESTING_SPEED,
+        "after 3 s a particle still moves at {fastest} m/s"
+    );
+    // A held contact's Δv takes it exactly to the (resting) ball's
+    // velocity, so its velocity is exactly zero.
+    assert!(held > 0, "no contact is held by static friction");
+    let mut f32s = CpuSolver::<f32>::new(&model, &params).expect("valid");
+    let mut g = exact_gpu(&model, &params);
+    let bound = agreement::step_bound(&params);
+    agreement::assert_steps(
+        "off-centre drape",
+        &mut g,
+        &mut f32s,
+        DRAPE_GPU_STEPS,
+        &bound,
+    );
+}

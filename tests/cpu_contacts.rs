@@ -89,3 +89,43 @@ fn friction_stops_a_sliding_cloth_and_its_absence_does_not() {
         );
     }
 }
+
+/// Coulomb's law on a sliding cloth: its speed falls by `μ g` per second
+/// (the ground's normal force is the weight). The implicit integrator's
+/// friction takes the last step's normal impulse, so its first step on the
+/// ground slides free: it lags one step. CG's relative tolerance bounds the
+/// normal impulses' relative error, hence the speed's error to that
+/// tolerance times the speed lost.
+#[test]
+fn a_cloth_sliding_on_the_ground_slows_at_mu_g() {
+    const MU: f64 = 0.5;
+    for integrator in Integrator::ALL {
+        let (model, mut params) = dropped_cloth(integrator, MU);
+        params.spheres.clear();
+        let (dt, g) = (params.dt, -params.gravity.y);
+        let lag = if integrator == Integrator::Implicit {
+            dt
+        } else {
+            0.0
+        };
+        let tolerance = params.implicit.tolerance;
+        let mut s = CpuSolver::<f64>::new(&model, &params).expect("valid");
+        let (mut x, mut v) = (s.positions(), s.velocities());
+        for (x, v) in x.iter_mut().zip(v.iter_mut()) {
+            x.y = 0.0;
+            *v = DVec3::new(1.0, 0.0, 0.0);
+        }
+        s.set_positions_and_velocities(&x, &v).expect("sizes match");
+        for steps in [50u64, 100] {
+            s.step_n(steps - s.steps()).expect("stable");
+            let v = s.velocities();
+            let mean = v.iter().map(|v| v.x).sum::<f64>() / v.len() as f64;
+            let lost = MU * g * (steps as f64 * dt - lag);
+            assert!(
+                (mean - (1.0 - lost)).abs() <= tolerance * lost,
+                "{integrator}: {mean} m/s after {steps} steps, Coulomb says {}",
+                1.0 - lost
+            );
+        }
+    }
+}

@@ -31,6 +31,7 @@ use wgcloth::cpu::twins as cpu;
 use wgcloth::cpu::twins::Filter;
 use wgcloth::gpu::{readback, GpuRenderMesh, SkinLayout};
 use wgcloth::gpu::{DebugBuffer, Dispatch, Kernel, StepPath, Variant};
+use wgcloth::kernel_config::filter_kind::HELD_NEXT;
 use wgcloth::kernel_config::{partials, spring_work, status, work, CG_BLOCK};
 use wgcloth::params::{FilterMethod, Integrator, Integrator::*};
 use wgcloth::real::Vec3;
@@ -255,6 +256,28 @@ fn device_filters(t: &Twins) -> Vec<Filter<f32>> {
     )
 }
 
+/// The contacts the device holds by static friction in the next step
+/// (`W_DV_PREV`'s w).
+fn device_held(t: &Twins) -> Vec<bool> {
+    w(&t.read(DebugBuffer::Work), at(work::DV_PREV), t.n)
+        .iter()
+        .map(|&w| w == HELD_NEXT)
+        .collect()
+}
+
+/// The friction impulses the device's sliding contacts take in the next
+/// step (`W_CLOCK`'s yzw).
+fn device_friction(t: &Twins) -> Vec<Vec3<f32>> {
+    let words = t.read(DebugBuffer::Work);
+    section(&words, at(work::CLOCK), t.n)
+        .chunks_exact(4)
+        .map(|e| {
+            let [y, z, w] = [e[1], e[2], e[3]].map(f32::from_bits);
+            Vec3::new(y, z, w)
+        })
+        .collect()
+}
+
 /// The device's preconditioner (`W_PRE_DIAG`, `W_PRE_OFF`).
 fn device_precond(t: &Twins) -> Vec<cpu::Sym3<f32>> {
     sym3s(
@@ -265,12 +288,12 @@ fn device_precond(t: &Twins) -> Vec<cpu::Sym3<f32>> {
     )
 }
 
-/// `W_FILTER`'s words for `filter`: a plane's normal and friction, else 0.
+/// `W_FILTER`'s words for `filter`: a contact's normal and friction, else 0.
 fn filter_words(filter: &[Filter<f32>]) -> Vec<u32> {
     let planes: Vec<(Vec3<f32>, f32)> = filter
         .iter()
         .map(|f| match f {
-            Filter::Plane(n, mu) => (*n, *mu),
+            Filter::Plane(n, mu) | Filter::Held(n, mu) => (*n, *mu),
             _ => (Vec3::ZERO, 0.0),
         })
         .collect();
@@ -532,6 +555,8 @@ fn check_implicit_prepare(t: &mut Twins, i: usize) {
     load_springs(t, grid);
     let dv = t.work_xyz(at(work::DV));
     let dv_prev = t.work_xyz(at(work::DV_PREV));
+    let held = device_held(t);
+    let friction = device_friction(t);
     t.run_alone(i);
     let out = t.read(DebugBuffer::Work);
     let flags = t.read(DebugBuffer::Status);
@@ -540,6 +565,8 @@ fn check_implicit_prepare(t: &mut Twins, i: usize) {
     let (sys, st, wk) = t.parts();
     wk.dv = dv;
     wk.dv_prev = dv_prev;
+    wk.held = held;
+    wk.friction = friction;
     cpu::implicit::prepare(sys, st, wk);
     let planes = wk
         .filter
@@ -946,6 +973,14 @@ fn check_implicit_finish(t: &mut Twins, i: usize) {
     cpu::implicit::finish(sys, st, wk);
     assert_same("x", &x, &pack(&st.x, |p| inv_mass[p]));
     assert_same("v", &v, &pack(&st.v, |p| mass[p]));
+    let wk = t.parts().2;
+    let (held, friction) = (wk.held.clone(), vectors(&wk.friction));
+    assert_eq!(device_held(t), held, "W_DV_PREV's held flags");
+    assert_same(
+        "W_CLOCK's friction",
+        &vectors(&device_friction(t)),
+        &friction,
+    );
 }
 
 general_and!(implicit_finish_matches_its_twin: Implicit, coarse_grid, ImplicitFinish, 0, check_implicit_finish);

@@ -13,10 +13,15 @@ fn filter_apply(kind: f32, n: vec3<f32>, a: vec3<f32>) -> vec3<f32> {
     if (kind == FILTER_FIXED) {
         return vec3<f32>(0.0);
     }
-    // Only colliders make plane filters (lavapipe runs a branch no lane
+    // Only colliders make plane and held filters (lavapipe runs a branch no lane
     // takes, so it is compiled out without them).
-    if ((has_ground() || has_spheres()) && kind == FILTER_PLANE) {
-        return a - n * dot3(a, n);
+    if (has_ground() || has_spheres()) {
+        if (kind == FILTER_PLANE) {
+            return a - n * dot3(a, n);
+        }
+        if (kind == FILTER_HELD) {
+            return vec3<f32>(0.0);
+        }
     }
     return a;
 }

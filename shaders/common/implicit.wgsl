@@ -101,7 +101,13 @@ fn prepare_particle(
         z = pin_velocity(p, clock, x0.xyz) - vp;
     } else {
         let c = find_contact(x0.xyz, CONTACT_SLOP, clock);
-        if (c.found && (dot3(f, c.normal) < 0.0 || dot3(vp - c.velocity, c.normal) < 0.0)) {
+        if (c.found && work[wi(W_DV_PREV, p)].w == HELD_NEXT) {
+            // Static friction held it at the end of the last step.
+            kind = FILTER_HELD;
+            normal = c.normal;
+            friction = c.friction;
+            z = contact_velocity(x0.xyz, clock) - vp;
+        } else if (c.found && (dot3(f, c.normal) < 0.0 || dot3(vp - c.velocity, c.normal) < 0.0)) {
             kind = FILTER_PLANE;
             normal = c.normal;
             friction = c.friction;
@@ -114,7 +120,11 @@ fn prepare_particle(
     if (has_bending()) {
         kv -= bending_product(p, BENDING_V);
     }
-    let rhs = (f + kv * params.dt) * params.dt;
+    var rhs = (f + kv * params.dt) * params.dt;
+    if (kind == FILTER_PLANE) {
+        // A sliding contact's friction from the last step's normal force.
+        rhs += contact_friction(p);
+    }
     // Twin: Sym3::inverse, with its fallback to 1/m I.
     var pre = Sym3(vec3<f32>(1.0 / m), vec3<f32>(0.0));
     let inv = sym3_inverse(pre_in);
@@ -143,36 +153,59 @@ fn record_cg_max() {
     atomicMax(&status[sw(STATUS_CG_MAX_ITERATIONS)], atomicLoad(&status[sw(STATUS_CG_ITERATIONS)]));
 }
 
+// The friction impulse [N·s] particle p takes in this step if it slides
+// on a contact: W_CLOCK's yzw (twin: Workspace::friction).
+fn contact_friction(p: u32) -> vec3<f32> {
+    return work[wi(W_CLOCK, p)].yzw;
+}
+
 // Particle p's state at the end of an implicit step before collisions
-// (twin: cpu::implicit::finish up to its self-collision): v += Δv,
-// friction at a filtered contact from the constraint impulse, then
-// x += dt v for a free particle, the pin's step for a pinned one.
-// Returns (x, v). It reads its neighbours' Δv, never their x or v, so the
-// particles may finish in any order.
+// (twin: cpu::implicit::finish up to its self-collision): v += Δv, and
+// at a filtered contact the friction of the next step from this one's
+// constraint impulse (twin: cpu::implicit::contact_friction: whether
+// static friction holds it, in W_DV_PREV's w, or the impulse it slides
+// with, in W_CLOCK's yzw); then x += dt v for a free particle, the pin's
+// step for a pinned one. Returns (x, v). It reads its neighbours' Δv,
+// never their x or v, so the particles may finish in any order.
 fn implicit_predict_item(p: u32) -> array<vec3<f32>, 2> {
     let x0 = x[p];
     let v0 = v[p];
     let clock = particle_clock(p);
-    var vp = v0.xyz + work[wi(W_DV, p)].xyz;
-    // Only colliders make plane filters: without them the contact code
-    // is compiled out (lavapipe runs a branch no lane takes).
-    if ((has_ground() || has_spheres()) && work[wi(W_Z, p)].w == FILTER_PLANE) {
-        let filt = work[wi(W_FILTER, p)];
-        let normal = filt.xyz;
-        let impulse = dot3(apply_a(W_DV, p) - work[wi(W_RHS, p)].xyz, normal);
-        if (impulse > 0.0) {
-            // Friction on the velocity relative to the collider.
-            let vc = contact_velocity(x0.xyz, clock);
-            let rel = vp - vc;
-            let tangential = rel - normal * dot3(rel, normal);
-            let speed = len3(tangential);
-            let loss = filt.w * impulse / v0.w;
-            var kept = 0.0;
-            if (speed > loss && speed > TINY) {
-                kept = (speed - loss) / speed;
+    let vp = v0.xyz + work[wi(W_DV, p)].xyz;
+    // Only colliders make plane and held filters: without them the
+    // contact code is compiled out (lavapipe runs a branch no lane takes).
+    if (has_ground() || has_spheres()) {
+        let kind = work[wi(W_Z, p)].w;
+        var held = false;
+        var friction = vec3<f32>(0.0);
+        if (kind == FILTER_PLANE || kind == FILTER_HELD) {
+            let filt = work[wi(W_FILTER, p)];
+            let normal = filt.xyz;
+            let r = apply_a(W_DV, p) - work[wi(W_RHS, p)].xyz;
+            let pushed = dot3(r, normal);
+            let budget = filt.w * pushed;
+            if (pushed > 0.0 && budget > 0.0) {
+                if (kind == FILTER_HELD) {
+                    let resisted = r - normal * pushed;
+                    let needed = len3(resisted);
+                    held = needed <= budget;
+                    if (!held) {
+                        friction = resisted * (budget / needed);
+                    }
+                } else {
+                    let rel = vp - contact_velocity(x0.xyz, clock);
+                    let tangential = rel - normal * dot3(rel, normal);
+                    let speed = len3(tangential);
+                    held = speed * v0.w <= budget;
+                    if (!held) {
+                        friction = tangential * (-budget / speed);
+                    }
+                }
             }
-            vp = vc + unseen3(normal * dot3(rel, normal) + tangential * kept);
         }
+        let prev = work[wi(W_DV_PREV, p)].xyz;
+        work[wi(W_DV_PREV, p)] = vec4<f32>(prev, select(0.0, HELD_NEXT, held));
+        work[wi(W_CLOCK, p)] = vec4<f32>(bitcast<f32>(clock), friction);
     }
     if (x0.w > 0.0) {
         return array<vec3<f32>, 2>(x0.xyz + vp * params.dt, vp);

@@ -295,8 +295,10 @@ fn particle_clock(p: u32) -> u32 {
     return bitcast<u32>(work[wi(W_CLOCK, p)].x);
 }
 
+// The clock's yzw (the implicit step's friction impulse) stay.
 fn advance_clock(p: u32, clock: u32) {
-    work[wi(W_CLOCK, p)] = vec4<f32>(bitcast<f32>(clock + 1u), 0.0, 0.0, 0.0);
+    let kept = work[wi(W_CLOCK, p)].yzw;
+    work[wi(W_CLOCK, p)] = vec4<f32>(bitcast<f32>(clock + 1u), kept);
 }
 
 // Twin: cpu::collide::collider_time. Seconds since a collider set at step

@@ -15,9 +15,10 @@
 //! evaluated from four numbers per spring, never as an assembled matrix. The preconditioner `P⁻¹` is the inverse
 //! of `A`'s 3×3 diagonal blocks; on a grid cloth the coarse levels of
 //! [`super::coarse`] add aggregate corrections to it (`M⁻¹`). The filter `S_p` is `0` for a pinned
-//! particle and `I − n nᵀ` for one resting on a collider (the constrained
-//! component of `Δv` is prescribed by `z_p`, which cancels an inward normal
-//! velocity); CG applies it to the residual and search direction so
+//! particle and for a contact static friction holds, `I − n nᵀ` for one
+//! resting on a collider (the constrained component of `Δv` is prescribed
+//! by `z_p`, which cancels an inward normal velocity, or a held contact's
+//! whole velocity relative to the collider; friction: `contact_friction`); CG applies it to the residual and search direction so
 //! constrained directions never move.
 //!
 //! Convergence: stop when `rᵀP⁻¹r ≤ tol² · (Sb)ᵀP⁻¹(Sb)`, i.e. the
@@ -56,6 +57,11 @@ pub enum Filter<R> {
     /// On a surface with this normal and friction coefficient:
     /// `S = I − n nᵀ`.
     Plane(Vec3<R>, R),
+    /// On a surface (normal, friction coefficient) that static friction
+    /// held at the end of the last step: `S = 0`, `Δv` takes the particle
+    /// to the collider's velocity, so the solve moves its neighbours
+    /// knowing it stays (see `contact_friction`).
+    Held(Vec3<R>, R),
 }
 
 impl<R: Real> Filter<R> {
@@ -64,7 +70,7 @@ impl<R: Real> Filter<R> {
     pub fn apply(self, v: Vec3<R>) -> Vec3<R> {
         match self {
             Filter::Free => v,
-            Filter::Fixed => Vec3::ZERO,
+            Filter::Fixed | Filter::Held(..) => Vec3::ZERO,
             Filter::Plane(n, _) => v - n * v.dot(n),
         }
     }
@@ -99,35 +105,63 @@ fn contact_velocity<R: Real>(sys: &System<R>, x: Vec3<R>, clock: u32) -> Vec3<R>
 }
 
 /// Coulomb friction at the contacts the filter constrained, relative to
-/// the collider's velocity.
+/// the collider's velocity: what the next step applies (`w.held`,
+/// `w.friction`).
 ///
-/// The filter removed the contacts' normal motion before anything could
-/// measure it, so friction is computed from the constraint impulse instead:
-/// the part of `A Δv − b` along the normal is the momentum the surface had to
-/// supply [N·s]. The tangential velocity then loses at most `μ` times that
-/// impulse divided by the mass — the same law the collision pass applies to
-/// a removed normal velocity.
-fn contact_friction<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>) {
+/// Friction acts inside the solve, never on its answer: changing a
+/// contact's velocity after the solve moved its neighbours as if it slid
+/// would stretch its springs by what it would have slid, and a steep
+/// drape's contacts stopped that way every step pump energy in until it
+/// blows up. The filter removed the contacts' normal motion before
+/// anything could measure it, so the normal force comes from the
+/// constraint impulse `r = A Δv − b` [N·s], the momentum the surface had
+/// to supply; friction may then supply up to `μ r·n` the next step:
+/// - a held contact ([`Filter::Held`]) stays held while `r` lies in the
+///   friction cone (`|r − n (r·n)| ≤ μ r·n`); out of it, it slides next
+///   step with `μ r·n` along `r`'s tangential part (what the surface
+///   resisted with);
+/// - a sliding contact that `μ r·n` can stop (its tangential momentum
+///   relative to the collider is no more) is held next step; one it cannot
+///   stop slides with `μ r·n` against its tangential velocity, an impulse
+///   the next [`prepare`] adds to the right-hand side;
+/// - a contact the surface did not push (`r·n ≤ 0`) is free of friction.
+///
+/// Twin: the friction of `implicit_predict_item` in
+/// `shaders/common/implicit.wgsl`.
+fn contact_friction<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
     apply_a_unfiltered(sys, &w.blocks, &w.dv, &mut w.q);
     for p in 0..st.v.len() {
-        let Filter::Plane(normal, mu) = w.filter[p] else {
-            continue;
+        let (held, friction) = match w.filter[p] {
+            Filter::Plane(normal, mu) | Filter::Held(normal, mu) => {
+                let r = w.q[p] - w.rhs[p];
+                let pushed = r.dot(normal);
+                let budget = mu * pushed;
+                if pushed <= R::ZERO || budget <= R::ZERO {
+                    (false, Vec3::ZERO)
+                } else if let Filter::Held(..) = w.filter[p] {
+                    let resisted = r - normal * pushed;
+                    let needed = resisted.length();
+                    if needed <= budget {
+                        (true, Vec3::ZERO)
+                    } else {
+                        (false, resisted * (budget / needed))
+                    }
+                } else {
+                    let vc = contact_velocity(sys, st.x[p], w.clock);
+                    let rel = st.v[p] - vc;
+                    let tangential = rel - normal * rel.dot(normal);
+                    let speed = tangential.length();
+                    if speed * sys.mass[p] <= budget {
+                        (true, Vec3::ZERO)
+                    } else {
+                        (false, tangential * (-budget / speed))
+                    }
+                }
+            }
+            Filter::Free | Filter::Fixed => (false, Vec3::ZERO),
         };
-        let impulse = (w.q[p] - w.rhs[p]).dot(normal);
-        if impulse <= R::ZERO {
-            continue;
-        }
-        let vc = contact_velocity(sys, st.x[p], w.clock);
-        let v = st.v[p] - vc;
-        let tangential = v - normal * v.dot(normal);
-        let speed = tangential.length();
-        let loss = mu * impulse / sys.mass[p];
-        let kept = if speed > loss && speed > R::TINY {
-            (speed - loss) / speed
-        } else {
-            R::ZERO
-        };
-        st.v[p] = vc + (normal * v.dot(normal) + tangential * kept);
+        w.held[p] = held;
+        w.friction[p] = friction;
     }
 }
 
@@ -198,6 +232,8 @@ pub fn prepare<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
             Filter::Fixed
         } else {
             match contact(sys, st.x[p], R::from_f64(CONTACT_SLOP), w.clock) {
+                // Static friction held it at the end of the last step.
+                Some(c) if w.held[p] => Filter::Held(c.normal, c.friction),
                 // Constrain only a particle pushed or moving into the surface:
                 // one pulled away is free to lift off this step.
                 Some(c)
@@ -218,10 +254,15 @@ pub fn prepare<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
                 nrm * (-(st.v[p] - vc).dot(nrm).min(R::ZERO))
             }
             Filter::Fixed => pin_velocity(sys, &w.pin_goal[p], w.clock, st.x[p]) - st.v[p],
+            Filter::Held(..) => contact_velocity(sys, st.x[p], w.clock) - st.v[p],
             Filter::Free => Vec3::ZERO,
         };
         let kv = gather_signed(&sys.spring_adj, &w.kv, p) - bending_product(sys, &st.v, p);
         w.rhs[p] = (w.force[p] + kv * dt) * dt;
+        // A sliding contact's friction from the last step's normal force.
+        if let Filter::Plane(..) = w.filter[p] {
+            w.rhs[p] += w.friction[p];
+        }
         let mut diag = Sym3::scaled_identity(sys.mass[p]);
         if let Some(b) = &sys.bending {
             diag.add_iso_aniso(bending_diagonal(b, p) * b.scale, R::ZERO, Vec3::ZERO);
@@ -274,8 +315,14 @@ pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>)
     for p in 0..st.x.len() {
         st.v[p] += w.dv[p];
     }
-    if w.filter.iter().any(|f| matches!(f, Filter::Plane(..))) {
+    if w.filter
+        .iter()
+        .any(|f| matches!(f, Filter::Plane(..) | Filter::Held(..)))
+    {
         contact_friction(sys, st, w);
+    } else {
+        w.held.fill(false);
+        w.friction.fill(Vec3::ZERO);
     }
     // Self-collision's start of the step: before the pins move, so that
     // a moving pin's displacement counts in its contacts' friction (and

@@ -435,6 +435,14 @@ pub struct Workspace<R> {
     /// The velocity change of the step before the last (the warm start
     /// extrapolates linearly from the last two).
     pub dv_prev: Vec<Vec3<R>>,
+    /// The contacts static friction held at the end of the last step
+    /// (the implicit integrator's [`Filter::Held`]; the GPU
+    /// keeps it in `W_DV_PREV`'s w).
+    pub held: Vec<bool>,
+    /// The friction impulse [N·s] a sliding contact takes in the next
+    /// implicit step (see `implicit::contact_friction`; the GPU keeps it
+    /// in `W_CLOCK`'s yzw).
+    pub friction: Vec<Vec3<R>>,
     /// Positions before the step.
     pub x_old: Vec<Vec3<R>>,
     /// CG residual.
@@ -499,6 +507,8 @@ impl<R: Real> Workspace<R> {
             rhs: pv()?,
             dv: pv()?,
             dv_prev: pv()?,
+            held: try_vec(particles, false, WHAT)?,
+            friction: pv()?,
             x_old: pv()?,
             r: pv()?,
             c: pv()?,

@@ -743,7 +743,7 @@ pub fn check_implicit_residual(
     cap_reached: bool,
 ) -> Result<(), String> {
     use wgcloth::cpu::twins::{self as cpu, Filter};
-    use wgcloth::kernel_config::filter_kind::{FIXED, FREE, PLANE};
+    use wgcloth::kernel_config::filter_kind::{FIXED, FREE, HELD, PLANE};
     let wide = |v: &[Vec3]| -> Vec<wgcloth::real::Vec3<f64>> {
         v.iter()
             .map(|p| wgcloth::real::Vec3::new(p.x.into(), p.y.into(), p.z.into()))
@@ -757,6 +757,12 @@ pub fn check_implicit_residual(
         .map_err(|e| format!("{what}: the f64 judge: {e}"))?;
     let tolerance = judge.system().cg_tolerance;
     let (sys, st, w) = cpu::parts(judge);
+    // The contacts the device held by static friction: its decision at
+    // the end of its last step, which the judge takes as it takes the
+    // state.
+    for (held, &kind) in w.held.iter_mut().zip(kinds) {
+        *held = kind == HELD;
+    }
     cpu::implicit::springs(sys, st, w);
     cpu::implicit::prepare(sys, st, w);
     w.dv = wide(dv);
@@ -767,6 +773,7 @@ pub fn check_implicit_residual(
             Filter::Free => FREE,
             Filter::Fixed => FIXED,
             Filter::Plane(..) => PLANE,
+            Filter::Held(..) => HELD,
         };
         if kind != kinds[p] {
             flips += 1;

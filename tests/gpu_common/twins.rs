@@ -6,7 +6,7 @@
 
 use wgcloth::cpu::twins::{self, CpuSolver, Filter, SpringBlock, State, Sym3, System, Workspace};
 use wgcloth::gpu::{DebugBuffer, Dispatch, GpuSolver, Kernel, StepPath};
-use wgcloth::kernel_config::filter_kind::{FIXED, FREE, PLANE};
+use wgcloth::kernel_config::filter_kind::{FIXED, FREE, HELD, PLANE};
 use wgcloth::real::Vec3;
 use wgcloth::{Model, Params};
 
@@ -283,11 +283,12 @@ pub fn kind(f: &Filter<f32>) -> f32 {
         Filter::Free => FREE,
         Filter::Fixed => FIXED,
         Filter::Plane(..) => PLANE,
+        Filter::Held(..) => HELD,
     }
 }
 
 /// The filters the device holds: kind from the w of section `z`, a
-/// plane's normal and friction from section `filter`.
+/// contact's normal and friction from section `filter`.
 pub fn filters(work: &[u32], z: usize, filter: usize, n: usize) -> Vec<Filter<f32>> {
     let kinds = w(work, z, n);
     let normals = xyz(work, filter, n);
@@ -296,6 +297,7 @@ pub fn filters(work: &[u32], z: usize, filter: usize, n: usize) -> Vec<Filter<f3
         .map(|p| match kinds[p] {
             k if k == FIXED => Filter::Fixed,
             k if k == PLANE => Filter::Plane(normals[p], friction[p]),
+            k if k == HELD => Filter::Held(normals[p], friction[p]),
             _ => Filter::Free,
         })
         .collect()
