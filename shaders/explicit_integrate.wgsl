@@ -74,7 +74,7 @@ fn integrate_particle(p: u32, x0: vec4<f32>, v0: vec4<f32>, f: vec3<f32>) {
     if (FUSED) {
         let clock = particle_clock(p);
         if (w > 0.0) {
-            let r = collide_particle(xn, vn, clock);
+            let r = collide_particle(x0.xyz, xn, vn, clock);
             xn = r[0];
             vn = r[1];
         } else {

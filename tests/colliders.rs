@@ -13,7 +13,7 @@ use std::path::Path;
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::DVec3;
-use wgcloth::gpu::{GpuSolver, StepPath};
+use wgcloth::gpu::GpuSolver;
 use wgcloth::model::ClothSpec;
 use wgcloth::params::{Capsule, Integrator, Sphere};
 use wgcloth::{Model, Params, Real, Scene, Vector};
@@ -388,12 +388,7 @@ const RESTING_SPEED: f64 = 0.1;
 #[test]
 fn a_cloth_dropped_off_centre_on_a_ball_comes_to_rest_held_by_static_friction() {
     let (model, params) = off_centre_drape();
-    let mut f64s = CpuSolver::<f64>::new(&model, &params).expect("valid");
-    for step in 1..=DRAPE_STEPS {
-        if let Err(e) = f64s.step() {
-            panic!("step {step}: {e}");
-        }
-    }
+    let f64s = run_checked_f64(&model, &params, DRAPE_STEPS);
     let v = f64s.velocities();
     let fastest = v.iter().map(|v| v.length()).fold(0.0, f64::max);
     let held = v.iter().filter(|v| **v == DVec3::ZERO).count();
@@ -405,13 +400,5 @@ fn a_cloth_dropped_off_centre_on_a_ball_comes_to_rest_held_by_static_friction() 
     // A held contact's Δv takes it exactly to the (resting) ball's
     // velocity, so its velocity is exactly zero.
     assert!(held > 0, "no contact is held by static friction");
-    let bound = agreement::step_bound(&params);
-    for path in [StepPath::MultiDispatch, StepPath::Workgroup] {
-        let mut f32s = CpuSolver::<f32>::new(&model, &params).expect("valid");
-        let mut g = GpuSolver::with_step_path(gpu().kernels(), &gpu().queue, &model, &params, path)
-            .expect("GPU solver");
-        g.tuning_mut().set_adaptive_cg_budget(false);
-        let what = format!("off-centre drape, {path} path");
-        agreement::assert_steps(&what, &mut g, &mut f32s, DRAPE_GPU_STEPS, &bound);
-    }
+    assert_both_paths_agree("off-centre drape", &model, &params, DRAPE_GPU_STEPS);
 }

@@ -221,7 +221,7 @@ fn implicit_end_item(p: u32, xp: vec3<f32>, vp: vec3<f32>) {
     let clock = particle_clock(p);
     var r = array<vec3<f32>, 2>(xp, vp);
     if (x0.w > 0.0) {
-        r = collide_particle(xp, vp, clock);
+        r = collide_particle(x0.xyz, xp, vp, clock);
     }
     advance_clock(p, clock);
     _ = store_state(p, r[0], r[1], x0.w, v[p].w);

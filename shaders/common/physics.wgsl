@@ -465,26 +465,76 @@ fn after_contact(c: Contact, tangential: vec3<f32>, vn: f32) -> vec3<f32> {
     return c.velocity + unseen3(tangential * kept);
 }
 
-// Twin: cpu::collide::collide for one free particle, at the end of the
-// step that starts at `clock`; returns (x, v).
-fn collide_particle(x_in: vec3<f32>, v_in: vec3<f32>, clock: u32) -> array<vec3<f32>, 2> {
-    var xp = x_in;
+// Twin: cpu::collide::ENTRY_BISECTIONS.
+const ENTRY_BISECTIONS: u32 = 20u;
+
+// Twin: cpu::collide::mesh_entry. Where the path `start` → `xp` of a
+// particle that started outside mesh collider `m` and ended inside it
+// (the collider `t` seconds after it was set) entered it: the contact
+// there, its distance that of `xp` from the face's plane. Not found when
+// it started inside or ended outside.
+fn mesh_entry(start: vec3<f32>, xp: vec3<f32>, m: MeshCollider, t: f32) -> Contact {
+    let none = Contact(false, vec3<f32>(0.0, 1.0, 0.0), 0.0, 0.0, vec3<f32>(0.0));
+    if (!mesh_inside(xp, m, t) || mesh_inside(start, m, t)) {
+        return none;
+    }
+    var outside = 0.0;
+    var within = 1.0;
+    for (var k = 0u; k < ENTRY_BISECTIONS; k++) {
+        let mid = (outside + within) * 0.5;
+        if (mesh_inside(start + unseen3((xp - start) * mid), m, t)) {
+            within = mid;
+        } else {
+            outside = mid;
+        }
+    }
+    let entry = start + unseen3((xp - start) * outside);
+    var c = mesh_contact(entry, m, t);
+    c.distance = dot3(xp - entry, c.normal);
+    return c;
+}
+
+// Whether `xp` lies within mesh collider `m`'s thickness.
+fn mesh_inside(xp: vec3<f32>, m: MeshCollider, t: f32) -> bool {
+    let c = mesh_contact(xp, m, t);
+    return c.found && c.distance < 0.0;
+}
+
+// Twin: cpu::collide::resolve. Particle (x, v) moved out of contact `c`
+// onto its surface; returns (x, v).
+fn resolve(c: Contact, x_in: vec3<f32>, v_in: vec3<f32>) -> array<vec3<f32>, 2> {
     var vp = v_in;
+    let relative = vp - c.velocity;
+    let vn = dot3(relative, c.normal);
+    if (vn < 0.0) {
+        vp = after_contact(c, relative - c.normal * vn, vn);
+    }
+    return array<vec3<f32>, 2>(x_in - c.normal * c.distance, vp);
+}
+
+// Twin: cpu::collide::collide for one free particle at `x_in`, `v_in` at
+// the end of the step that starts at `clock` from `start`; returns (x, v).
+fn collide_particle(start: vec3<f32>, x_in: vec3<f32>, v_in: vec3<f32>, clock: u32) -> array<vec3<f32>, 2> {
+    var r = array<vec3<f32>, 2>(x_in, v_in);
     if (has_ground() || has_spheres()) {
+        if (has_mesh_colliders()) {
+            let tm = collider_time(clock + 1u, params.mesh.y);
+            for (var k = 0u; k < params.mesh.x; k++) {
+                let c = mesh_entry(start, r[0], params.meshes[k], tm);
+                if (c.found) {
+                    r = resolve(c, r[0], r[1]);
+                }
+            }
+        }
         for (var round = 0u; round < 2u; round++) {
-            let c = find_contact(xp, 0.0, clock + 1u);
+            let c = find_contact(r[0], 0.0, clock + 1u);
             if (!c.found) {
                 break;
             }
-            xp -= c.normal * c.distance;
-            let relative = vp - c.velocity;
-            let vn = dot3(relative, c.normal);
-            if (vn < 0.0) {
-                vp = after_contact(c, relative - c.normal * vn, vn);
-            }
+            r = resolve(c, r[0], r[1]);
         }
     }
-    return array<vec3<f32>, 2>(xp, vp);
+    return r;
 }
 
 // Twin: cpu::motion::pin_velocity. Pinned particle p at `xp` in the step

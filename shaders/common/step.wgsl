@@ -52,7 +52,7 @@ fn finish_particle(p: u32) {
         if (atomicLoad(&status[sw(STATUS_FIXUP_MOVED)]) != 0u) {
             vp = (xp - x0.xyz) * (1.0 / params.dt);
         }
-        let r = collide_particle(xp, vp, clock);
+        let r = collide_particle(x0.xyz, xp, vp, clock);
         xp = r[0];
         vp = r[1];
     } else {

@@ -237,11 +237,68 @@ pub(crate) fn after_contact<R: Real>(c: &Contact<R>, tangential: Vec3<R>, vn: R)
     c.velocity + tangential * kept
 }
 
+/// Bisection steps that locate where a particle's path entered a mesh
+/// collider: 2⁻²⁰ of the step's path, under a micrometre for any path
+/// shorter than a metre.
+const ENTRY_BISECTIONS: u32 = 20;
+
+/// Where a particle that moved from `start` to `x` in the step entered
+/// mesh collider `m` (where it is `t` seconds after it was set), when it
+/// started outside and ended inside: the contact at the entry point, its
+/// `distance` that of `x` from the plane of the face the path crossed
+/// (negative). A nearest-face projection would push a particle that went
+/// past the middle of a thin part — a table top crossed in one step —
+/// out through the far face; the entry face is the side it came from.
+/// `None` when the particle started inside (resting on or in the surface:
+/// the nearest face is right) or ended outside (twin: `mesh_entry` in
+/// `shaders/common/physics.wgsl`).
+fn mesh_entry<R: Real>(
+    m: &MeshColliderR<R>,
+    start: Vec3<R>,
+    x: Vec3<R>,
+    t: R,
+) -> Option<Contact<R>> {
+    let inside = |q: Vec3<R>| mesh_contact(m, q, t).is_some_and(|c| c.distance < R::ZERO);
+    if !inside(x) || inside(start) {
+        return None;
+    }
+    let (mut outside, mut within) = (R::ZERO, R::ONE);
+    for _ in 0..ENTRY_BISECTIONS {
+        let mid = (outside + within) * R::from_f64(0.5);
+        if inside(start + (x - start) * mid) {
+            within = mid;
+        } else {
+            outside = mid;
+        }
+    }
+    let entry = start + (x - start) * outside;
+    let c = mesh_contact(m, entry, t)?;
+    Some(Contact {
+        distance: (x - entry).dot(c.normal),
+        ..c
+    })
+}
+
+/// Particle `x`, `v` moved out of contact `c` onto its surface, losing its
+/// velocity into the surface and, by friction, some of its sliding.
+fn resolve<R: Real>(c: &Contact<R>, x: &mut Vec3<R>, v: &mut Vec3<R>) {
+    *x -= c.normal * c.distance;
+    let relative = *v - c.velocity;
+    let vn = relative.dot(c.normal);
+    if vn < R::ZERO {
+        *v = after_contact(c, relative - c.normal * vn, vn);
+    }
+}
+
 /// Resolves every free particle's penetration of the colliders in place,
 /// with the colliders where they are at the end of the step whose start
-/// clock is `clock`. Returns the number of particles that were moved.
+/// clock is `clock`; `start` holds the positions at the step's start (a
+/// particle that crossed into a mesh collider leaves by the face it came
+/// through, see `mesh_entry`). Returns the number of particles that were
+/// moved.
 pub fn collide<R: Real>(
     sys: &System<R>,
+    start: &[Vec3<R>],
     x: &mut [Vec3<R>],
     v: &mut [Vec3<R>],
     clock: u32,
@@ -250,24 +307,26 @@ pub fn collide<R: Real>(
         return 0;
     }
     let end = clock.wrapping_add(1);
+    let t = collider_time(sys, end, sys.mesh_base);
     let mut moved = 0;
     for p in 0..x.len() {
         if sys.inv_mass[p] <= R::ZERO {
             continue;
         }
+        let mut hit = false;
+        for m in &sys.mesh_colliders {
+            if let Some(c) = mesh_entry(m, start[p], x[p], t) {
+                resolve(&c, &mut x[p], &mut v[p]);
+                hit = true;
+            }
+        }
         // Resolve against each collider in turn (a particle can touch the
         // ground and a sphere at once); two passes settle a corner contact.
-        let mut hit = false;
         for _ in 0..2 {
             let Some(c) = contact(sys, x[p], R::ZERO, end) else {
                 break;
             };
-            x[p] -= c.normal * c.distance;
-            let relative = v[p] - c.velocity;
-            let vn = relative.dot(c.normal);
-            if vn < R::ZERO {
-                v[p] = after_contact(&c, relative - c.normal * vn, vn);
-            }
+            resolve(&c, &mut x[p], &mut v[p]);
             hit = true;
         }
         moved += usize::from(hit);

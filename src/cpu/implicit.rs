@@ -324,13 +324,11 @@ pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>)
         w.held.fill(false);
         w.friction.fill(Vec3::ZERO);
     }
-    // Self-collision's start of the step: before the pins move, so that
-    // a moving pin's displacement counts in its contacts' friction (and
-    // the GPU reads it from x, which holds the step's start until the
-    // step's end).
-    if sys.self_collision.is_some() {
-        w.x_old.copy_from_slice(&st.x);
-    }
+    // The step's start, for self-collision and the colliders: before the
+    // pins move, so that a moving pin's displacement counts in its
+    // contacts' friction (the GPU reads it from x, which holds the step's
+    // start until the step's end).
+    w.x_old.copy_from_slice(&st.x);
     motion::move_pins(sys, &mut st.x, &mut st.v, w);
     for p in 0..st.x.len() {
         if sys.inv_mass[p] > R::ZERO {
@@ -340,7 +338,7 @@ pub fn finish<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspace<R>)
     self_collision::project(sys, st, w);
     // Particles that were not touching at the start of the step can still
     // end it inside a collider.
-    collide(sys, &mut st.x, &mut st.v, w.clock);
+    collide(sys, &w.x_old, &mut st.x, &mut st.v, w.clock);
     super::unsigned_zeros(st);
     w.clock = w.clock.wrapping_add(1);
 }

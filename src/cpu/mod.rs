@@ -572,7 +572,7 @@ pub fn finish_step<R: Real>(sys: &System<R>, st: &mut State<R>, w: &mut Workspac
         }
     }
     motion::move_pins(sys, &mut st.x, &mut st.v, w);
-    collide::collide(sys, &mut st.x, &mut st.v, w.clock);
+    collide::collide(sys, &w.x_old, &mut st.x, &mut st.v, w.clock);
     unsigned_zeros(st);
     w.clock = w.clock.wrapping_add(1);
 }

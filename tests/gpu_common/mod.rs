@@ -232,3 +232,32 @@ pub fn folded_positions(height: f64) -> Vec<DVec3> {
         })
         .collect()
 }
+
+/// `steps` of `model` in `f64` from rest, each judged by the divergence
+/// rule the CLI applies (a step that passes its energy bound panics,
+/// naming the step): the reference run of a scene that must not blow up.
+pub fn run_checked_f64(model: &Model, params: &Params, steps: u64) -> CpuSolver<f64> {
+    let mut s = CpuSolver::<f64>::new(model, params).expect("valid");
+    let rule =
+        wgcloth::diagnostics::Divergence::new(model, params, 0.0, &s.positions(), &s.velocities());
+    for step in 1..=steps {
+        if let Err(e) = s.step().and_then(|_| s.check_divergence(&rule)) {
+            panic!("step {step}: {e}");
+        }
+    }
+    s
+}
+
+/// `steps` of `model` on the GPU against the `f32` mirror under the
+/// agreement policy, on both step paths (`what` names the run).
+pub fn assert_both_paths_agree(what: &str, model: &Model, params: &Params, steps: u32) {
+    let bound = agreement::step_bound(params);
+    for path in [StepPath::MultiDispatch, StepPath::Workgroup] {
+        let mut f32s = CpuSolver::<f32>::new(model, params).expect("valid");
+        let mut g = GpuSolver::with_step_path(gpu().kernels(), &gpu().queue, model, params, path)
+            .expect("GPU solver");
+        g.tuning_mut().set_adaptive_cg_budget(false);
+        let what = format!("{what}, {path} path");
+        agreement::assert_steps(&what, &mut g, &mut f32s, steps, &bound);
+    }
+}
