@@ -82,7 +82,7 @@ fn integrate_particle(p: u32, x0: vec4<f32>, v0: vec4<f32>, f: vec3<f32>) {
             xn = r[0];
             vn = r[1];
         }
-        advance_clock(p, clock);
+        advance_clock(p, clock, vec3<f32>(0.0));
         // A state that is not finite is not stored: the last finite one
         // is (see store_state).
         let ok = finite_or_reported(p, xn, vn);

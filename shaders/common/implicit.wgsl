@@ -106,14 +106,13 @@ fn prepare_particle(
             kind = FILTER_HELD;
             normal = c.normal;
             friction = c.friction;
-            z = contact_velocity(x0.xyz, clock) - vp;
+            z = c.velocity - vp;
         } else if (c.found && (dot3(f, c.normal) < 0.0 || dot3(vp - c.velocity, c.normal) < 0.0)) {
             kind = FILTER_PLANE;
             normal = c.normal;
             friction = c.friction;
             // The approach speed relative to the collider.
-            let vc = contact_velocity(x0.xyz, clock);
-            z = normal * (-min(dot3(vp - vc, normal), 0.0));
+            z = normal * (-min(dot3(vp - c.velocity, normal), 0.0));
         }
     }
     var kv = kv_springs;
@@ -223,7 +222,7 @@ fn implicit_end_item(p: u32, xp: vec3<f32>, vp: vec3<f32>) {
     if (x0.w > 0.0) {
         r = collide_particle(x0.xyz, xp, vp, clock);
     }
-    advance_clock(p, clock);
+    advance_clock(p, clock, contact_friction(p));
     _ = store_state(p, r[0], r[1], x0.w, v[p].w);
 }
 

@@ -295,10 +295,10 @@ fn particle_clock(p: u32) -> u32 {
     return bitcast<u32>(work[wi(W_CLOCK, p)].x);
 }
 
-// The clock's yzw (the implicit step's friction impulse) stay.
-fn advance_clock(p: u32, clock: u32) {
-    let kept = work[wi(W_CLOCK, p)].yzw;
-    work[wi(W_CLOCK, p)] = vec4<f32>(bitcast<f32>(clock + 1u), kept);
+// The clock advanced past `clock`, with `friction` in its yzw (the
+// implicit step's friction impulse for the next step; zero in the others).
+fn advance_clock(p: u32, clock: u32, friction: vec3<f32>) {
+    work[wi(W_CLOCK, p)] = vec4<f32>(bitcast<f32>(clock + 1u), friction);
 }
 
 // Twin: cpu::collide::collider_time. Seconds since a collider set at step

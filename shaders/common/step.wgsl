@@ -60,7 +60,7 @@ fn finish_particle(p: u32) {
         xp = r[0];
         vp = r[1];
     }
-    advance_clock(p, clock);
+    advance_clock(p, clock, vec3<f32>(0.0));
     _ = store_state(p, xp, vp, w, v[p].w);
 }
 

@@ -228,34 +228,31 @@ pub fn prepare<R: Real>(sys: &System<R>, st: &State<R>, w: &mut Workspace<R>) {
     w.cg.stopped = false;
     for p in 0..st.x.len() {
         w.force[p] = total_force(sys, &w.per_spring, &w.per_triangle, &st.x, &st.v, p);
-        w.filter[p] = if sys.inv_mass[p] <= R::ZERO {
-            Filter::Fixed
+        // The filter and z, the prescribed Δv in constrained directions: a
+        // pin's change to its prescribed velocity (Baraff–Witkin's moving
+        // constraints), a held contact's velocity relative to its collider,
+        // a sliding contact's approach speed relative to it.
+        (w.filter[p], w.z[p]) = if sys.inv_mass[p] <= R::ZERO {
+            let pin = pin_velocity(sys, &w.pin_goal[p], w.clock, st.x[p]);
+            (Filter::Fixed, pin - st.v[p])
         } else {
             match contact(sys, st.x[p], R::from_f64(CONTACT_SLOP), w.clock) {
                 // Static friction held it at the end of the last step.
-                Some(c) if w.held[p] => Filter::Held(c.normal, c.friction),
+                Some(c) if w.held[p] => (Filter::Held(c.normal, c.friction), c.velocity - st.v[p]),
                 // Constrain only a particle pushed or moving into the surface:
                 // one pulled away is free to lift off this step.
                 Some(c)
                     if w.force[p].dot(c.normal) < R::ZERO
                         || (st.v[p] - c.velocity).dot(c.normal) < R::ZERO =>
                 {
-                    Filter::Plane(c.normal, c.friction)
+                    let approach = (st.v[p] - c.velocity).dot(c.normal);
+                    (
+                        Filter::Plane(c.normal, c.friction),
+                        c.normal * (-approach.min(R::ZERO)),
+                    )
                 }
-                _ => Filter::Free,
+                _ => (Filter::Free, Vec3::ZERO),
             }
-        };
-        // z: the prescribed Δv in constrained directions: a contact's
-        // approach speed relative to its collider, a pin's change to its
-        // prescribed velocity (Baraff–Witkin's moving constraints).
-        w.z[p] = match w.filter[p] {
-            Filter::Plane(nrm, _) => {
-                let vc = contact_velocity(sys, st.x[p], w.clock);
-                nrm * (-(st.v[p] - vc).dot(nrm).min(R::ZERO))
-            }
-            Filter::Fixed => pin_velocity(sys, &w.pin_goal[p], w.clock, st.x[p]) - st.v[p],
-            Filter::Held(..) => contact_velocity(sys, st.x[p], w.clock) - st.v[p],
-            Filter::Free => Vec3::ZERO,
         };
         let kv = gather_signed(&sys.spring_adj, &w.kv, p) - bending_product(sys, &st.v, p);
         w.rhs[p] = (w.force[p] + kv * dt) * dt;
