@@ -44,7 +44,7 @@ fn grid_and_mesh(integrator: Integrator, n: usize) -> (Model, Model, Params) {
         scene.params.fixup.iterations = 0;
     }
     let grid = scene.model().unwrap_or_else(|e| panic!("{n}² grid: {e}"));
-    let spec = &scene.cloth;
+    let spec = &scene.cloths[0].spec;
     let mut obj = String::new();
     for p in 0..spec.particle_count() {
         let [x, y, z] = spec.rest_position(p).to_array();

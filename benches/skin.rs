@@ -29,7 +29,7 @@ fn main() {
     let mut scene = scene;
     scene.params.implicit.tolerance = 1e-3;
     let model = scene.model().unwrap_or_else(|e| panic!("model: {e}"));
-    let spec = &scene.cloth;
+    let spec = &scene.cloths[0].spec;
     let (nx, ny) = (spec.nx, spec.ny);
     let x = &model.rest_positions;
     let [c00, c10, c01] = [x[0], x[nx - 1], x[(ny - 1) * nx]];

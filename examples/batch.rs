@@ -64,7 +64,8 @@ pub fn run(context: &GpuContext, out: &Path, seconds: f64) -> anyhow::Result<f64
     for (row, wind_scale) in WIND.iter().enumerate() {
         for (col, bend_scale) in BEND.iter().enumerate() {
             let mut scene = flag.clone();
-            scene.cloth.origin += DVec3::new(col as f64 * SPACING.0, row as f64 * SPACING.1, 0.0);
+            scene.cloths[0].spec.origin +=
+                DVec3::new(col as f64 * SPACING.0, row as f64 * SPACING.1, 0.0);
             scene.params.springs[2].stiffness *= bend_scale;
             scene.params.wind = Some(Wind {
                 velocity: wind.velocity * *wind_scale,

@@ -57,7 +57,7 @@ fn run(device: &wgpu::Device, queue: &wgpu::Queue, out: &Path) -> anyhow::Result
     let target = FrameTarget::with_formats(device, width, height, formats);
     // The cape's bottom corner particles (the hem's ends).
     let hem = [
-        model.particle_count() - scene.cloth.nx,
+        model.particle_count() - scene.cloths[0].spec.nx,
         model.particle_count() - 1,
     ];
 

@@ -59,6 +59,7 @@ pub mod render_mesh;
 pub mod scene;
 pub mod sdf;
 mod stats;
+pub mod world;
 
 pub use cpu::CpuSolver;
 pub use error::{Error, Result};

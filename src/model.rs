@@ -537,6 +537,9 @@ pub struct Model {
     /// The linear bending operator of a cloth of a material with a bending
     /// stiffness ([`crate::bending`]); `None`: bending is the bend springs'.
     pub bending: Option<Bending>,
+    /// The first particle of each cloth of a world ([`crate::world`]), in
+    /// order: `[0]` for one cloth.
+    pub cloth_starts: Vec<u32>,
 }
 
 impl Model {
@@ -689,6 +692,7 @@ impl Model {
             particle_triangles,
             own_constants: Vec::new(),
             bending: None,
+            cloth_starts: vec![0],
         })
     }
 
@@ -714,6 +718,7 @@ impl Model {
             particle_triangles: adjacency(&self.particle_triangles)?,
             own_constants: try_collect(self.own_constants.iter().copied(), MODEL)?,
             bending: self.bending.clone(),
+            cloth_starts: self.cloth_starts.clone(),
         })
     }
 

@@ -471,6 +471,37 @@ pub(crate) fn check_mesh_pose(key: &str, pose: &crate::sdf::MeshPose) -> Result<
     )
 }
 
+/// Refuses spring kinds a solver could not run (negative or huge
+/// stiffness or damping, a `max_stretch` below 1), naming each key
+/// `{prefix}.<kind>.<key>` (`springs.stretch.stiffness`).
+pub fn check_springs(prefix: &str, springs: &[SpringParams; 3]) -> Result<()> {
+    for kind in SpringKind::ALL {
+        let s = &springs[kind.index()];
+        let name = kind.as_str();
+        check(
+            &format!("{prefix}.{name}.stiffness"),
+            s.stiffness,
+            (0.0..=1e9).contains(&s.stiffness),
+            "0 ≤ stiffness ≤ 1e9 (N/m)",
+        )?;
+        check(
+            &format!("{prefix}.{name}.damping"),
+            s.damping,
+            (0.0..=1e6).contains(&s.damping),
+            "0 ≤ damping ≤ 1e6 (N·s/m)",
+        )?;
+        if let Some(m) = s.max_stretch {
+            check(
+                &format!("{prefix}.{name}.max_stretch"),
+                m,
+                (1.0..=10.0).contains(&m),
+                "1 ≤ max_stretch ≤ 10 (multiple of the rest length)",
+            )?;
+        }
+    }
+    Ok(())
+}
+
 impl Params {
     /// Refuses anything a solver could not run: non-positive or non-finite
     /// time step, negative stiffness, NaN anywhere, a `max_stretch` below 1,
@@ -479,30 +510,7 @@ impl Params {
     pub fn validate(&self) -> Result<()> {
         check_dt(self.dt)?;
         check_vec("simulation.gravity", self.gravity, "m/s²")?;
-        for kind in SpringKind::ALL {
-            let s = &self.springs[kind.index()];
-            let name = kind.as_str();
-            check(
-                &format!("springs.{name}.stiffness"),
-                s.stiffness,
-                (0.0..=1e9).contains(&s.stiffness),
-                "0 ≤ stiffness ≤ 1e9 (N/m)",
-            )?;
-            check(
-                &format!("springs.{name}.damping"),
-                s.damping,
-                (0.0..=1e6).contains(&s.damping),
-                "0 ≤ damping ≤ 1e6 (N·s/m)",
-            )?;
-            if let Some(m) = s.max_stretch {
-                check(
-                    &format!("springs.{name}.max_stretch"),
-                    m,
-                    (1.0..=10.0).contains(&m),
-                    "1 ≤ max_stretch ≤ 10 (multiple of the rest length)",
-                )?;
-            }
-        }
+        check_springs("springs", &self.springs)?;
         check(
             "fixup.iterations",
             f64::from(self.fixup.iterations),

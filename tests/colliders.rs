@@ -371,7 +371,7 @@ fn sphere_velocity_is_read_from_the_scene_file() {
 /// its side by step 40).
 fn off_centre_drape() -> (Model, Params) {
     let mut scene = Scene::builtin("drape").expect("built in");
-    scene.cloth.origin = DVec3::new(-0.3, 0.6, -0.5);
+    scene.cloths[0].spec.origin = DVec3::new(-0.3, 0.6, -0.5);
     (scene.model().expect("valid"), scene.params)
 }
 

@@ -306,8 +306,8 @@ fn hanging_implicit(
     coarse: bool,
 ) -> (CpuSolver<f64>, u64) {
     let mut scene = wgcloth::Scene::builtin("hanging").expect("built in");
-    scene.cloth.nx = n;
-    scene.cloth.ny = n;
+    scene.cloths[0].spec.nx = n;
+    scene.cloths[0].spec.ny = n;
     scene.params.integrator = Integrator::Implicit;
     scene.params.dt = dt;
     scene.params.ground = None;

@@ -111,7 +111,7 @@ fn material_values_out_of_range_are_refused_naming_the_key() {
 #[test]
 fn without_a_material_the_springs_take_their_kinds_constants() {
     let scene = load("[cloth]\nresolution = [5, 5]\n").expect("loads");
-    assert_eq!(scene.material, None);
+    assert_eq!(scene.cloths[0].material, None);
     let model = scene.model().expect("builds");
     assert!(model.own_constants.is_empty());
     let default = wgcloth::Params::default();
@@ -141,7 +141,7 @@ fn a_grid_particle_weighs_the_density_times_a_third_of_its_triangles_area() {
     let cell = DENSITY * (w / (nx - 1) as f64) * (h / (ny - 1) as f64);
     let total: f64 = model.mass.iter().sum();
     assert!(close(total, DENSITY * w * h, MASS_SUM_TOLERANCE), "{total}");
-    assert!(close(scene.cloth.mass, total, MASS_SUM_TOLERANCE));
+    assert!(close(scene.cloths[0].spec.mass, total, MASS_SUM_TOLERANCE));
     for row in 0..ny {
         for col in 0..nx {
             let (inner_r, inner_c) = (row > 0 && row < ny - 1, col > 0 && col < nx - 1);
@@ -197,13 +197,13 @@ fn hanging_woven(
             Err("no external files".to_string())
         })
         .expect("a valid mesh");
-        scene.mesh = Some(MeshCloth {
+        scene.cloths[0].mesh = Some(MeshCloth {
             path: PathBuf::from("sheet.obj"),
             mesh_name: None,
             scale: 1.0,
             mesh,
         });
-        scene.cloth.pins = vec![wgcloth::model::Pin::Region([
+        scene.cloths[0].spec.pins = vec![wgcloth::model::Pin::Region([
             wgcloth::glam::DVec3::new(-1.0, -1e-9, -1.0),
             wgcloth::glam::DVec3::new(2.0, 1e-9, 1.0),
         ])];
@@ -339,7 +339,7 @@ fn a_mesh_particle_weighs_the_density_times_a_third_of_its_triangles_area() {
     }
     let total: f64 = model.mass.iter().sum();
     assert!(close(total, DENSITY, MASS_SUM_TOLERANCE), "{total}");
-    assert!(scene.material.is_some());
+    assert!(scene.cloths[0].material.is_some());
 }
 
 /// How far the bottom edge's sag at 17² and 33² and on the irregular mesh

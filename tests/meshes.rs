@@ -432,7 +432,11 @@ fn lumped_masses_add_up_to_the_mass_in_proportion_to_area() {
     let mut models = Vec::new();
     for name in ["tablecloth", "banner"] {
         let scene = Scene::builtin(name).expect("built in");
-        models.push((name, scene.cloth.mass, scene.model().expect("valid")));
+        models.push((
+            name,
+            scene.cloths[0].spec.mass,
+            scene.model().expect("valid"),
+        ));
     }
     let mesh = parse(&irregular_obj(9, 7), "sheet.obj").expect("a valid mesh");
     let sheet = mesh

@@ -181,27 +181,35 @@ fn a_size_beyond_the_device_is_refused() {
 
 /// The strain view at rest: every triangle at zero strain, so the pixels
 /// where the particles project are the ramp's blue.
-#[test]
-fn strain_view_at_rest_is_blue() {
+/// `scene`'s first frame after one step (by strain where `strain`), in a
+/// fresh directory named for `test`: the directory, the frame's path and
+/// its RGBA bytes.
+fn first_frame(scene: &Scene, test: &str, strain: bool) -> (PathBuf, PathBuf, Vec<u8>) {
     let ctx = gpu_common::gpu();
-    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
-    let model = scene.model().expect("the model");
-    let dir = temp_dir("strain");
+    let dir = temp_dir(test);
     let options = FrameOptions {
         width: WIDTH,
         height: HEIGHT,
         frames: 1,
         steps_per_frame: 1,
         dir: dir.clone(),
-        strain: true,
+        strain,
     };
-    render::render_scene(&ctx.device, &ctx.queue, &scene, &options, |_| {
+    render::render_scene(&ctx.device, &ctx.queue, scene, &options, |_| {
         ControlFlow::Continue(())
     })
     .unwrap_or_else(|e| panic!("rendering: {e}"));
-    let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
     let frame = dir.join(render::frame_name(0));
     let (_, _, rgba) = gpu_common::decode_png(&frame);
+    (dir, frame, rgba)
+}
+
+#[test]
+fn strain_view_at_rest_is_blue() {
+    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
+    let model = scene.model().expect("the model");
+    let (dir, frame, rgba) = first_frame(&scene, "strain", true);
+    let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
     let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
     for x in interior(&rest) {
         let c = colour_at(&rgba, &camera, x);
@@ -356,4 +364,58 @@ fn a_render_mesh_is_drawn_in_place_of_the_cloth() {
         left > 0 && right > 0,
         "{left} and {right} particles checked"
     );
+}
+
+/// Two 9 × 9 cloths side by side, one green and one blue: a world
+/// (`[[cloth]]`) whose cloths each take their `color`.
+const WORLD: &str = r#"
+[simulation]
+integrator = "explicit"
+dt = 0.002
+
+[[cloth]]
+resolution = [9, 9]
+size = [0.8, 0.8]
+origin = [-0.9, 1.0, -0.4]
+pins = ["top-left", "top-right"]
+color = [0.1, 0.7, 0.1]
+
+[[cloth]]
+resolution = [9, 9]
+size = [0.8, 0.8]
+origin = [0.1, 1.0, -0.4]
+pins = ["top-left", "top-right"]
+color = [0.1, 0.1, 0.8]
+"#;
+
+/// Index of the channel of `c` that exceeds the other two by more than
+/// [`CLOTH_RED_MARGIN`], if one does.
+fn dominant(c: [u8; 4]) -> Option<usize> {
+    (0..3).find(|&k| {
+        (0..3)
+            .filter(|&j| j != k)
+            .all(|j| i32::from(c[k]) - i32::from(c[j]) > CLOTH_RED_MARGIN)
+    })
+}
+
+#[test]
+fn each_cloth_of_a_world_is_drawn_in_its_colour() {
+    let scene = Scene::from_toml(WORLD, Path::new("world.toml")).expect("the world");
+    let model = scene.model().expect("the model");
+    let (dir, frame, rgba) = first_frame(&scene, "world", false);
+    let camera = Camera::for_scene(&scene, &model, WIDTH as f32 / HEIGHT as f32);
+    let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
+    for (cloth, channel) in [(0, 1), (1, 2)] {
+        let x = &rest[81 * cloth..81 * (cloth + 1)];
+        for p in interior(x) {
+            let c = colour_at(&rgba, &camera, p);
+            assert_eq!(
+                dominant(c),
+                Some(channel),
+                "{}: cloth {cloth} at {p:?}: colour {c:?}",
+                frame.display()
+            );
+        }
+    }
+    std::fs::remove_dir_all(&dir).expect("remove the test directory");
 }

@@ -27,9 +27,11 @@ fn every_builtin_scene_loads_validates_and_builds() {
         let scene = Scene::builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(scene.name, name);
         scene.params.validate().expect("params valid");
-        match &scene.mesh {
-            Some(mesh) => mesh.validate(&scene.cloth).expect("mesh cloth valid"),
-            None => scene.cloth.validate().expect("cloth valid"),
+        match &scene.cloths[0].mesh {
+            Some(mesh) => mesh
+                .validate(&scene.cloths[0].spec)
+                .expect("mesh cloth valid"),
+            None => scene.cloths[0].spec.validate().expect("cloth valid"),
         }
         let model = scene.model().unwrap_or_else(|e| panic!("{name}: {e}"));
         assert_eq!(model.particle_count(), scene.particle_count());
@@ -57,29 +59,32 @@ fn builtin_names_match_the_files_in_scenes() {
 fn builtin_scenes_are_the_ones_described() {
     let hanging = Scene::builtin("hanging").expect("loads");
     assert_eq!(hanging.params.integrator, Integrator::Explicit);
-    assert_eq!((hanging.cloth.nx, hanging.cloth.ny), (33, 33));
     assert_eq!(
-        hanging.cloth.pins,
+        (hanging.cloths[0].spec.nx, hanging.cloths[0].spec.ny),
+        (33, 33)
+    );
+    assert_eq!(
+        hanging.cloths[0].spec.pins,
         [Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)]
     );
-    assert_eq!(hanging.cloth.origin[1], 1.0);
+    assert_eq!(hanging.cloths[0].spec.origin[1], 1.0);
     assert_eq!(hanging.params.ground.map(|g| g.height), Some(0.0));
 
     let curtain = Scene::builtin("curtain").expect("loads");
     assert_eq!(curtain.params.integrator, Integrator::Implicit);
-    assert_eq!(curtain.cloth.orientation, Orientation::Vertical);
-    assert_eq!(curtain.cloth.pins, [Pin::Edge(Edge::Top)]);
+    assert_eq!(curtain.cloths[0].spec.orientation, Orientation::Vertical);
+    assert_eq!(curtain.cloths[0].spec.pins, [Pin::Edge(Edge::Top)]);
 
     let flag = Scene::builtin("flag").expect("loads");
     assert_eq!(flag.params.integrator, Integrator::SemiImplicit);
-    assert_eq!((flag.cloth.nx, flag.cloth.ny), (33, 21));
-    assert_eq!(flag.cloth.pins, [Pin::Edge(Edge::Left)]);
+    assert_eq!((flag.cloths[0].spec.nx, flag.cloths[0].spec.ny), (33, 21));
+    assert_eq!(flag.cloths[0].spec.pins, [Pin::Edge(Edge::Left)]);
     let wind = flag.params.wind.expect("the flag has wind");
     assert!(wind.velocity[0] > 0.0 && wind.velocity[2] != 0.0);
 
     let drape = Scene::builtin("drape").expect("loads");
     assert_eq!(drape.params.integrator, Integrator::Implicit);
-    assert!(drape.cloth.pins.is_empty());
+    assert!(drape.cloths[0].spec.pins.is_empty());
     assert_eq!(drape.params.spheres.len(), 1);
     assert_eq!(drape.params.spheres[0].radius, 0.35);
     assert_eq!(drape.params.spheres[0].center, DVec3::ZERO);
@@ -241,7 +246,7 @@ fn a_file_with_every_key_gives_exactly_those_values() {
             iterations: 3,
         }),
     };
-    assert_eq!(scene.cloth, cloth);
+    assert_eq!(scene.cloths[0].spec, cloth);
     assert_eq!(scene.params, params);
     scene.model().expect("builds");
 }
@@ -249,7 +254,7 @@ fn a_file_with_every_key_gives_exactly_those_values() {
 #[test]
 fn an_empty_file_is_the_library_defaults() {
     let scene = parse("");
-    assert_eq!(scene.cloth, ClothSpec::default());
+    assert_eq!(scene.cloths[0].spec, ClothSpec::default());
     assert_eq!(scene.params, Params::default());
     assert_eq!(scene.duration, 2.0);
 }
@@ -308,7 +313,7 @@ fn empty_collider_and_wind_tables_take_the_documented_defaults() {
 #[test]
 fn pins_can_be_emptied_and_fixup_switched_off() {
     let scene = parse("[cloth]\npins = []\n[fixup]\niterations = 0\n");
-    assert!(scene.cloth.pins.is_empty());
+    assert!(scene.cloths[0].spec.pins.is_empty());
     assert_eq!(scene.params.fixup.iterations, 0);
 }
 
@@ -488,8 +493,8 @@ const BAD_SCENES: &[Row] = &[
     ),
     row(
         "an array of tables for a table",
-        "[[cloth]]\nmass = 1\n",
-        &["`cloth`", "an array", "`[cloth]`"],
+        "[[simulation]]\ndt = 0.01\n",
+        &["`simulation`", "an array", "`[simulation]`"],
     ),
     row(
         "a table's keys as an array",
@@ -939,7 +944,12 @@ const KEYS: &[(&str, &[&str])] = &[
             "orientation",
             "mass",
             "pins",
+            "color",
         ],
+    ),
+    (
+        "[[seam]]\na = { edge = \"left\" }\nb = { edge = \"right\" }",
+        &["stiffness", "damping", "a", "b"],
     ),
     (
         "[springs.stretch]",
@@ -980,6 +990,7 @@ const TABLES: &[&str] = &[
     "semi_implicit",
     "ground",
     "sphere",
+    "seam",
     "wind",
     "camera",
 ];
@@ -1014,16 +1025,18 @@ fn no_message_for_a_wrong_shape_names_a_rust_type() {
     }
     for table in TABLES {
         for shape in ["5", "\"text\"", "[]", "[1, 2]", "[[1]]", "true"] {
-            // No spheres at all is a valid `sphere`.
-            if !(*table == "sphere" && shape == "[]") {
+            // No spheres (seams) at all is a valid `sphere` (`seam`).
+            if !(["sphere", "seam"].contains(table) && shape == "[]") {
                 texts.push(format!("{table} = {shape}\n"));
             }
         }
-        // The other bracket count: `[[cloth]]` for a table, `[sphere]` for
-        // the array of tables.
+        // The other bracket count: `[[camera]]` for a table, `[sphere]` for
+        // the array of tables (`cloth` takes both: one cloth, or a world).
         if *table == "sphere" {
             texts.push("[sphere]\nradius = 1\n".to_string());
-        } else {
+        } else if *table == "seam" {
+            texts.push("[seam]\nstiffness = 1\n".to_string());
+        } else if *table != "cloth" {
             texts.push(format!("[[{table}]]\n"));
         }
     }

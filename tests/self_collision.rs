@@ -8,7 +8,7 @@
 mod common;
 mod gpu_common;
 
-use common::differing;
+use common::{crossing_pairs, differing, edges};
 use gpu_common::agreement;
 use gpu_common::{folded_model, folded_positions, FOLD_SPACING as SPACING};
 use wgcloth::cpu::self_collision::{self, EXCLUDE_REST, STEP_CAP};
@@ -80,74 +80,23 @@ fn min_distance(x: &[DVec3], pairs: &[(usize, usize)]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// The mesh edges: each triangle side once.
-fn edges(model: &Model) -> Vec<[u32; 2]> {
-    let mut e: Vec<[u32; 2]> = model
-        .triangles
-        .iter()
-        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
-        .map(|[a, b]| [a.min(b), a.max(b)])
-        .collect();
-    e.sort_unstable();
-    e.dedup();
-    e
-}
-
-/// Whether segment `a`–`b` passes through triangle `t`: its ends lie
-/// strictly on opposite sides of the triangle's plane and the point where
-/// it meets the plane lies inside the triangle (a segment touching the
-/// plane, or in it, does not pass through).
-fn crosses(a: DVec3, b: DVec3, t: [DVec3; 3]) -> bool {
-    let n = (t[1] - t[0]).cross(t[2] - t[0]);
-    let (da, db) = (n.dot(a - t[0]), n.dot(b - t[0]));
-    if da * db >= 0.0 {
-        return false;
-    }
-    let hit = a + (b - a) * (da / (da - db));
-    (0..3).all(|k| {
-        let (p, q) = (t[k], t[(k + 1) % 3]);
-        n.dot((q - p).cross(hit - p)) >= 0.0
-    })
-}
-
-/// Edge–triangle crossings at `x`: mesh edges that pass through a
-/// triangle they do not share a corner with, counted apart as
-/// `(between layers, local)`. A local crossing has an edge end and a
-/// triangle corner closer at rest than the exclusion radius `exclude`
-/// \[m\]: a cell folding over its neighbour, which no particle pair the
-/// method looks at can see (the springs alone resist it).
+/// Edge–triangle crossings at `x` ([`common::crossing_pairs`]), counted
+/// apart as `(between layers, local)`. A local crossing has an edge end
+/// and a triangle corner closer at rest than the exclusion radius
+/// `exclude` \[m\]: a cell folding over its neighbour, which no particle
+/// pair the method looks at can see (the springs alone resist it).
 fn crossings(model: &Model, edges: &[[u32; 2]], x: &[DVec3], exclude: f64) -> (usize, usize) {
     let rest = &model.rest_positions;
-    let boxes: Vec<(DVec3, DVec3)> = model
-        .triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|i| x[i as usize]);
-            (a.min(b).min(c), a.max(b).max(c))
-        })
-        .collect();
     let (mut far, mut near) = (0, 0);
-    for e in edges {
-        let (a, b) = (x[e[0] as usize], x[e[1] as usize]);
-        let (lo, hi) = (a.min(b), a.max(b));
-        for (t, (tlo, thi)) in model.triangles.iter().zip(&boxes) {
-            if t.contains(&e[0]) || t.contains(&e[1]) {
-                continue;
-            }
-            if lo.cmpgt(*thi).any() || hi.cmplt(*tlo).any() {
-                continue;
-            }
-            if crosses(a, b, t.map(|i| x[i as usize])) {
-                let local = e.iter().any(|&p| {
-                    t.iter()
-                        .any(|&c| (rest[p as usize] - rest[c as usize]).length() < exclude)
-                });
-                if local {
-                    near += 1;
-                } else {
-                    far += 1;
-                }
-            }
+    for (e, t) in crossing_pairs(model, edges, x) {
+        let local = e.iter().any(|&p| {
+            t.iter()
+                .any(|&c| (rest[p as usize] - rest[c as usize]).length() < exclude)
+        });
+        if local {
+            near += 1;
+        } else {
+            far += 1;
         }
     }
     (far, near)

@@ -122,15 +122,15 @@ const BOARD_MOTION: f64 = 0.1;
 /// [`FLAG_SECONDS`], sampled every step.
 fn flag_edge_speed(integrator: Integrator, compensation: bool) -> f64 {
     let mut scene = Scene::builtin("flag").expect("built-in scene");
-    scene.cloth.nx = FLAG_RESOLUTION[0];
-    scene.cloth.ny = FLAG_RESOLUTION[1];
-    scene.cloth.pins = vec![Pin::Edge(Edge::Left)];
+    scene.cloths[0].spec.nx = FLAG_RESOLUTION[0];
+    scene.cloths[0].spec.ny = FLAG_RESOLUTION[1];
+    scene.cloths[0].spec.pins = vec![Pin::Edge(Edge::Left)];
     scene.params.integrator = integrator;
     scene.params.semi_implicit.torque_compensation = compensation;
     let model: Model = scene.model().expect("valid");
     let mut s = CpuSolver::<f64>::new(&model, &scene.params).expect("valid");
     let dt = scene.params.dt;
-    let nx = scene.cloth.nx;
+    let nx = scene.cloths[0].spec.nx;
     let (mut sum, mut count) = (0.0, 0usize);
     while s.time() < FLAG_SECONDS - dt / 2.0 {
         s.step().expect("stable");
@@ -178,8 +178,8 @@ const CHECK_EVERY: u64 = 10;
 #[test]
 fn a_cloth_landing_on_a_sphere_stays_bounded() {
     let mut scene = Scene::builtin("drape").expect("built-in scene");
-    scene.cloth.nx = DRAPE_RESOLUTION;
-    scene.cloth.ny = DRAPE_RESOLUTION;
+    scene.cloths[0].spec.nx = DRAPE_RESOLUTION;
+    scene.cloths[0].spec.ny = DRAPE_RESOLUTION;
     scene.params.integrator = Integrator::SemiImplicit;
     let model: Model = scene.model().expect("valid");
     let mut s = CpuSolver::<f64>::new(&model, &scene.params).expect("valid");

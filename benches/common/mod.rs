@@ -18,12 +18,17 @@ pub fn grown_hanging(integrator: Integrator, n: usize) -> Scene {
     let Ok(mut scene) = Scene::builtin("hanging") else {
         panic!("the hanging scene is built in");
     };
-    let grow = (n - 1) as f64 / (scene.cloth.nx - 1) as f64;
-    scene.cloth.size = scene.cloth.size.map(|s| s * grow);
-    scene.cloth.origin = DVec3::new(-scene.cloth.size[0] / 2.0, 1.0, -scene.cloth.size[1] / 2.0);
-    scene.cloth.mass *= (n * n) as f64 / (scene.cloth.nx * scene.cloth.ny) as f64;
-    scene.cloth.nx = n;
-    scene.cloth.ny = n;
+    let grow = (n - 1) as f64 / (scene.cloths[0].spec.nx - 1) as f64;
+    scene.cloths[0].spec.size = scene.cloths[0].spec.size.map(|s| s * grow);
+    scene.cloths[0].spec.origin = DVec3::new(
+        -scene.cloths[0].spec.size[0] / 2.0,
+        1.0,
+        -scene.cloths[0].spec.size[1] / 2.0,
+    );
+    scene.cloths[0].spec.mass *=
+        (n * n) as f64 / (scene.cloths[0].spec.nx * scene.cloths[0].spec.ny) as f64;
+    scene.cloths[0].spec.nx = n;
+    scene.cloths[0].spec.ny = n;
     scene.params.ground = None;
     scene.params.integrator = integrator;
     if integrator != Integrator::Explicit {

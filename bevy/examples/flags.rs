@@ -102,8 +102,8 @@ fn flag(scene: &Scene, i: u32, count: u32) -> anyhow::Result<(Model, Params)> {
     let per_row = f64::from(count).sqrt().ceil() as u32;
     let (column, row) = (f64::from(i % per_row), f64::from(i / per_row));
     let mut scene = scene.clone();
-    scene.cloth.origin.x += column * SPACING.0;
-    scene.cloth.origin.z -= row * SPACING.1;
+    scene.cloths[0].spec.origin.x += column * SPACING.0;
+    scene.cloths[0].spec.origin.z -= row * SPACING.1;
     Ok((scene.model()?, scene.params.clone()))
 }
 

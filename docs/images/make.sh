@@ -26,6 +26,7 @@ last_frame tablecloth # a mesh cloth (OBJ)
 last_frame banner     # a mesh cloth (glTF) with a hole
 last_frame heap       # self-collision: a cloth folded onto itself
 last_frame table      # a mesh collider: a tablecloth on a table
+last_frame layers     # a world of three cloths, resting on one another
 # A render mesh: the cape's detailed slab over its 15 × 25 cloth, 2 s in.
 "$wgcloth" render cape --seconds 2 --out "$work/cape-detail"
 cp "$(ls "$work/cape-detail"/frame_*.png | tail -n 1)" "$images/cape-detail.png"

@@ -112,6 +112,7 @@ impl Host {
         let mut renderer =
             Renderer::with_formats(&device, &queue, &scene.params, &camera, formats)?;
         renderer.set_embeddings(&sim.solver, sim.embeddings())?;
+        renderer.set_cloth_colors(&device, sim.model(), &scene.cloth_colors());
         let target = FrameTarget::with_formats(&device, config.width, config.height, formats);
         let info = adapter.get_info();
         let host = Host {

@@ -34,15 +34,23 @@ struct VertexOut {
 }
 
 // The cloth: slot 0 is the solver's positions (vec4 per particle, xyz
-// used), slot 1 its normals.
+// used), slot 1 its normals; the instance's tint (the last slot) is the
+// colour of one cloth of a world (w 1: its rgb, linear; w 0: the
+// globals' colours), its back side paler, as the globals' is, so that a
+// fold shows which side is up.
 @vertex
-fn vs_cloth(@location(0) position: vec3<f32>, @location(1) normal: vec3<f32>) -> VertexOut {
+fn vs_cloth(
+    @location(0) position: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+    @location(2) tint: vec4<f32>,
+) -> VertexOut {
     var out: VertexOut;
     out.clip = globals.view_proj * vec4<f32>(position, 1.0);
     out.world = position;
     out.normal = normal;
-    out.front = vec4<f32>(globals.cloth_front.rgb, 0.0);
-    out.back = globals.cloth_back.rgb;
+    let own = tint.w > 0.5;
+    out.front = vec4<f32>(select(globals.cloth_front.rgb, tint.rgb, own), 0.0);
+    out.back = select(globals.cloth_back.rgb, mix(tint.rgb, vec3<f32>(1.0), 0.35), own);
     return out;
 }
 

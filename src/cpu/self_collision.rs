@@ -249,10 +249,9 @@ impl<R: Real> SelfCollisionR<R> {
             cap: R::from_f64(STEP_CAP * thickness),
             reference: reference_particle(model),
             inv_cell: R::from_f64(1.0 / (CELL_THICKNESSES * thickness)),
-            rest: model
-                .rest_positions
-                .iter()
-                .map(|&p| Vec3::from_f64(p / (EXCLUDE_REST * thickness)))
+            rest: crate::world::exclusion_rest(model, EXCLUDE_REST * thickness)
+                .into_iter()
+                .map(Vec3::from_f64)
                 .collect(),
             table: table_size(model.particle_count()),
         }

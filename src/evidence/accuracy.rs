@@ -221,8 +221,8 @@ fn invalid(key: &str, allowed: &str, got: impl std::fmt::Display) -> Error {
 fn model_of(scene: &Scene, resolution: Option<usize>) -> Result<Model> {
     let mut scene = scene.clone();
     if let Some(n) = resolution {
-        scene.cloth.nx = n;
-        scene.cloth.ny = n;
+        scene.cloths[0].spec.nx = n;
+        scene.cloths[0].spec.ny = n;
     }
     scene.model()
 }

@@ -940,7 +940,7 @@ fn woven_plate_scene(
         let parsed = Mesh::parse(flat.as_bytes(), path, None, &|_| {
             Err("no external files".to_string())
         })?;
-        scene.mesh = Some(MeshCloth {
+        scene.cloths[0].mesh = Some(MeshCloth {
             path: path.to_path_buf(),
             mesh_name: None,
             scale: 1.0,

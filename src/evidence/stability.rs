@@ -181,9 +181,10 @@ fn cell_scene(
     dt: f64,
 ) -> Result<Scene> {
     let mut scene = Scene::builtin("hanging")?;
-    scene.cloth.nx = options.resolution;
-    scene.cloth.ny = options.resolution;
-    scene.cloth.mass = options.areal_mass * scene.cloth.size[0] * scene.cloth.size[1];
+    scene.cloths[0].spec.nx = options.resolution;
+    scene.cloths[0].spec.ny = options.resolution;
+    scene.cloths[0].spec.mass =
+        options.areal_mass * scene.cloths[0].spec.size[0] * scene.cloths[0].spec.size[1];
     let p = &mut scene.params;
     p.integrator = integrator;
     p.dt = dt;

@@ -523,8 +523,8 @@ mod tests {
         assert!(GridLayout::of(&model, &Params::default()).is_none());
     }
 
-    /// Every built-in grid scene gets the grid kernels, and a mesh scene
-    /// the general ones.
+    /// Every built-in scene of one grid cloth gets the grid kernels, and a
+    /// mesh scene or a world of several cloths the general ones.
     #[test]
     fn built_in_scenes_are_grids() {
         for &name in crate::Scene::builtin_names() {
@@ -537,7 +537,8 @@ mod tests {
                 Err(e) => panic!("{name}: {e}"),
             };
             let grid = GridLayout::of(&model, &scene.params).is_some();
-            assert_eq!(grid, scene.mesh.is_none(), "{name}");
+            let one_grid = matches!(&scene.cloths[..], [c] if c.mesh.is_none());
+            assert_eq!(grid, one_grid, "{name}");
         }
     }
 }

@@ -322,6 +322,7 @@ pub fn render_scene_on_path(
             renderer.show_strain(device, &model, &solver);
         }
         renderer.set_embeddings(&solver, &embeddings)?;
+        renderer.set_cloth_colors(device, &model, &scene.cloth_colors());
         Ok(renderer)
     })?;
     let animation = scene.animation(&model);

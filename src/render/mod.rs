@@ -35,6 +35,7 @@ use crate::kernel_config::{MAX_CAPSULES, MAX_SPHERES};
 use crate::model::Model;
 use crate::params::{Capsule, Params, Sphere};
 use crate::render_mesh::Embedding;
+use std::ops::Range;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 /// Default colour format of the targets the renderer draws into, and the
@@ -194,6 +195,13 @@ pub struct Renderer {
     render_mesh: wgpu::RenderPipeline,
     /// Drawn in place of the cloth when there are any.
     render_meshes: Vec<GpuRenderMesh>,
+    /// The cloths' tints (`vs_cloth`'s instance slot): entry 0 the
+    /// globals' colours, then one per cloth of a world
+    /// ([`Renderer::set_cloth_colors`]).
+    tints: wgpu::Buffer,
+    /// Each cloth's index range and its tint's entry; empty: the whole
+    /// cloth in the globals' colours.
+    pieces: Vec<(Range<u32>, u32)>,
     collider: wgpu::RenderPipeline,
     ground: Option<Collider>,
     /// Spheres and capsules, all drawn with the capsule mesh (a sphere is
@@ -355,9 +363,16 @@ impl Renderer {
         // The solver's positions and normals: one vec4 per particle each.
         let positions = [vec3_at(0, 0)];
         let normals = [vec3_at(1, 0)];
+        let tint = [wgpu::VertexAttribute {
+            format: wgpu::VertexFormat::Float32x4,
+            offset: 0,
+            shader_location: 2,
+        }];
+        let tint_buffer = vertex_layout(16, wgpu::VertexStepMode::Instance, &tint);
         let cloth_buffers = [
             Some(vertex_layout(16, wgpu::VertexStepMode::Vertex, &positions)),
             Some(vertex_layout(16, wgpu::VertexStepMode::Vertex, &normals)),
+            Some(tint_buffer.clone()),
         ];
         // A collider mesh (interleaved position, normal) and its instances.
         let mesh_attributes = [vec3_at(0, 0), vec3_at(1, 12)];
@@ -404,11 +419,14 @@ impl Renderer {
         let cloth = pipeline("wgcloth.render.cloth", "vs_cloth", &cloth_buffers, None);
         // A render mesh's vertices: position and normal interleaved, as a
         // collider mesh's; seen from both sides too.
-        let render_mesh_buffers = [Some(vertex_layout(
-            24,
-            wgpu::VertexStepMode::Vertex,
-            &mesh_attributes,
-        ))];
+        let render_mesh_buffers = [
+            Some(vertex_layout(
+                24,
+                wgpu::VertexStepMode::Vertex,
+                &mesh_attributes,
+            )),
+            Some(tint_buffer),
+        ];
         let render_mesh = pipeline(
             "wgcloth.render.render_mesh",
             "vs_cloth",
@@ -465,6 +483,8 @@ impl Renderer {
             cloth,
             render_mesh,
             render_meshes: Vec::new(),
+            tints: tint_buffer_of(device, &[[0.0; 4]]),
+            pieces: Vec::new(),
             collider,
             ground,
             round,
@@ -505,6 +525,41 @@ impl Renderer {
             model,
             solver,
         ));
+    }
+
+    /// Draws each cloth of the world `model` (a scene's:
+    /// [`Scene::model`](crate::Scene::model)) in its colour from now on:
+    /// `colors[c]` for cloth `c`, sRGB components in 0..=1 as they land in
+    /// the picture (a scene's `color`), or `None` for the renderer's own
+    /// colours. Cloths past the end of `colors` take the renderer's.
+    pub fn set_cloth_colors(
+        &mut self,
+        device: &wgpu::Device,
+        model: &Model,
+        colors: &[Option<[f64; 3]>],
+    ) {
+        let starts = &model.cloth_starts;
+        let mut tints = vec![[0.0f32; 4]];
+        let mut pieces = Vec::with_capacity(starts.len());
+        let mut first = 0usize;
+        for c in 0..starts.len() {
+            // A world's triangles come cloth by cloth.
+            let end = starts.get(c + 1).map_or(model.triangles.len(), |&next| {
+                model.triangles.partition_point(|t| t[0] < next)
+            });
+            let tint = match colors.get(c).copied().flatten() {
+                Some(rgb) => {
+                    let [r, g, b] = rgb.map(|v| srgb_to_linear(v) as f32);
+                    tints.push([r, g, b, 1.0]);
+                    tints.len() as u32 - 1
+                }
+                None => 0,
+            };
+            pieces.push((3 * first as u32..3 * end as u32, tint));
+            first = end;
+        }
+        self.tints = tint_buffer_of(device, &tints);
+        self.pieces = pieces;
     }
 
     /// Draws `spheres` and `capsules` where they are given from the next
@@ -575,13 +630,14 @@ impl Renderer {
             strain.draw(pass);
         } else if !self.render_meshes.is_empty() {
             pass.set_pipeline(&self.render_mesh);
+            pass.set_vertex_buffer(1, self.tints.slice(..));
             for m in &self.render_meshes {
                 pass.set_vertex_buffer(0, m.vertex_buffer().slice(..));
                 pass.set_index_buffer(m.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
                 pass.draw_indexed(0..m.index_count(), 0, 0..1);
             }
         } else {
-            self.draw_range(pass, &solver.draw_range());
+            self.draw_world(pass, &solver.draw_range());
         }
         self.draw_colliders(pass);
     }
@@ -618,11 +674,33 @@ impl Renderer {
     /// A shaded cloth where `range` places it: its position and normal
     /// vertex buffers, its indices relative to its base vertex.
     fn draw_range(&self, pass: &mut wgpu::RenderPass<'_>, range: &DrawRange<'_>) {
+        self.draw_pieces(pass, range, &[(range.indices.clone(), 0)]);
+    }
+
+    /// [`Renderer::draw_range`] one cloth of a world after another, each
+    /// in its tint ([`Renderer::set_cloth_colors`]).
+    fn draw_world(&self, pass: &mut wgpu::RenderPass<'_>, range: &DrawRange<'_>) {
+        if self.pieces.is_empty() {
+            self.draw_range(pass, range);
+        } else {
+            self.draw_pieces(pass, range, &self.pieces);
+        }
+    }
+
+    fn draw_pieces(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        range: &DrawRange<'_>,
+        pieces: &[(Range<u32>, u32)],
+    ) {
         pass.set_pipeline(&self.cloth);
         pass.set_vertex_buffer(0, range.positions.slice(..));
         pass.set_vertex_buffer(1, range.normals.slice(..));
+        pass.set_vertex_buffer(2, self.tints.slice(..));
         pass.set_index_buffer(range.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-        pass.draw_indexed(range.indices.clone(), range.base_vertex, 0..1);
+        for (indices, tint) in pieces {
+            pass.draw_indexed(indices.clone(), range.base_vertex, *tint..*tint + 1);
+        }
     }
 
     /// Records the render meshes' `skin` passes
@@ -769,6 +847,15 @@ fn srgb_to_linear(v: f64) -> f64 {
 
 /// The render shader's source (`shaders/render/mesh.wgsl`).
 pub const SHADER: &str = include_str!("../../shaders/render/mesh.wgsl");
+
+/// A vertex buffer of tints (`vs_cloth`'s instance slot).
+fn tint_buffer_of(device: &wgpu::Device, tints: &[[f32; 4]]) -> wgpu::Buffer {
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("wgcloth.render.tints"),
+        contents: bytemuck::cast_slice(tints),
+        usage: wgpu::BufferUsages::VERTEX,
+    })
+}
 
 fn vertex_layout<'a>(
     stride: u64,

@@ -17,13 +17,13 @@ use serde::de::{self, Deserializer, MapAccess, Visitor};
 use serde::Deserialize;
 
 use super::animation::{Character, Key};
-use super::shape::{Exactly, Form, List, Number, Table, Whole};
+use super::shape::{Exactly, Form, List, Number, OneOrMany, Table, Whole};
 use super::CameraSpec;
 use crate::material::{Material, WarpWeft};
 use crate::model::{ClothSpec, Orientation, Pin, MAX_PARTICLES};
 use crate::params::{
     Capsule, FilterMethod, FixupMethod, Ground, Integrator, Params, SelfCollision, Sphere,
-    SpringKind, Wind,
+    SpringKind, SpringParams, Wind,
 };
 
 /// `[simulation] duration` when absent \[s\].
@@ -48,7 +48,9 @@ pub(super) struct SceneFile {
     #[serde(default)]
     simulation: Table<SimulationTable>,
     #[serde(default)]
-    cloth: Table<ClothTable>,
+    cloth: OneOrMany<ClothTable>,
+    #[serde(default)]
+    seam: List<Table<SeamTable>>,
     #[serde(default)]
     springs: Table<SpringsTable>,
     material: Option<Table<MaterialTable>>,
@@ -109,6 +111,9 @@ struct ClothTable {
     mesh_name: Option<String>,
     scale: Option<Number>,
     render_mesh: Option<String>,
+    material: Option<Table<MaterialTable>>,
+    springs: Option<Table<SpringsTable>>,
+    color: Option<Vec3>,
 }
 
 /// The `[cloth]` keys of a mesh cloth, not yet read or checked.
@@ -143,6 +148,112 @@ struct SpringTable {
     max_stretch: Option<Number>,
 }
 
+impl SpringsTable {
+    /// Each kind's table, with its name.
+    fn kinds(&self) -> [(SpringKind, &Option<Table<SpringTable>>); 3] {
+        [
+            (SpringKind::Stretch, &self.stretch),
+            (SpringKind::Shear, &self.shear),
+            (SpringKind::Bend, &self.bend),
+        ]
+    }
+
+    /// The names of the kinds the file gives a table.
+    fn given(&self) -> impl Iterator<Item = &'static str> + '_ {
+        self.kinds()
+            .into_iter()
+            .filter(|(_, t)| t.is_some())
+            .map(|(kind, _)| kind.as_str())
+    }
+
+    /// The first kind whose table gives `max_stretch`.
+    fn max_stretch_given(&self) -> Option<&'static str> {
+        self.kinds()
+            .into_iter()
+            .find(|(_, t)| t.as_ref().is_some_and(|Table(t)| t.max_stretch.is_some()))
+            .map(|(kind, _)| kind.as_str())
+    }
+
+    /// `base` with the keys these tables give over it (missing keys keep
+    /// the base's value of *that* kind).
+    fn over(&self, mut base: [SpringParams; 3]) -> [SpringParams; 3] {
+        for (kind, table) in self.kinds() {
+            if let Some(Table(t)) = table {
+                let spring = &mut base[kind.index()];
+                set(&mut spring.stiffness, t.stiffness);
+                set(&mut spring.damping, t.damping);
+                set(&mut spring.max_stretch, t.max_stretch.map(|m| Some(m.0)));
+            }
+        }
+        base
+    }
+}
+
+/// A `[[seam]]`: two sides of cloths joined particle by particle.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SeamTable {
+    /// Required, as `b`: a seam joins two sides.
+    a: Table<SeamSideTable>,
+    b: Table<SeamSideTable>,
+    stiffness: Option<Number>,
+    damping: Option<Number>,
+}
+
+/// One side of a seam: `{ cloth = 0, edge = "right" }`, `{ cloth = 1,
+/// vertices = [...] }` or `{ cloth = 0, box = [[…], […]] }`.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SeamSideTable {
+    cloth: Option<Whole<usize>>,
+    edge: Option<String>,
+    vertices: Option<List<Whole<usize>>>,
+    #[serde(rename = "box")]
+    bounds: Option<Exactly<Vec3, 2>>,
+}
+
+impl Form for SeamSideTable {
+    const ONE: &'static str = "a table: `{ cloth = 0, edge = \"right\" }`, `{ cloth = 0, \
+                               vertices = [...] }` or `{ cloth = 0, box = [[x0, y0, z0], [x1, \
+                               y1, z1]] }`";
+    const MANY: &'static str = "seam sides";
+}
+
+/// A `[[seam]]` as the file gives it, not yet checked against the cloths.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct SeamKeys {
+    pub(super) a: SeamSideKeys,
+    pub(super) b: SeamSideKeys,
+    /// `stiffness` \[N/m\].
+    pub(super) stiffness: Option<f64>,
+    /// `damping` \[N·s/m\].
+    pub(super) damping: Option<f64>,
+}
+
+/// One side of a seam as the file gives it.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct SeamSideKeys {
+    /// `cloth` (default 0).
+    pub(super) cloth: usize,
+    /// `edge`, as written.
+    pub(super) edge: Option<String>,
+    /// `vertices`.
+    pub(super) vertices: Option<Vec<usize>>,
+    /// `box`.
+    pub(super) bounds: Option<[DVec3; 2]>,
+}
+
+impl From<Table<SeamSideTable>> for SeamSideKeys {
+    fn from(Table(t): Table<SeamSideTable>) -> Self {
+        SeamSideKeys {
+            cloth: t.cloth.map_or(0, |c| c.0),
+            edge: t.edge,
+            vertices: t.vertices.map(|v| v.0.into_iter().map(|w| w.0).collect()),
+            bounds: t.bounds.map(|Exactly([lo, hi])| [lo.into(), hi.into()]),
+        }
+    }
+}
+
 /// `[material]`: a cloth in physical units (`crate::material`).
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
@@ -152,6 +263,17 @@ struct MaterialTable {
     shear: Option<Number>,
     bending: Option<Directions>,
     damping: Option<Number>,
+}
+
+impl MaterialTable {
+    /// Sets the keys this table gives on `m`.
+    fn set_into(&self, m: &mut Material) {
+        set(&mut m.density, self.density);
+        set(&mut m.stretch, self.stretch);
+        set(&mut m.shear, self.shear);
+        set(&mut m.bending, self.bending);
+        set(&mut m.damping, self.damping);
+    }
 }
 
 /// A fabric property that may differ along the warp and the weft: one
@@ -277,13 +399,6 @@ struct CharacterColliderTable {
     thickness: Option<Number>,
 }
 
-impl Form for CharacterColliderTable {
-    const ONE: &'static str =
-        "a table: a `[[character.collider]]` line with its keys on the lines below";
-    const MANY: &'static str = "tables, each a `[[character.collider]]` line (double brackets) \
-                                with its keys on the lines below";
-}
-
 /// A `[[character.capsule]]`: a `[[capsule]]` without `velocity`, which
 /// the character's keys give.
 #[derive(Deserialize)]
@@ -331,12 +446,6 @@ struct RenderMeshTable {
     max_distance: Option<Number>,
 }
 
-impl Form for RenderMeshTable {
-    const ONE: &'static str = "a table: a `[[render_mesh]]` line with its keys on the lines below";
-    const MANY: &'static str =
-        "tables, each a `[[render_mesh]]` line (double brackets) with its keys on the lines below";
-}
-
 /// A render mesh as the file gives it (`[cloth] render_mesh` or a
 /// `[[render_mesh]]`), defaults filled in, not yet read or checked.
 #[derive(Clone, Debug, PartialEq)]
@@ -367,12 +476,6 @@ struct ColliderTable {
     angular_velocity: Option<Vec3>,
     resolution: Option<Whole<u64>>,
     thickness: Option<Number>,
-}
-
-impl Form for ColliderTable {
-    const ONE: &'static str = "a table: a `[[collider]]` line with its keys on the lines below";
-    const MANY: &'static str =
-        "tables, each a `[[collider]]` line (double brackets) with its keys on the lines below";
 }
 
 /// A `[[collider]]` as the file gives it, defaults filled in, not yet read
@@ -436,7 +539,40 @@ macro_rules! table_form {
 }
 
 table_form!(SimulationTable, "simulation");
-table_form!(ClothTable, "cloth");
+
+/// How an array of tables written `[[header]]` looks, for "expected …".
+macro_rules! array_form {
+    ($table:ty, $header:literal) => {
+        impl Form for $table {
+            const ONE: &'static str = concat!(
+                "a table: a `[[",
+                $header,
+                "]]` line with its keys on the lines below"
+            );
+            const MANY: &'static str = concat!(
+                "tables, each a `[[",
+                $header,
+                "]]` line (double brackets) with its keys on the lines below"
+            );
+        }
+    };
+}
+
+array_form!(SeamTable, "seam");
+array_form!(SphereTable, "sphere");
+array_form!(CapsuleTable, "capsule");
+array_form!(ColliderTable, "collider");
+array_form!(RenderMeshTable, "render_mesh");
+array_form!(CharacterCapsuleTable, "character.capsule");
+array_form!(CharacterColliderTable, "character.collider");
+array_form!(KeyTable, "character.key");
+
+/// `[cloth]`: one table, or an array of them (`[[cloth]]`, a world).
+impl Form for ClothTable {
+    const ONE: &'static str = "a table: a `[cloth]` line with its keys on the lines below";
+    const MANY: &'static str =
+        "tables, each a `[[cloth]]` line (double brackets) with its keys on the lines below";
+}
 table_form!(SpringTable, "springs.<stretch|shear|bend>");
 table_form!(FixupTable, "fixup");
 table_form!(MaterialTable, "material");
@@ -453,35 +589,6 @@ impl Form for SpringsTable {
                                `[springs.shear]` and `[springs.bend]` lines, each with its keys \
                                on the lines below";
     const MANY: &'static str = "`[springs]` tables";
-}
-
-/// The arrays of tables: `[[sphere]]`, once per sphere, and
-/// `[[capsule]]`, once per capsule.
-impl Form for SphereTable {
-    const ONE: &'static str = "a table: a `[[sphere]]` line with its keys on the lines below";
-    const MANY: &'static str =
-        "tables, each a `[[sphere]]` line (double brackets) with its keys on the lines below";
-}
-
-impl Form for KeyTable {
-    const ONE: &'static str =
-        "a table: a `[[character.key]]` line with its keys on the lines below";
-    const MANY: &'static str =
-        "tables, each a `[[character.key]]` line (double brackets) with its \
-                                keys on the lines below";
-}
-
-impl Form for CapsuleTable {
-    const ONE: &'static str = "a table: a `[[capsule]]` line with its keys on the lines below";
-    const MANY: &'static str =
-        "tables, each a `[[capsule]]` line (double brackets) with its keys on the lines below";
-}
-
-impl Form for CharacterCapsuleTable {
-    const ONE: &'static str =
-        "a table: a `[[character.capsule]]` line with its keys on the lines below";
-    const MANY: &'static str = "tables, each a `[[character.capsule]]` line (double brackets) \
-                                with its keys on the lines below";
 }
 
 impl Form for PinEntry {
@@ -533,35 +640,60 @@ impl<const N: usize> From<Exactly<Number, N>> for [f64; N] {
     }
 }
 
-impl SceneFile {
-    /// The mesh keys when `[cloth]` has `mesh`; refuses the grid's keys
-    /// beside it, and the mesh's keys without it.
-    pub(super) fn mesh_keys(&self) -> Result<Option<MeshKeys>, String> {
-        let c = &self.cloth.0;
+/// One `[cloth]` (or `[[cloth]]` entry) as the file gives it, its
+/// material and springs resolved against the file's own, not yet
+/// validated.
+pub(super) struct ClothKeys {
+    /// How its keys are named in messages: `cloth`, or `cloth[i]` in a
+    /// file of `[[cloth]]` tables.
+    pub(super) key: String,
+    /// The grid's (or the mesh's placement and pins) from the file.
+    pub(super) spec: ClothSpec,
+    /// The mesh keys of a mesh cloth.
+    pub(super) mesh: Option<MeshKeys>,
+    /// Its material: the file's `[material]` with its own
+    /// `[cloth.material]` keys over it.
+    pub(super) material: Option<Material>,
+    /// Its own spring kinds: the file's `[springs.*]` with its own
+    /// `[cloth.springs.*]` stiffness and damping over them, or its own
+    /// material's kinds; `None`: the file's.
+    pub(super) springs: Option<[SpringParams; 3]>,
+    /// `color`, as written.
+    pub(super) color: Option<DVec3>,
+    /// `render_mesh`, as written.
+    pub(super) render_mesh: Option<String>,
+}
+
+impl ClothTable {
+    /// The mesh keys when this cloth has `mesh`; refuses the grid's keys
+    /// beside it, and the mesh's keys without it (`key`: how the cloth
+    /// is named).
+    fn mesh_keys(&self, key: &str) -> Result<Option<MeshKeys>, String> {
+        let c = self;
         let Some(file) = &c.mesh else {
-            for (key, given) in [
+            for (name, given) in [
                 ("mesh_name", c.mesh_name.is_some()),
                 ("scale", c.scale.is_some()),
             ] {
                 if given {
                     return Err(format!(
-                        "`cloth.{key}`: only a mesh cloth (`cloth.mesh = \"file.obj\"`) takes \
-                         it; remove it or give `cloth.mesh`"
+                        "`{key}.{name}`: only a mesh cloth (`{key}.mesh = \"file.obj\"`) takes \
+                         it; remove it or give `{key}.mesh`"
                     ));
                 }
             }
             return Ok(None);
         };
-        for (key, given) in [
+        for (name, given) in [
             ("resolution", c.resolution.is_some()),
             ("size", c.size.is_some()),
             ("orientation", c.orientation.is_some()),
         ] {
             if given {
                 return Err(format!(
-                    "`cloth.{key}` conflicts with `cloth.mesh`: a mesh cloth takes its \
+                    "`{key}.{name}` conflicts with `{key}.mesh`: a mesh cloth takes its \
                      particles, size and shape from the mesh file (place it with `origin` and \
-                     `scale`); remove `{key}`"
+                     `scale`); remove `{name}`"
                 ));
             }
         }
@@ -573,87 +705,143 @@ impl SceneFile {
             pins_given: c.pins.is_some(),
         }))
     }
+}
 
+impl SceneFile {
     /// The file's `[material]` (not yet validated), absent keys from
-    /// [`Material::default`]; refuses `cloth.mass` and `[springs.*]`
-    /// tables beside it, which would give the mass or the springs twice.
+    /// [`Material::default`]; refuses `[springs.*]` tables beside it,
+    /// which would give the springs twice.
     pub(super) fn material(&self) -> Result<Option<Material>, String> {
         let Some(Table(t)) = &self.material else {
             return Ok(None);
         };
-        if self.cloth.0.mass.is_some() {
-            return Err(
-                "`cloth.mass` conflicts with `[material]`: a material cloth's mass is \
-                 `material.density` × its area; remove `cloth.mass`, or `[material]` to give \
-                 the mass and springs by hand"
-                    .to_string(),
-            );
-        }
-        let springs = &self.springs.0;
-        for (kind, given) in [
-            (SpringKind::Stretch, springs.stretch.is_some()),
-            (SpringKind::Shear, springs.shear.is_some()),
-            (SpringKind::Bend, springs.bend.is_some()),
-        ] {
-            if given {
-                return Err(format!(
-                    "`[springs.{}]` conflicts with `[material]`: a material cloth's springs \
-                     follow from `material.stretch`, `shear`, `bending` and `damping` and the \
-                     rest geometry; remove `[springs.{}]`, or `[material]` to give the springs \
-                     by hand",
-                    kind.as_str(),
-                    kind.as_str()
-                ));
-            }
+        if let Some(kind) = self.springs.0.given().next() {
+            return Err(format!(
+                "`[springs.{kind}]` conflicts with `[material]`: a material cloth's springs \
+                 follow from `material.stretch`, `shear`, `bending` and `damping` and the \
+                 rest geometry; remove `[springs.{kind}]`, or `[material]` to give the springs \
+                 by hand"
+            ));
         }
         let mut m = Material::default();
-        set(&mut m.density, t.density);
-        set(&mut m.stretch, t.stretch);
-        set(&mut m.shear, t.shear);
-        set(&mut m.bending, t.bending);
-        set(&mut m.damping, t.damping);
+        t.set_into(&mut m);
         Ok(Some(m))
     }
 
-    /// The cloth, the parameters, the duration \[s\] and the camera this file
-    /// describes, not yet validated.
-    pub(super) fn into_parts(self) -> (ClothSpec, Params, f64, CameraSpec) {
+    /// The file's cloths, taken out, each resolved against the file's
+    /// `material` (from [`SceneFile::material`]) and its `[springs.*]`;
+    /// refuses a
+    /// cloth's `mass` or `[cloth.springs.*]` beside a material and a
+    /// cloth's own `max_stretch` (the fix-up's limits are the world's).
+    pub(super) fn take_cloths(
+        &mut self,
+        material: Option<&Material>,
+    ) -> Result<Vec<ClothKeys>, String> {
+        let world = match material {
+            Some(m) => m.spring_params(),
+            None => self.springs.0.over(Params::default().springs),
+        };
+        let cloths = std::mem::take(&mut self.cloth);
+        let many = cloths.many;
+        let mut out = Vec::with_capacity(cloths.values.len());
+        for (n, c) in cloths.values.into_iter().enumerate() {
+            let key = if many {
+                format!("cloth[{n}]")
+            } else {
+                "cloth".to_string()
+            };
+            let mesh = c.mesh_keys(&key)?;
+            let material = match (&c.material, material) {
+                (Some(Table(own)), base) => {
+                    let mut m = base.cloned().unwrap_or_default();
+                    own.set_into(&mut m);
+                    Some(m)
+                }
+                (None, base) => base.cloned(),
+            };
+            let own_springs = c.springs.as_ref().map(|Table(t)| t);
+            let springs = match (&material, own_springs) {
+                (Some(_), _) if c.mass.is_some() => {
+                    let table = match c.material {
+                        Some(_) => format!("{key}.material"),
+                        None => "material".to_string(),
+                    };
+                    return Err(format!(
+                        "`{key}.mass` conflicts with `[{table}]`: a material cloth's mass is \
+                         `material.density` × its area; remove `{key}.mass`, or `[{table}]` \
+                         to give the mass and springs by hand"
+                    ));
+                }
+                (Some(_), Some(own)) if own.given().next().is_some() => {
+                    let kind = own.given().next().unwrap_or("stretch");
+                    return Err(format!(
+                        "`[{key}.springs.{kind}]` conflicts with a material: a material \
+                         cloth's springs follow from its material; remove it, or the material"
+                    ));
+                }
+                (Some(m), _) if c.material.is_some() => Some(m.spring_params()),
+                (Some(_), _) => None,
+                (None, Some(own)) => {
+                    if let Some(kind) = own.max_stretch_given() {
+                        return Err(format!(
+                            "`{key}.springs.{kind}.max_stretch`: the fix-up's limits are the \
+                             world's; give `max_stretch` in `[springs.{kind}]` for every cloth"
+                        ));
+                    }
+                    Some(own.over(world))
+                }
+                (None, None) => None,
+            };
+            let mut spec = ClothSpec::default();
+            if let Some(Exactly([nx, ny])) = c.resolution {
+                (spec.nx, spec.ny) = (nx.0, ny.0);
+            }
+            set(&mut spec.size, c.size);
+            set(&mut spec.origin, c.origin);
+            set(&mut spec.orientation, c.orientation.map(|o| o.0));
+            set(&mut spec.mass, c.mass);
+            set(
+                &mut spec.pins,
+                c.pins
+                    .map(|v| v.0.into_iter().map(|e| e.0).collect::<Vec<_>>()),
+            );
+            out.push(ClothKeys {
+                key,
+                spec,
+                mesh,
+                material,
+                springs,
+                color: c.color.map(DVec3::from),
+                render_mesh: c.render_mesh,
+            });
+        }
+        Ok(out)
+    }
+
+    /// The file's `[[seam]]`s, taken out.
+    pub(super) fn take_seams(&mut self) -> Vec<SeamKeys> {
+        std::mem::take(&mut self.seam.0)
+            .into_iter()
+            .map(|Table(t)| SeamKeys {
+                a: t.a.into(),
+                b: t.b.into(),
+                stiffness: t.stiffness.map(f64::from),
+                damping: t.damping.map(f64::from),
+            })
+            .collect()
+    }
+
+    /// The parameters, the duration \[s\] and the camera this file
+    /// describes, not yet validated (the cloths taken out before:
+    /// [`SceneFile::take_cloths`]).
+    pub(super) fn into_parts(self) -> (Params, f64, CameraSpec) {
         let mut p = Params::default();
         let s = self.simulation.0;
         set(&mut p.integrator, s.integrator.map(|c| c.0));
         set(&mut p.dt, s.dt);
         set(&mut p.gravity, s.gravity);
 
-        let mut cloth = ClothSpec::default();
-        let c = self.cloth.0;
-        if let Some(Exactly([nx, ny])) = c.resolution {
-            (cloth.nx, cloth.ny) = (nx.0, ny.0);
-        }
-        set(&mut cloth.size, c.size);
-        set(&mut cloth.origin, c.origin);
-        set(&mut cloth.orientation, c.orientation.map(|o| o.0));
-        set(&mut cloth.mass, c.mass);
-        set(
-            &mut cloth.pins,
-            c.pins
-                .map(|v| v.0.into_iter().map(|e| e.0).collect::<Vec<_>>()),
-        );
-
-        let springs = self.springs.0;
-        for kind in SpringKind::ALL {
-            let table = match kind {
-                SpringKind::Stretch => &springs.stretch,
-                SpringKind::Shear => &springs.shear,
-                SpringKind::Bend => &springs.bend,
-            };
-            if let Some(Table(t)) = table {
-                // Missing keys keep the default of *this* kind.
-                let spring = &mut p.springs[kind.index()];
-                set(&mut spring.stiffness, t.stiffness);
-                set(&mut spring.damping, t.damping);
-                set(&mut spring.max_stretch, t.max_stretch.map(|m| Some(m.0)));
-            }
-        }
+        p.springs = self.springs.0.over(p.springs);
 
         let (fixup, implicit) = (self.fixup.0, self.implicit.0);
         set(&mut p.fixup.iterations, fixup.iterations);
@@ -708,7 +896,7 @@ impl SceneFile {
             fov: c.fov.map(f64::from),
         };
         let duration = s.duration.map_or(DEFAULT_DURATION, f64::from);
-        (cloth, p, duration, camera)
+        (p, duration, camera)
     }
 }
 
@@ -735,15 +923,9 @@ fn capsule(a: Vec3, b: Vec3, radius: Number, friction: Option<Number>) -> Capsul
 }
 
 impl SceneFile {
-    /// The file's render meshes, taken out: `[cloth] render_mesh` first,
-    /// then each `[[render_mesh]]`.
+    /// The file's `[[render_mesh]]`s, taken out (a cloth's own
+    /// `render_mesh` is its [`ClothKeys::render_mesh`]).
     pub(super) fn take_render_meshes(&mut self) -> Vec<RenderMeshKeys> {
-        let cloth = self.cloth.0.render_mesh.take().map(|file| RenderMeshKeys {
-            key: "cloth.render_mesh".into(),
-            file,
-            name: None,
-            max_distance: DEFAULT_RENDER_MESH_DISTANCE,
-        });
         let tables = std::mem::take(&mut self.render_mesh.0)
             .into_iter()
             .enumerate()
@@ -755,7 +937,7 @@ impl SceneFile {
                     .max_distance
                     .map_or(DEFAULT_RENDER_MESH_DISTANCE, f64::from),
             });
-        cloth.into_iter().chain(tables).collect()
+        tables.collect()
     }
 
     /// The file's `[[collider]]` tables, taken out.

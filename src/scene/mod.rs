@@ -25,26 +25,22 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::material::Material;
 use crate::mesh::{Mesh, MeshCloth};
-use crate::model::{ClothSpec, Model};
-use crate::params::{check, check_finite, format_number, format_short, Params};
+use crate::model::{ClothSpec, Model, Pin};
+use crate::params::{check, check_finite, format_number, format_short, Params, SpringParams};
 use crate::render_mesh::{Embedding, RenderMesh};
+use crate::world::{self, SeamSpring};
 
 /// A complete, validated scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
     /// Display name (the built-in name or the file stem).
     pub name: String,
-    /// The cloth's geometry and mass. For a mesh cloth only its `origin`,
-    /// `mass` and `pins` apply. For a cloth of a [`Material`] the model's
-    /// masses are the material's (`mass` is then, on a grid, their sum).
-    pub cloth: ClothSpec,
-    /// The mesh, for a mesh cloth (`[cloth] mesh`); `None` for a grid.
-    pub mesh: Option<MeshCloth>,
-    /// The cloth's material (`[material]`), whose density and
-    /// stiffnesses give the model's masses and spring constants; `None`:
-    /// `cloth.mass` and the `[springs.*]` kinds give them.
-    pub material: Option<Material>,
-    /// Everything else (for a cloth of a material, its spring kinds are
+    /// The world's cloths in particle order (cloth 0's particles first):
+    /// one for `[cloth]`, each `[[cloth]]` in the file's order.
+    pub cloths: Vec<SceneCloth>,
+    /// The `[[seam]]`s, as springs between the world's particles.
+    pub seams: Vec<SeamSpring>,
+    /// Everything else (for a scene of a `[material]`, its spring kinds are
     /// [`Material::spring_params`]).
     pub params: Params,
     /// How long the scene runs by default \[s\] (`[simulation] duration`).
@@ -54,13 +50,37 @@ pub struct Scene {
     pub camera: CameraSpec,
     /// The scripted character (`[character]`), whose capsules are the last
     /// of `params.capsules` (posed at its first key) and which carries the
-    /// cloth's pins; see [`Scene::animation`].
+    /// cloths' pins; see [`Scene::animation`].
     pub character: Option<animation::Character>,
     /// The meshes drawn in place of the cloth (`[cloth] render_mesh`, then
-    /// each `[[render_mesh]]`), placed as the cloth is: a mesh cloth's
-    /// `scale` and `origin` apply to them too; a grid's are in the scene's
-    /// frame.
+    /// each `[[render_mesh]]`; a scene of one cloth only), placed as the
+    /// cloth is: a mesh cloth's `scale` and `origin` apply to them too; a
+    /// grid's are in the scene's frame.
     pub render_meshes: Vec<SceneRenderMesh>,
+}
+
+/// One cloth of a scene's world.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneCloth {
+    /// Its geometry and mass. For a mesh cloth only its `origin`, `mass`
+    /// and `pins` apply. For a cloth of a [`Material`] the model's masses
+    /// are the material's (`mass` is then, on a grid, their sum).
+    pub spec: ClothSpec,
+    /// The mesh, for a mesh cloth (`mesh`); `None` for a grid.
+    pub mesh: Option<MeshCloth>,
+    /// Its material (the scene's `[material]` with the cloth's own
+    /// `[cloth.material]` keys over it), whose density and stiffnesses give
+    /// its masses and spring constants; `None`: `spec.mass` and `springs`
+    /// give them.
+    pub material: Option<Material>,
+    /// Its own spring kinds: the scene's `[springs.*]` with the cloth's own
+    /// `[cloth.springs.*]` stiffness and damping over them, or its own
+    /// `[cloth.material]`'s [`Material::spring_params`]; `None`: the
+    /// scene's (`params.springs`).
+    pub springs: Option<[SpringParams; 3]>,
+    /// `color`: its colour in pictures, sRGB components in 0..=1; `None`:
+    /// the renderer's cloth colour.
+    pub color: Option<DVec3>,
 }
 
 /// A render mesh of a scene: the mesh, placed, and how far from the cloth
@@ -154,18 +174,16 @@ impl Scene {
         })?;
         let mut parsed: file::SceneFile =
             serde_path_to_error::deserialize(de).map_err(|e| fail(describe(text, &e)))?;
-        let mesh_keys = parsed.mesh_keys().map_err(fail)?;
         let material = parsed.material().map_err(fail)?;
+        let cloth_keys = parsed.take_cloths(material.as_ref()).map_err(fail)?;
+        let seam_keys = parsed.take_seams();
         let (mut character, character_colliders) = parsed.take_character();
         let colliders = parsed.take_colliders();
-        let render_mesh_keys = parsed.take_render_meshes();
-        let (mut cloth, mut params, duration, camera) = parsed.into_parts();
+        let mut render_mesh_keys = parsed.take_render_meshes();
+        let (mut params, duration, camera) = parsed.into_parts();
         if let Some(m) = &material {
             m.validate().map_err(|e| fail(e.to_string()))?;
             params.springs = m.spring_params();
-            // What the model's masses add up to on a grid (a mesh's
-            // follow from its faces' areas).
-            cloth.mass = m.density * cloth.size[0] * cloth.size[1];
         }
         if let Some(c) = &character {
             c.validate().map_err(|e| fail(e.to_string()))?;
@@ -196,39 +214,48 @@ impl Scene {
             let start = c.keys.first().map_or(0.0, |k| k.time);
             params.mesh_colliders.extend(c.colliders_at(start));
         }
-        let mesh = match mesh_keys {
-            None => {
-                cloth.validate().map_err(|e| fail(e.to_string()))?;
-                None
+        let several = cloth_keys.len() > 1;
+        let mut cloths = Vec::with_capacity(cloth_keys.len());
+        for mut keys in cloth_keys {
+            if let Some(file) = keys.render_mesh.take() {
+                render_mesh_keys.insert(
+                    0,
+                    file::RenderMeshKeys {
+                        key: format!("{}.render_mesh", keys.key),
+                        file,
+                        name: None,
+                        max_distance: file::DEFAULT_RENDER_MESH_DISTANCE,
+                    },
+                );
             }
-            Some(keys) => {
-                if !keys.origin_given {
-                    cloth.origin = DVec3::ZERO;
-                }
-                if !keys.pins_given {
-                    cloth.pins.clear();
-                }
-                check(
-                    "cloth.scale",
-                    keys.scale,
-                    keys.scale > 0.0,
-                    "> 0 (a factor)",
-                )
-                .map_err(|e| fail(e.to_string()))?;
-                let file = path.parent().unwrap_or(Path::new("")).join(&keys.file);
-                let mesh = MeshCloth {
-                    mesh: read_mesh(&file, keys.name.as_deref())?,
-                    path: PathBuf::from(keys.file),
-                    mesh_name: keys.name,
-                    scale: keys.scale,
-                };
-                mesh.validate(&cloth).map_err(|e| fail(e.to_string()))?;
-                Some(mesh)
-            }
-        };
-        let (scale, origin) = match &mesh {
-            Some(m) => (m.scale, cloth.origin),
-            None => (1.0, DVec3::ZERO),
+            cloths.push(scene_cloth(keys, path, read_mesh).map_err(in_file)?);
+        }
+        if let (true, Some(keys)) = (several, render_mesh_keys.first()) {
+            return Err(fail(format!(
+                "`{}`: a render mesh follows one cloth, and this scene has {} (`[[cloth]]`); \
+                 remove it, or give the scene one cloth",
+                keys.key,
+                cloths.len()
+            )));
+        }
+        let seams = seam_springs(&cloths, seam_keys).map_err(in_file)?;
+        if let (false, Some(_)) = (seams.is_empty(), &params.self_collision) {
+            return Err(fail(
+                "`[[seam]]` with `[self_collision]`: self-collision would push a seam's two \
+                 sides a thickness apart as the seam pulls them together; remove one of them"
+                    .to_string(),
+            ));
+        }
+        let (scale, origin) = match (several, cloths.first()) {
+            (
+                false,
+                Some(SceneCloth {
+                    mesh: Some(m),
+                    spec,
+                    ..
+                }),
+            ) => (m.scale, spec.origin),
+            _ => (1.0, DVec3::ZERO),
         };
         let mut render_meshes = Vec::with_capacity(render_mesh_keys.len());
         for keys in render_mesh_keys {
@@ -252,72 +279,20 @@ impl Scene {
             .map_or_else(|| "scene".to_string(), |s| s.to_string_lossy().into_owned());
         let scene = Scene {
             name,
-            cloth,
-            mesh,
-            material,
+            cloths,
+            seams,
             params,
             duration,
             camera,
             character,
             render_meshes,
         };
-        scene
-            .check_material_geometry()
-            .map_err(|e| fail(e.to_string()))?;
+        for (n, cloth) in scene.cloths.iter().enumerate() {
+            cloth
+                .check_material_geometry()
+                .map_err(|e| fail(name_cloth(e, n, several).to_string()))?;
+        }
         Ok(scene)
-    }
-
-    /// Refuses a material whose shear stiffness is too large for the
-    /// cloth's cells (what [`Material::apply`] would refuse), before
-    /// anything is built: a grid's cells are all one rectangle.
-    fn check_material_geometry(&self) -> Result<()> {
-        let Some(material) = &self.material else {
-            return Ok(());
-        };
-        match &self.mesh {
-            None => {
-                let c = &self.cloth;
-                let (w, h) = (c.size[0] / (c.nx - 1) as f64, c.size[1] / (c.ny - 1) as f64);
-                material.check_grid_cell(w, h)
-            }
-            Some(mesh) => {
-                let rest = mesh.rest_positions(&self.cloth);
-                let warps = Scene::warps(material, mesh, &rest)?;
-                material
-                    .edge_stiffness(
-                        &rest,
-                        mesh.mesh.faces.iter().map(|f| f.corners()).zip(warps),
-                    )
-                    .map(|_| ())
-            }
-        }
-    }
-
-    /// Each face's warp on a mesh cloth of `material` at the rest
-    /// positions `rest` ([`Mesh::warp_directions`]), for a material that
-    /// needs it; else no direction, which an isotropic material ignores.
-    /// Refuses a mesh whose faces do not give one, naming the key that
-    /// needs it.
-    fn warps(material: &Material, mesh: &MeshCloth, rest: &[DVec3]) -> Result<Vec<DVec3>> {
-        if !material.is_anisotropic() {
-            return Ok(vec![DVec3::ZERO; mesh.mesh.faces.len()]);
-        }
-        let (key, value) = if material.stretch.is_isotropic() {
-            ("material.bending", material.bending)
-        } else {
-            ("material.stretch", material.stretch)
-        };
-        mesh.mesh
-            .warp_directions(rest)
-            .map_err(|why| Error::InvalidParameter {
-                key: key.to_string(),
-                allowed: format!(
-                    "one number (the same along warp and weft) on a mesh without a warp: a \
-                     value per direction needs {why} (in {})",
-                    mesh.path.display()
-                ),
-                got: value.to_string(),
-            })
     }
 
     /// The animation of this scene's `[character]` on `model` (this scene's
@@ -369,6 +344,7 @@ impl Scene {
             "cape",
             "heap",
             "table",
+            "layers",
         ]
     }
 
@@ -390,6 +366,7 @@ impl Scene {
             "cape" => include_str!("../../scenes/cape.toml"),
             "heap" => include_str!("../../scenes/heap.toml"),
             "table" => include_str!("../../scenes/table.toml"),
+            "layers" => include_str!("../../scenes/layers.toml"),
             _ => {
                 return Err(Error::UnknownScene {
                     name: name.to_string(),
@@ -442,28 +419,19 @@ impl Scene {
         }
     }
 
-    /// Builds the model this scene describes.
+    /// Builds the model of this scene's world: its cloths in order, joined
+    /// by its seams ([`world::join`]); a scene of one cloth without seams
+    /// builds that cloth's model.
     pub fn model(&self) -> Result<Model> {
-        let mut model = match &self.mesh {
-            Some(mesh) => mesh.model(&self.cloth, &self.params.springs)?,
-            None => Model::new(&self.cloth, &self.params.springs)?,
-        };
-        if let Some(material) = &self.material {
-            match &self.mesh {
-                Some(mesh) => {
-                    let warps = Scene::warps(material, mesh, &model.rest_positions)?;
-                    let faces = mesh.mesh.faces.iter().map(|f| f.corners());
-                    material.apply(&mut model, faces.zip(warps))?
-                }
-                None => {
-                    let cells = model.grid_cells();
-                    let warp = model.grid_warp();
-                    material.apply(&mut model, cells.iter().map(|c| (&c[..], warp)))?
-                }
-            }
-            material.check_explicit(&model, &self.params)?;
+        let several = self.cloths.len() > 1;
+        let mut parts = Vec::with_capacity(self.cloths.len());
+        for (n, cloth) in self.cloths.iter().enumerate() {
+            let model = cloth
+                .model(&self.params)
+                .map_err(|e| name_cloth(e, n, several))?;
+            parts.push((model, cloth.springs.unwrap_or(self.params.springs)));
         }
-        Ok(model)
+        world::join(parts, &self.params.springs, &self.seams)
     }
 
     /// Each render mesh embedded in `model` (this scene's model), in
@@ -476,17 +444,101 @@ impl Scene {
             .collect()
     }
 
-    /// Number of particles of the cloth.
+    /// Each cloth's `color` (sRGB components), in order, for
+    /// [`Renderer::set_cloth_colors`](crate::render::Renderer::set_cloth_colors).
+    pub fn cloth_colors(&self) -> Vec<Option<[f64; 3]>> {
+        self.cloths
+            .iter()
+            .map(|c| c.color.map(|c| c.to_array()))
+            .collect()
+    }
+
+    /// Number of particles of the world.
+    pub fn particle_count(&self) -> usize {
+        self.cloths.iter().map(SceneCloth::particle_count).sum()
+    }
+
+    /// The world in a few words: `33 × 33 = 1089 particles` for a grid,
+    /// `mesh banner.gltf, 432 particles` for a mesh, `3 cloths (33 × 33,
+    /// 25 × 25, 17 × 17) = 2003 particles` for a world of several.
+    pub fn cloth_summary(&self) -> String {
+        match &self.cloths[..] {
+            [one] => one.summary(),
+            cloths => format!(
+                "{} cloths ({}) = {} particles",
+                cloths.len(),
+                cloths
+                    .iter()
+                    .map(SceneCloth::shape)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                self.particle_count()
+            ),
+        }
+    }
+}
+
+impl SceneCloth {
+    /// Builds this cloth's model under `params` (whose spring kinds its
+    /// own replace).
+    pub fn model(&self, params: &Params) -> Result<Model> {
+        let springs = self.springs.unwrap_or(params.springs);
+        let mut model = match &self.mesh {
+            Some(mesh) => mesh.model(&self.spec, &springs)?,
+            None => Model::new(&self.spec, &springs)?,
+        };
+        if let Some(material) = &self.material {
+            match &self.mesh {
+                Some(mesh) => {
+                    let warps = SceneCloth::warps(material, mesh, &model.rest_positions)?;
+                    let faces = mesh.mesh.faces.iter().map(|f| f.corners());
+                    material.apply(&mut model, faces.zip(warps))?
+                }
+                None => {
+                    let cells = model.grid_cells();
+                    let warp = model.grid_warp();
+                    material.apply(&mut model, cells.iter().map(|c| (&c[..], warp)))?
+                }
+            }
+            let params = Params {
+                springs,
+                ..params.clone()
+            };
+            material.check_explicit(&model, &params)?;
+        }
+        Ok(model)
+    }
+
+    /// Number of particles.
     pub fn particle_count(&self) -> usize {
         match &self.mesh {
             Some(mesh) => mesh.mesh.vertex_count(),
-            None => self.cloth.particle_count(),
+            None => self.spec.particle_count(),
+        }
+    }
+
+    /// Rest positions \[m\], particle order.
+    pub fn rest_positions(&self) -> Vec<DVec3> {
+        match &self.mesh {
+            Some(mesh) => mesh.rest_positions(&self.spec),
+            None => (0..self.spec.particle_count())
+                .map(|p| self.spec.rest_position(p))
+                .collect(),
+        }
+    }
+
+    /// The cloth's shape: `33 × 33` for a grid, `mesh banner.gltf` for a
+    /// mesh.
+    pub fn shape(&self) -> String {
+        match &self.mesh {
+            Some(mesh) => format!("mesh {}", mesh.path.display()),
+            None => format!("{} × {}", self.spec.nx, self.spec.ny),
         }
     }
 
     /// The cloth in a few words: `33 × 33 = 1089 particles` for a grid,
     /// `mesh banner.gltf, 432 particles` for a mesh.
-    pub fn cloth_summary(&self) -> String {
+    pub fn summary(&self) -> String {
         match &self.mesh {
             Some(mesh) => format!(
                 "mesh {}, {} particles",
@@ -495,12 +547,300 @@ impl Scene {
             ),
             None => format!(
                 "{} × {} = {} particles",
-                self.cloth.nx,
-                self.cloth.ny,
-                self.cloth.particle_count()
+                self.spec.nx,
+                self.spec.ny,
+                self.spec.particle_count()
             ),
         }
     }
+
+    /// Refuses a material whose shear stiffness is too large for the
+    /// cloth's cells (what [`Material::apply`] would refuse), before
+    /// anything is built: a grid's cells are all one rectangle.
+    fn check_material_geometry(&self) -> Result<()> {
+        let Some(material) = &self.material else {
+            return Ok(());
+        };
+        match &self.mesh {
+            None => {
+                let c = &self.spec;
+                let (w, h) = (c.size[0] / (c.nx - 1) as f64, c.size[1] / (c.ny - 1) as f64);
+                material.check_grid_cell(w, h)
+            }
+            Some(mesh) => {
+                let rest = mesh.rest_positions(&self.spec);
+                let warps = SceneCloth::warps(material, mesh, &rest)?;
+                material
+                    .edge_stiffness(
+                        &rest,
+                        mesh.mesh.faces.iter().map(|f| f.corners()).zip(warps),
+                    )
+                    .map(|_| ())
+            }
+        }
+    }
+
+    /// Each face's warp on a mesh cloth of `material` at the rest
+    /// positions `rest` ([`Mesh::warp_directions`]), for a material that
+    /// needs it; else no direction, which an isotropic material ignores.
+    /// Refuses a mesh whose faces do not give one, naming the key that
+    /// needs it.
+    fn warps(material: &Material, mesh: &MeshCloth, rest: &[DVec3]) -> Result<Vec<DVec3>> {
+        if !material.is_anisotropic() {
+            return Ok(vec![DVec3::ZERO; mesh.mesh.faces.len()]);
+        }
+        let (key, value) = if material.stretch.is_isotropic() {
+            ("material.bending", material.bending)
+        } else {
+            ("material.stretch", material.stretch)
+        };
+        mesh.mesh
+            .warp_directions(rest)
+            .map_err(|why| Error::InvalidParameter {
+                key: key.to_string(),
+                allowed: format!(
+                    "one number (the same along warp and weft) on a mesh without a warp: a \
+                     value per direction needs {why} (in {})",
+                    mesh.path.display()
+                ),
+                got: value.to_string(),
+            })
+    }
+}
+
+/// `e` with its `cloth.` key named `cloth[n].` in a world of `several`
+/// cloths.
+fn name_cloth(e: Error, n: usize, several: bool) -> Error {
+    match e {
+        Error::InvalidParameter { key, allowed, got } if several => Error::InvalidParameter {
+            key: match key.strip_prefix("cloth.") {
+                Some(rest) => format!("cloth[{n}].{rest}"),
+                None if key.starts_with("material.") => format!("cloth[{n}].{key}"),
+                None => key,
+            },
+            allowed,
+            got,
+        },
+        e => e,
+    }
+}
+
+/// A cloth of the scene file `path` from its keys: its mesh read (through
+/// `read_mesh`, relative to the scene's folder) and everything checked,
+/// errors naming the cloth as the file does (`cloth`, `cloth[1]`).
+fn scene_cloth(
+    keys: file::ClothKeys,
+    path: &Path,
+    read_mesh: &dyn Fn(&Path, Option<&str>) -> Result<Mesh>,
+) -> Result<SceneCloth> {
+    let file::ClothKeys {
+        key,
+        mut spec,
+        mesh,
+        material,
+        springs,
+        color,
+        ..
+    } = keys;
+    let several = key != "cloth";
+    let n = key
+        .strip_prefix("cloth[")
+        .and_then(|k| k.strip_suffix(']'))
+        .and_then(|k| k.parse().ok())
+        .unwrap_or(0);
+    let named = |e: Error| name_cloth(e, n, several);
+    if let Some(m) = &material {
+        m.validate().map_err(named)?;
+        // What the model's masses add up to on a grid (a mesh's follow
+        // from its faces' areas).
+        spec.mass = m.density * spec.size[0] * spec.size[1];
+    }
+    if let Some(springs) = &springs {
+        crate::params::check_springs(&format!("{key}.springs"), springs)?;
+    }
+    if let Some(c) = color {
+        for (k, v) in c.to_array().into_iter().enumerate() {
+            check(
+                &format!("{key}.color[{k}]"),
+                v,
+                (0.0..=1.0).contains(&v),
+                "0 ≤ component ≤ 1 (sRGB)",
+            )?;
+        }
+    }
+    let mesh = match mesh {
+        None => {
+            spec.validate().map_err(named)?;
+            None
+        }
+        Some(keys) => {
+            if !keys.origin_given {
+                spec.origin = DVec3::ZERO;
+            }
+            if !keys.pins_given {
+                spec.pins.clear();
+            }
+            check(
+                &format!("{key}.scale"),
+                keys.scale,
+                keys.scale > 0.0,
+                "> 0 (a factor)",
+            )?;
+            let file = path.parent().unwrap_or(Path::new("")).join(&keys.file);
+            let mesh = MeshCloth {
+                mesh: read_mesh(&file, keys.name.as_deref())?,
+                path: PathBuf::from(keys.file),
+                mesh_name: keys.name,
+                scale: keys.scale,
+            };
+            mesh.validate(&spec).map_err(named)?;
+            Some(mesh)
+        }
+    };
+    Ok(SceneCloth {
+        spec,
+        mesh,
+        material,
+        springs,
+        color,
+    })
+}
+
+/// The `[[seam]]`s of a scene as springs between the world's particles:
+/// each side's particles in order (a grid edge's as a pin of that name
+/// lists them, `vertices` as written, a `box`'s along its longest side),
+/// joined one to one. Refuses an unknown cloth or edge, an index past
+/// the cloth, an empty side and sides of different counts, naming the
+/// keys.
+fn seam_springs(cloths: &[SceneCloth], seams: Vec<file::SeamKeys>) -> Result<Vec<SeamSpring>> {
+    let mut starts = Vec::with_capacity(cloths.len());
+    let mut at = 0usize;
+    for c in cloths {
+        starts.push(at);
+        at += c.particle_count();
+    }
+    let mut out = Vec::new();
+    for (n, seam) in seams.into_iter().enumerate() {
+        for (name, v) in [("stiffness", seam.stiffness), ("damping", seam.damping)] {
+            if let Some(v) = v {
+                check(
+                    &format!("seam[{n}].{name}"),
+                    v,
+                    (0.0..=1e9).contains(&v),
+                    "0 ≤ value ≤ 1e9 (N/m, N·s/m)",
+                )?;
+            }
+        }
+        let a = seam_side(cloths, &format!("seam[{n}].a"), &seam.a)?;
+        let b = seam_side(cloths, &format!("seam[{n}].b"), &seam.b)?;
+        if a.len() != b.len() {
+            return Err(Error::InvalidParameter {
+                key: format!("seam[{n}]"),
+                allowed: "two sides of as many particles (a seam joins them one to one)".into(),
+                got: format!(
+                    "`seam[{n}].a` has {} particles, `seam[{n}].b` {}",
+                    a.len(),
+                    b.len()
+                ),
+            });
+        }
+        let (ca, cb) = (starts[seam.a.cloth], starts[seam.b.cloth]);
+        for (&p, &q) in a.iter().zip(&b) {
+            let (p, q) = ((ca + p) as u32, (cb + q) as u32);
+            if p == q {
+                return Err(Error::InvalidParameter {
+                    key: format!("seam[{n}]"),
+                    allowed: "two sides that join distinct particles".into(),
+                    got: format!("particle {p} on both sides"),
+                });
+            }
+            out.push(SeamSpring {
+                a: p,
+                b: q,
+                stiffness: seam.stiffness,
+                damping: seam.damping,
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// The particles of one side of a seam (`key`: `seam[0].a`), indices
+/// within its cloth, in order.
+fn seam_side(cloths: &[SceneCloth], key: &str, side: &file::SeamSideKeys) -> Result<Vec<usize>> {
+    let Some(cloth) = cloths.get(side.cloth) else {
+        return Err(Error::InvalidParameter {
+            key: format!("{key}.cloth"),
+            allowed: format!("a cloth of the scene: 0 ≤ cloth < {}", cloths.len()),
+            got: side.cloth.to_string(),
+        });
+    };
+    let given = [
+        side.edge.is_some(),
+        side.vertices.is_some(),
+        side.bounds.is_some(),
+    ];
+    if given.iter().filter(|&&g| g).count() != 1 {
+        return Err(Error::InvalidParameter {
+            key: key.to_string(),
+            allowed: "exactly one of `edge`, `vertices` and `box`".into(),
+            got: format!("{} of them", given.iter().filter(|&&g| g).count()),
+        });
+    }
+    let count = cloth.particle_count();
+    let particles: Vec<usize> = if let Some(edge) = &side.edge {
+        let pin = Pin::parse(edge).filter(|p| matches!(p, Pin::Edge(_)));
+        match (pin, &cloth.mesh) {
+            (Some(pin), None) => cloth.spec.pin_indices(pin),
+            (None, _) => {
+                return Err(Error::InvalidParameter {
+                    key: format!("{key}.edge"),
+                    allowed: "one of top, bottom, left, right (a grid's edges, as pins name them)"
+                        .into(),
+                    got: format!("\"{edge}\""),
+                })
+            }
+            (Some(_), Some(_)) => {
+                return Err(Error::InvalidParameter {
+                    key: format!("{key}.edge"),
+                    allowed: "an edge of a grid cloth; a mesh cloth's side is `vertices` or `box`"
+                        .into(),
+                    got: format!("\"{edge}\" of mesh cloth {}", side.cloth),
+                })
+            }
+        }
+    } else if let Some(vertices) = &side.vertices {
+        if let Some((k, &v)) = vertices.iter().enumerate().find(|&(_, &v)| v >= count) {
+            return Err(Error::InvalidParameter {
+                key: format!("{key}.vertices[{k}]"),
+                allowed: format!("a particle of cloth {}: 0 ≤ index < {count}", side.cloth),
+                got: v.to_string(),
+            });
+        }
+        vertices.clone()
+    } else if let Some([lo, hi]) = side.bounds {
+        let pin = Pin::Region([lo, hi]);
+        pin.check_region(key)?;
+        let rest = cloth.rest_positions();
+        let longest = (hi - lo).max_position();
+        let mut inside: Vec<usize> = (0..count).filter(|&p| pin.contains(rest[p])).collect();
+        inside.sort_by(|&p, &q| {
+            rest[p][longest]
+                .total_cmp(&rest[q][longest])
+                .then(p.cmp(&q))
+        });
+        inside
+    } else {
+        Vec::new()
+    };
+    if particles.is_empty() {
+        return Err(Error::InvalidParameter {
+            key: key.to_string(),
+            allowed: "a side with at least one particle".into(),
+            got: "none".into(),
+        });
+    }
+    Ok(particles)
 }
 
 /// The `[[collider]]` `key` (`collider[0]`) of the scene file `scene` from its keys:

@@ -231,3 +231,50 @@ impl<'de, T: Form + Deserialize<'de>> Deserialize<'de> for Table<T> {
         d.deserialize_map(TableVisitor(PhantomData))
     }
 }
+
+/// One table (`[name]`) or an array of them (`[[name]]`): the values in
+/// order, and whether the file wrote an array (its keys are then named
+/// `name[i].key`).
+pub(super) struct OneOrMany<T> {
+    pub(super) values: Vec<T>,
+    pub(super) many: bool,
+}
+
+impl<T: Default> Default for OneOrMany<T> {
+    fn default() -> Self {
+        OneOrMany {
+            values: vec![T::default()],
+            many: false,
+        }
+    }
+}
+
+impl<'de, T: Form + Deserialize<'de>> Deserialize<'de> for OneOrMany<T> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct OneOrManyVisitor<T>(PhantomData<T>);
+        impl<'de, T: Form + Deserialize<'de>> Visitor<'de> for OneOrManyVisitor<T> {
+            type Value = OneOrMany<T>;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                write!(f, "{}, or {}", T::ONE, T::MANY)
+            }
+            fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<Self::Value, A::Error> {
+                let one = T::deserialize(MapAccessDeserializer::new(map))?;
+                Ok(OneOrMany {
+                    values: vec![one],
+                    many: false,
+                })
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Self::Value, A::Error> {
+                let mut values = Vec::new();
+                while let Some(Table(v)) = seq.next_element::<Table<T>>()? {
+                    values.push(v);
+                }
+                if values.is_empty() {
+                    return Err(de::Error::invalid_length(0, &self));
+                }
+                Ok(OneOrMany { values, many: true })
+            }
+        }
+        d.deserialize_any(OneOrManyVisitor(PhantomData))
+    }
+}

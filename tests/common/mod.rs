@@ -146,3 +146,64 @@ pub fn rest_state(model: &Model) -> State<f64> {
 
 #[allow(unused_imports, reason = "each test binary uses a different subset")]
 pub use wgcloth::evidence::sheet::irregular_sheet;
+
+/// The mesh edges: each triangle side once.
+pub fn edges(model: &Model) -> Vec<[u32; 2]> {
+    let mut e: Vec<[u32; 2]> = model
+        .triangles
+        .iter()
+        .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+        .map(|[a, b]| [a.min(b), a.max(b)])
+        .collect();
+    e.sort_unstable();
+    e.dedup();
+    e
+}
+
+/// Whether segment `a`–`b` passes through triangle `t`: its ends lie
+/// strictly on opposite sides of the triangle's plane and the point where
+/// it meets the plane lies inside the triangle (a segment touching the
+/// plane, or in it, does not pass through).
+pub fn crosses(a: DVec3, b: DVec3, t: [DVec3; 3]) -> bool {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let (da, db) = (n.dot(a - t[0]), n.dot(b - t[0]));
+    if da * db >= 0.0 {
+        return false;
+    }
+    let hit = a + (b - a) * (da / (da - db));
+    (0..3).all(|k| {
+        let (p, q) = (t[k], t[(k + 1) % 3]);
+        n.dot((q - p).cross(hit - p)) >= 0.0
+    })
+}
+
+/// The edge–triangle crossings at `x`: each mesh edge (of `edges`) that
+/// passes through a triangle of `model` it does not share a corner with,
+/// as its edge and the triangle.
+pub fn crossing_pairs(model: &Model, edges: &[[u32; 2]], x: &[DVec3]) -> Vec<([u32; 2], [u32; 3])> {
+    let boxes: Vec<(DVec3, DVec3)> = model
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| x[i as usize]);
+            (a.min(b).min(c), a.max(b).max(c))
+        })
+        .collect();
+    let mut out = Vec::new();
+    for e in edges {
+        let (a, b) = (x[e[0] as usize], x[e[1] as usize]);
+        let (lo, hi) = (a.min(b), a.max(b));
+        for (t, (tlo, thi)) in model.triangles.iter().zip(&boxes) {
+            if t.contains(&e[0]) || t.contains(&e[1]) {
+                continue;
+            }
+            if lo.cmpgt(*thi).any() || hi.cmplt(*tlo).any() {
+                continue;
+            }
+            if crosses(a, b, t.map(|i| x[i as usize])) {
+                out.push((*e, *t));
+            }
+        }
+    }
+    out
+}

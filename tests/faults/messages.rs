@@ -206,10 +206,10 @@ const ROWS: &[Row] = &[
         absent: &RUST_WORDS,
     },
     Row {
-        what: "[[cloth]] for [cloth]",
-        scene: Scene::Text("[[cloth]]\nmass = 1\n"),
+        what: "a number for [cloth]",
+        scene: Scene::Text("cloth = 5\n"),
         args: &["run", "scene.toml"],
-        expect: &["scene.toml", "`cloth`", "an array", "`[cloth]`"],
+        expect: &["scene.toml", "`cloth`", "`[cloth]`", "`[[cloth]]`"],
         absent: &RUST_WORDS,
     },
     Row {

@@ -117,6 +117,7 @@ impl Cloth {
             },
         )?;
         renderer.set_embeddings(&solver, &embeddings)?;
+        renderer.set_cloth_colors(device, &model, &scene.cloth_colors());
         let animation = scene.animation(&model);
         Ok(Cloth {
             scene,

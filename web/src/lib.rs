@@ -356,7 +356,7 @@ impl State {
             scene.params.integrator = cloth::integrator(integrator)?;
         }
         if resolution > 0 {
-            if scene.mesh.is_some() {
+            if scene.cloths[0].mesh.is_some() {
                 return Err(js_error(format!(
                     "resolution: `{name}` is a mesh cloth; a resolution applies to a grid"
                 )));
@@ -365,7 +365,7 @@ impl State {
             // the benches grow `hanging`: every size has the same local
             // dynamics and stays stable at the scene's dt.
             let n = resolution as usize;
-            let cloth = &mut scene.cloth;
+            let cloth = &mut scene.cloths[0].spec;
             let along =
                 |old: usize| n.saturating_sub(1) as f64 / old.saturating_sub(1).max(1) as f64;
             cloth.size = [
