@@ -4,7 +4,9 @@
 //! embedded) and `scenes/table.obj` (a closed table, top and four legs: a
 //! mesh collider) and `scenes/cape_detail.obj` (the `cape` scene's render
 //! mesh: a slab of fabric 3 mm thick over its 15 × 25 cloth, four times
-//! finer, with a hem of double thickness along its bottom). Deterministic:
+//! finer, with a hem of double thickness along its bottom) and
+//! `scenes/skirt_front.obj`, `scenes/skirt_back.obj` (the `skirt` scene's
+//! two panels, halves of a cone around a waist). Deterministic:
 //! the same files on every run and machine.
 //!
 //! `cargo run --release --example make_meshes [OUT_DIR]` (default `scenes`)
@@ -29,6 +31,15 @@ const CAPE_FINE: usize = 4;
 /// the bottom `CAPE_HEM` metres.
 const CAPE_HALF_THICKNESS: f64 = 0.0015;
 const CAPE_HEM: f64 = 0.03;
+
+/// The `skirt` scene's two panels: halves of a cone around the waist of
+/// the `cape` character (y up, facing +z), from `SKIRT_WAIST` (height and
+/// radius \[m\]) down to `SKIRT_HEM`; `SKIRT_CELLS` cells around each half
+/// and down. The halves meet at their sides (x = ±radius, z = 0), where
+/// the scene's seams join them.
+const SKIRT_WAIST: [f64; 2] = [0.95, 0.2];
+const SKIRT_HEM: [f64; 2] = [0.45, 0.32];
+const SKIRT_CELLS: [usize; 2] = [12, 10];
 
 /// Rings of the tablecloth around its centre vertex.
 const TABLECLOTH_RINGS: usize = 14;
@@ -354,6 +365,33 @@ fn cape_detail() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
     (positions, triangles)
 }
 
+/// One panel of the skirt: the half of the cone in front of the waist
+/// (`front`: z > 0) or behind it, a grid of quads around and down, each
+/// split into two triangles facing outwards.
+fn skirt_panel(front: bool) -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let [around, down] = SKIRT_CELLS;
+    let start = if front { 0.0 } else { TAU / 2.0 };
+    let mut positions = Vec::with_capacity((around + 1) * (down + 1));
+    for j in 0..=down {
+        let f = j as f64 / down as f64;
+        let y = SKIRT_WAIST[0] + f * (SKIRT_HEM[0] - SKIRT_WAIST[0]);
+        let r = SKIRT_WAIST[1] + f * (SKIRT_HEM[1] - SKIRT_WAIST[1]);
+        for i in 0..=around {
+            let a = start + i as f64 / around as f64 * (TAU / 2.0);
+            positions.push([r * a.cos(), y, r * a.sin()]);
+        }
+    }
+    let at = |i: usize, j: usize| (j * (around + 1) + i) as u32;
+    let mut triangles = Vec::with_capacity(2 * around * down);
+    for j in 0..down {
+        for i in 0..around {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i, j + 1), at(i + 1, j + 1));
+            triangles.extend([[a, b, c], [b, d, c]]);
+        }
+    }
+    (positions, triangles)
+}
+
 /// Writes a mesh file and says what it holds.
 fn write(
     path: &Path,
@@ -394,6 +432,18 @@ fn main() -> anyhow::Result<()> {
         "The cape scene's render mesh: its cloth as a slab 3 mm thick, with a hem.",
     );
     write(&dir.join("cape_detail.obj"), &text, &p, &t)?;
+    for (front, name, what) in [
+        (true, "skirt_front.obj", "front"),
+        (false, "skirt_back.obj", "back"),
+    ] {
+        let (p, t) = skirt_panel(front);
+        let text = obj(
+            &p,
+            &t,
+            &format!("The skirt scene's {what} panel: half a cone around the waist."),
+        );
+        write(&dir.join(name), &text, &p, &t)?;
+    }
     let (p, t) = banner();
     write(&dir.join("banner.gltf"), &gltf(&p, &t, "banner"), &p, &t)
 }

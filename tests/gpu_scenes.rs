@@ -37,7 +37,7 @@ macro_rules! each_scene {
     };
 }
 
-each_scene!(hanging, curtain, flag, drape, tablecloth, banner, cape, heap, table, layers);
+each_scene!(hanging, curtain, flag, drape, tablecloth, banner, cape, heap, table, layers, skirt);
 
 /// The built-in scene `name` under every integrator: the GPU against the
 /// mirror after 1 step and after 100.

@@ -27,6 +27,9 @@ last_frame banner     # a mesh cloth (glTF) with a hole
 last_frame heap       # self-collision: a cloth folded onto itself
 last_frame table      # a mesh collider: a tablecloth on a table
 last_frame layers     # a world of three cloths, resting on one another
+# Seams: the skirt of two sewn panels on the running character, 3 s in.
+"$wgcloth" render skirt --seconds 3 --out "$work/skirt"
+cp "$(ls "$work/skirt"/frame_*.png | tail -n 1)" "$images/skirt.png"
 # A render mesh: the cape's detailed slab over its 15 × 25 cloth, 2 s in.
 "$wgcloth" render cape --seconds 2 --out "$work/cape-detail"
 cp "$(ls "$work/cape-detail"/frame_*.png | tail -n 1)" "$images/cape-detail.png"

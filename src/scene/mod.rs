@@ -345,6 +345,7 @@ impl Scene {
             "heap",
             "table",
             "layers",
+            "skirt",
         ]
     }
 
@@ -367,6 +368,7 @@ impl Scene {
             "heap" => include_str!("../../scenes/heap.toml"),
             "table" => include_str!("../../scenes/table.toml"),
             "layers" => include_str!("../../scenes/layers.toml"),
+            "skirt" => include_str!("../../scenes/skirt.toml"),
             _ => {
                 return Err(Error::UnknownScene {
                     name: name.to_string(),
@@ -966,6 +968,8 @@ fn builtin_mesh(file: &Path) -> Option<&'static [u8]> {
         "banner.gltf" => include_bytes!("../../scenes/banner.gltf"),
         "table.obj" => include_bytes!("../../scenes/table.obj"),
         "cape_detail.obj" => include_bytes!("../../scenes/cape_detail.obj"),
+        "skirt_front.obj" => include_bytes!("../../scenes/skirt_front.obj"),
+        "skirt_back.obj" => include_bytes!("../../scenes/skirt_back.obj"),
         _ => return None,
     })
 }
