@@ -183,13 +183,7 @@ fn a_cloth_landing_on_a_sphere_stays_bounded() {
     scene.params.integrator = Integrator::SemiImplicit;
     let model: Model = scene.model().expect("valid");
     let mut s = CpuSolver::<f64>::new(&model, &scene.params).expect("valid");
-    let rule = wgcloth::diagnostics::Divergence::new(
-        &model,
-        &scene.params,
-        0.0,
-        &s.positions(),
-        &s.velocities(),
-    );
+    let rule = common::divergence_rule(&model, &scene.params, &s);
     while s.time() < DRAPE_SECONDS {
         s.step_n(CHECK_EVERY).expect("finite");
         if let Err(e) = rule.check(s.steps(), s.time(), &s.positions(), &s.velocities()) {

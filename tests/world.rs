@@ -499,13 +499,7 @@ fn the_skirt_keeps_its_seams_on_the_running_character() {
     let model = scene.model().expect("model");
     let animation = scene.animation(&model).expect("a character");
     let mut s = CpuSolver::<f64>::new(&model, &scene.params).expect("solver");
-    let rule = wgcloth::diagnostics::Divergence::new(
-        &model,
-        &scene.params,
-        0.0,
-        &s.positions(),
-        &s.velocities(),
-    );
+    let rule = common::divergence_rule(&model, &scene.params, &s);
     let frame = 1.0 / SKIRT_FPS;
     let steps = (frame / scene.params.dt).round() as u64;
     let frames = (scene.duration * SKIRT_FPS).round() as u64;

@@ -207,3 +207,19 @@ pub fn crossing_pairs(model: &Model, edges: &[[u32; 2]], x: &[DVec3]) -> Vec<([u
     }
     out
 }
+
+/// The divergence rule for `solver` (of `model` under `params`) from its
+/// state now, at time 0.
+pub fn divergence_rule<R: Real>(
+    model: &Model,
+    params: &Params,
+    solver: &CpuSolver<R>,
+) -> wgcloth::diagnostics::Divergence {
+    wgcloth::diagnostics::Divergence::new(
+        model,
+        params,
+        0.0,
+        &solver.positions(),
+        &solver.velocities(),
+    )
+}
