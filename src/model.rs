@@ -434,6 +434,14 @@ pub struct Spring {
     pub kind: SpringKind,
 }
 
+/// How far the fix-up lets a seam (a spring of zero rest length, see
+/// [`crate::world`]) open \[m\], where its kind has a `max_stretch` — or
+/// as far as its two sides rest apart, where that is wider: a millimetre,
+/// the "closed" (a multiple of zero would be no limit at all). A
+/// seam laid out open is closed by its spring, not snapped shut by the
+/// fix-up, whose velocity rebuild would throw its sides at each other.
+pub const SEAM_FIXUP_LIMIT: f64 = 1e-3;
+
 impl Spring {
     /// The spring `i–j` of `kind` at rest in `positions`: its rest length
     /// is their distance \[m\].
@@ -730,6 +738,23 @@ impl Model {
     /// Number of pinned particles.
     pub fn pinned_count(&self) -> usize {
         self.pinned.iter().filter(|&&p| p).count()
+    }
+
+    /// The fix-up's length limit of spring `s` under `params` \[m\]: its
+    /// kind's `max_stretch` times its rest length; for a seam the wider of
+    /// [`SEAM_FIXUP_LIMIT`] and its sides' distance at rest; 0 (not
+    /// constrained) without a `max_stretch` or without fix-up passes. Both
+    /// backends take it from here.
+    pub fn fixup_limit(&self, s: usize, params: &Params) -> f64 {
+        let sp = &self.springs[s];
+        match params.spring(sp.kind).max_stretch {
+            Some(_) if params.fixup.iterations > 0 && sp.rest == 0.0 => {
+                let apart = self.rest_positions[sp.i as usize] - self.rest_positions[sp.j as usize];
+                SEAM_FIXUP_LIMIT.max(apart.length())
+            }
+            Some(f) if params.fixup.iterations > 0 => f * sp.rest,
+            _ => 0.0,
+        }
     }
 
     /// The stiffness and damping of spring `s` under `params`: its own

@@ -284,10 +284,11 @@ fn cloths_dropped_onto_each_other_never_pass_through() {
     );
 }
 
-/// A tube sewn from two panels facing each other 2 cm apart, the first
-/// hung by its top corners, the second by the seams alone: its two side
-/// seams zip each panel's left edge to the other's, and right to right.
-fn tube(integrator: Integrator) -> Scene {
+/// A tube sewn from two panels facing each other `apart` \[m\] apart, the
+/// first hung by its top corners, the second by the seams alone: its two
+/// side seams zip each panel's left edge to the other's, and right to
+/// right.
+fn tube(integrator: Integrator, apart: f64) -> Scene {
     let panel = |z: f64, pins: &str| {
         format!(
             "[[cloth]]\nresolution = [9, 17]\nsize = [0.25, 0.5]\norigin = [-0.125, 1.0, {z}]\n\
@@ -299,10 +300,14 @@ fn tube(integrator: Integrator) -> Scene {
          [[seam]]\na = {{ cloth = 0, edge = \"left\" }}\nb = {{ cloth = 1, edge = \"left\" }}\n\
          [[seam]]\na = {{ cloth = 0, edge = \"right\" }}\nb = {{ cloth = 1, edge = \"right\" }}\n",
         dt(integrator),
-        panel(-0.01, "\"top-left\", \"top-right\""),
-        panel(0.01, "")
+        panel(-apart / 2.0, "\"top-left\", \"top-right\""),
+        panel(apart / 2.0, "")
     ))
 }
+
+/// How far apart the tube's panels are laid out \[m\]: its seams start
+/// open, and close.
+const TUBE_APART: f64 = 0.02;
 
 /// The issue's bound on a seam at rest \[m\]: closed to within a
 /// millimetre (measured 0.02–0.2 mm: the seam's own springs, as stiff as
@@ -320,7 +325,7 @@ fn a_tube_sewn_from_two_panels_closes_its_seams() {
         Integrator::SemiImplicit,
         Integrator::Explicit,
     ] {
-        let s = tube(integrator);
+        let s = tube(integrator, TUBE_APART);
         assert_eq!(s.seams.len(), 2 * 17);
         let model = s.model().expect("model");
         let steps = (TUBE_SECONDS / s.params.dt).round() as u64;
@@ -367,7 +372,7 @@ fn the_gpu_steps_a_world_as_its_mirror() {
     .flat_map(|i| {
         [
             (format!("stack, {i}"), stack(i, true)),
-            (format!("tube, {i}"), tube(i)),
+            (format!("tube, {i}"), tube(i, TUBE_APART)),
         ]
     })
     .map(|(what, mut s)| {
@@ -536,3 +541,51 @@ fn the_skirt_keeps_its_seams_on_the_running_character() {
 /// seam stays a line rather than a slit (measured 1.1 mm as the character
 /// turns; seams a tenth as stiff as the fabric open 9 mm).
 const SKIRT_RUNNING_GAP: f64 = 5e-3;
+
+/// The fix-up holds a seam: the seams of a tube whose panels rest
+/// together, made soft (1 N/m, where the panel's weight opens them by
+/// centimetres), stay within
+/// `SEAM_FIXUP_LIMIT` at the end of every explicit and semi-implicit step
+/// (the fix-up runs last), up to the rounding of the positions it moves;
+/// and open past it without the fix-up.
+#[test]
+fn the_fixup_holds_a_soft_seam_within_its_limit() {
+    use wgcloth::model::SEAM_FIXUP_LIMIT;
+    for integrator in [Integrator::Explicit, Integrator::SemiImplicit] {
+        let mut s = tube(integrator, 0.0);
+        for seam in &mut s.seams {
+            seam.stiffness = Some(1.0);
+        }
+        let model = s.model().expect("model");
+        let gap = |params: &wgcloth::Params| {
+            let steps = (TUBE_SECONDS / params.dt).round() as u64;
+            let mut solver = CpuSolver::<f64>::new(&model, params).expect("solver");
+            let mut widest = 0.0f64;
+            for _ in 0..steps {
+                solver.step().expect("finite");
+                let x = &solver.state().x;
+                for seam in &s.seams {
+                    widest = widest.max((x[seam.a as usize] - x[seam.b as usize]).length());
+                }
+            }
+            widest
+        };
+        let held = gap(&s.params);
+        assert!(
+            held <= SEAM_FIXUP_LIMIT + FIXUP_ROUNDING,
+            "{integrator}: a soft seam {held} m open under the fix-up"
+        );
+        let mut free = s.params.clone();
+        free.fixup.iterations = 0;
+        let open = gap(&free);
+        assert!(
+            open > 10.0 * SEAM_FIXUP_LIMIT,
+            "{integrator}: without the fix-up the soft seam should open (it opened {open} m)"
+        );
+    }
+}
+
+/// How far past its limit a corrected seam may end \[m\]: the fix-up puts
+/// its ends on the limit up to the rounding of their coordinates (about
+/// 1 m here: 2.2e-16 m an ulp), a few ulps (measured 1.1e-16 m).
+const FIXUP_ROUNDING: f64 = 1e-15;

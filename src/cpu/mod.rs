@@ -286,13 +286,8 @@ impl<R: Real> System<R> {
                 }
             })
             .collect();
-        let max_len = model
-            .springs
-            .iter()
-            .map(|s| match params.spring(s.kind).max_stretch {
-                Some(f) if params.fixup.iterations > 0 => R::from_f64(f * s.rest),
-                _ => R::ZERO,
-            })
+        let max_len = (0..model.springs.len())
+            .map(|s| R::from_f64(model.fixup_limit(s, params)))
             .collect();
         let constrained_ranges = model
             .kind_ranges

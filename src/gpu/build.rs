@@ -99,7 +99,7 @@ fn device_springs(
             rest: sp.rest as f32,
             k: c.k as f32,
             kd: c.kd as f32,
-            max_len: fixup_limit(sp, params),
+            max_len: fixup_limit(model, s, params),
             _pad: [0; 2],
         };
     }

@@ -19,7 +19,7 @@
 //! stiffness) hold a spring of zero stiffness from the owner to itself; no
 //! kernel reaches them through the adjacency or `INCIDENT`.
 
-use crate::model::{Model, Spring};
+use crate::model::Model;
 use crate::params::{Params, SpringKind};
 
 /// Directions of the springs a particle owns: `(row offset, column offset,
@@ -122,7 +122,7 @@ impl GridLayout {
         let mut rest: [Option<f32>; 6] = [None; 6];
         let mut max_len: [Option<f32>; 6] = [None; 6];
         let mut kinds = 0u32;
-        for sp in &model.springs {
+        for (s, sp) in model.springs.iter().enumerate() {
             let (i, j) = (sp.i as usize, sp.j as usize);
             let dr = (j / nx) as i64 - (i / nx) as i64;
             let dc = (j % nx) as i64 - (i % nx) as i64;
@@ -131,7 +131,7 @@ impl GridLayout {
             })?;
             for (seen, value) in [
                 (&mut rest[dir], sp.rest as f32),
-                (&mut max_len[dir], fixup_limit(sp, params)),
+                (&mut max_len[dir], fixup_limit(model, s, params)),
             ] {
                 match *seen {
                     None => *seen = Some(value),
@@ -384,14 +384,11 @@ impl GridBlock {
     }
 }
 
-/// The fix-up's length limit of a spring as the device holds it \[m\]: the
-/// kind's `max_stretch` times the rest length, or 0 (not constrained)
-/// without one or without fix-up passes.
-pub fn fixup_limit(sp: &Spring, params: &Params) -> f32 {
-    match params.spring(sp.kind).max_stretch {
-        Some(f) if params.fixup.iterations > 0 => (f * sp.rest) as f32,
-        _ => 0.0,
-    }
+/// The fix-up's length limit of spring `s` of `model` as the device holds
+/// it \[m\] ([`Model::fixup_limit`], rounded to `f32` as the mirror rounds
+/// it).
+pub fn fixup_limit(model: &Model, s: usize, params: &Params) -> f32 {
+    model.fixup_limit(s, params) as f32
 }
 
 #[cfg(test)]
