@@ -25,7 +25,7 @@ use std::ops::Range;
 use glam::DVec3;
 
 use crate::bending::Bending;
-use crate::budget::{self, try_with_capacity};
+use crate::budget::{self, try_vec, try_with_capacity};
 use crate::error::{Error, Result};
 use crate::model::{Model, Spring, SpringConstants};
 use crate::params::{SpringKind, SpringParams};
@@ -116,6 +116,15 @@ pub fn join(
             by_kind[sp.kind.index()].push((moved, constants));
         }
     }
+    // Each particle's stiffest stretch constants, which a seam at it takes
+    // by default: one pass over the springs, not one per seam.
+    let mut fabric = try_vec(total, SpringConstants { k: 0.0, kd: 0.0 }, WORLD)?;
+    for (sp, c) in &by_kind[SpringKind::Stretch.index()] {
+        for p in [sp.i as usize, sp.j as usize] {
+            let f = &mut fabric[p];
+            (f.k, f.kd) = (f.k.max(c.k), f.kd.max(c.kd));
+        }
+    }
     for (n, seam) in seams.iter().enumerate() {
         let (a, b) = (seam.a as usize, seam.b as usize);
         if a >= total || b >= total || a == b {
@@ -125,18 +134,10 @@ pub fn join(
                 got: format!("particles {a} and {b}"),
             });
         }
-        let around = by_kind[SpringKind::Stretch.index()]
-            .iter()
-            .filter(|(sp, _)| {
-                [a, b].contains(&(sp.i as usize)) || [a, b].contains(&(sp.j as usize))
-            })
-            .map(|&(_, c)| c);
-        let fabric = around.fold(SpringConstants { k: 0.0, kd: 0.0 }, |m, c| {
-            SpringConstants {
-                k: m.k.max(c.k),
-                kd: m.kd.max(c.kd),
-            }
-        });
+        let fabric = SpringConstants {
+            k: fabric[a].k.max(fabric[b].k),
+            kd: fabric[a].kd.max(fabric[b].kd),
+        };
         let spring = Spring {
             i: seam.a,
             j: seam.b,
@@ -219,9 +220,9 @@ pub fn cloth_ranges(model: &Model) -> Vec<Range<usize>> {
 /// The rest positions self-collision's exclusion compares, in units of
 /// `radius` \[m\] (pairs less than 1 apart never collide): each cloth's
 /// own, the cloths laid side by side along x two units apart (the first
-/// where it is), so
-/// that particles of different cloths are never excluded however close
-/// they start. One cloth's are its rest positions over `radius`.
+/// where it is), so that particles of different cloths are never excluded
+/// however close they start. One cloth's are its rest positions over
+/// `radius`.
 pub fn exclusion_rest(model: &Model, radius: f64) -> Vec<DVec3> {
     let x = &model.rest_positions;
     let ranges = cloth_ranges(model);

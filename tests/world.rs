@@ -451,39 +451,34 @@ fn bad_worlds_are_refused_naming_the_keys() {
         let e = refusal(&format!("{two}{extra}"));
         assert!(e.contains("world.toml") && e.contains(says), "{extra}: {e}");
     }
-    let e = refusal(&format!(
-        "{}{}",
-        hanging(9, -1.0, ""),
-        hanging(13, 1.0, "").replace("\"top-right\"]", "\"top-right\", 500]")
-    ));
-    assert!(e.contains("cloth[1].pins[2]"), "{e}");
-    let e = refusal(&format!(
-        "{}{}",
-        hanging(9, -1.0, ""),
-        hanging(13, 1.0, "[cloth.springs.stretch]\nmax_stretch = 1.1\n")
-    ));
-    assert!(e.contains("cloth[1].springs.stretch.max_stretch"), "{e}");
-    let e = refusal(&format!(
-        "{}{}",
-        hanging(9, -1.0, ""),
-        hanging(13, 1.0, "[cloth.material]\ndensity = 0.2\n")
-    ));
-    assert!(
-        e.contains("`cloth[1].mass` conflicts with `[cloth[1].material]`"),
-        "{e}"
-    );
-    let e = refusal(&format!(
-        "{}{}",
-        hanging(9, -1.0, ""),
-        hanging(13, 1.0, "[cloth.springs.shear]\nstiffness = -1.0\n")
-    ));
-    assert!(e.contains("cloth[1].springs.shear.stiffness"), "{e}");
-    let e = refusal(&format!(
-        "{}{}",
-        hanging(9, -1.0, "color = [1.0, 0.5, 2.0]\n"),
-        hanging(13, 1.0, "")
-    ));
-    assert!(e.contains("cloth[0].color[2]"), "{e}");
+    // Keys of one cloth of the two, named by its place.
+    let first = || hanging(9, -1.0, "");
+    let second = |extra: &str| hanging(13, 1.0, extra);
+    for (text, says) in [
+        (
+            first() + &second("").replace("\"top-right\"]", "\"top-right\", 500]"),
+            "cloth[1].pins[2]",
+        ),
+        (
+            first() + &second("[cloth.springs.stretch]\nmax_stretch = 1.1\n"),
+            "cloth[1].springs.stretch.max_stretch",
+        ),
+        (
+            first() + &second("[cloth.material]\ndensity = 0.2\n"),
+            "`cloth[1].mass` conflicts with `[cloth[1].material]`",
+        ),
+        (
+            first() + &second("[cloth.springs.shear]\nstiffness = -1.0\n"),
+            "cloth[1].springs.shear.stiffness",
+        ),
+        (
+            hanging(9, -1.0, "color = [1.0, 0.5, 2.0]\n") + &second(""),
+            "cloth[0].color[2]",
+        ),
+    ] {
+        let e = refusal(&text);
+        assert!(e.contains(says), "{e}");
+    }
 }
 
 /// Frames a second of the skirt's animation: `wgcloth render`'s default.

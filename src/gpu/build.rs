@@ -4,7 +4,7 @@
 
 use super::buffers::{ClothBuffers, Uploads, UPLOAD};
 use super::cg_budget::CgBudget;
-use super::grid::{fixup_limit, GridBlock, GridLayout};
+use super::grid::{GridBlock, GridLayout};
 use super::kernels::GpuKernels;
 use super::layout::{torque_bits, GpuParams, GpuSpring};
 use super::path::{PathChoice, StepPath};
@@ -99,7 +99,7 @@ fn device_springs(
             rest: sp.rest as f32,
             k: c.k as f32,
             kd: c.kd as f32,
-            max_len: fixup_limit(model, s, params),
+            max_len: model.fixup_limit(s, params) as f32,
             _pad: [0; 2],
         };
     }

@@ -131,7 +131,7 @@ impl GridLayout {
             })?;
             for (seen, value) in [
                 (&mut rest[dir], sp.rest as f32),
-                (&mut max_len[dir], fixup_limit(model, s, params)),
+                (&mut max_len[dir], model.fixup_limit(s, params) as f32),
             ] {
                 match *seen {
                     None => *seen = Some(value),
@@ -382,13 +382,6 @@ impl GridBlock {
         s.push_str("}\n");
         s
     }
-}
-
-/// The fix-up's length limit of spring `s` of `model` as the device holds
-/// it \[m\] ([`Model::fixup_limit`], rounded to `f32` as the mirror rounds
-/// it).
-pub fn fixup_limit(model: &Model, s: usize, params: &Params) -> f32 {
-    model.fixup_limit(s, params) as f32
 }
 
 #[cfg(test)]

@@ -669,11 +669,10 @@ impl ClothTable {
     /// beside it, and the mesh's keys without it (`key`: how the cloth
     /// is named).
     fn mesh_keys(&self, key: &str) -> Result<Option<MeshKeys>, String> {
-        let c = self;
-        let Some(file) = &c.mesh else {
+        let Some(file) = &self.mesh else {
             for (name, given) in [
-                ("mesh_name", c.mesh_name.is_some()),
-                ("scale", c.scale.is_some()),
+                ("mesh_name", self.mesh_name.is_some()),
+                ("scale", self.scale.is_some()),
             ] {
                 if given {
                     return Err(format!(
@@ -685,9 +684,9 @@ impl ClothTable {
             return Ok(None);
         };
         for (name, given) in [
-            ("resolution", c.resolution.is_some()),
-            ("size", c.size.is_some()),
-            ("orientation", c.orientation.is_some()),
+            ("resolution", self.resolution.is_some()),
+            ("size", self.size.is_some()),
+            ("orientation", self.orientation.is_some()),
         ] {
             if given {
                 return Err(format!(
@@ -699,10 +698,10 @@ impl ClothTable {
         }
         Ok(Some(MeshKeys {
             file: file.clone(),
-            name: c.mesh_name.clone(),
-            scale: c.scale.map_or(1.0, f64::from),
-            origin_given: c.origin.is_some(),
-            pins_given: c.pins.is_some(),
+            name: self.mesh_name.clone(),
+            scale: self.scale.map_or(1.0, f64::from),
+            origin_given: self.origin.is_some(),
+            pins_given: self.pins.is_some(),
         }))
     }
 }
@@ -737,10 +736,7 @@ impl SceneFile {
         &mut self,
         material: Option<&Material>,
     ) -> Result<Vec<ClothKeys>, String> {
-        let world = match material {
-            Some(m) => m.spring_params(),
-            None => self.springs.0.over(Params::default().springs),
-        };
+        let world = self.springs(material);
         let cloths = std::mem::take(&mut self.cloth);
         let many = cloths.many;
         let mut out = Vec::with_capacity(cloths.values.len());
@@ -818,6 +814,15 @@ impl SceneFile {
         Ok(out)
     }
 
+    /// The spring kinds of the file's world: its `material`'s (from
+    /// [`SceneFile::material`]) or its `[springs.*]` over the defaults.
+    fn springs(&self, material: Option<&Material>) -> [SpringParams; 3] {
+        match material {
+            Some(m) => m.spring_params(),
+            None => self.springs.0.over(Params::default().springs),
+        }
+    }
+
     /// The file's `[[seam]]`s, taken out.
     pub(super) fn take_seams(&mut self) -> Vec<SeamKeys> {
         std::mem::take(&mut self.seam.0)
@@ -832,16 +837,18 @@ impl SceneFile {
     }
 
     /// The parameters, the duration \[s\] and the camera this file
-    /// describes, not yet validated (the cloths taken out before:
+    /// describes with its `material` (from [`SceneFile::material`]), not
+    /// yet validated (the cloths taken out before:
     /// [`SceneFile::take_cloths`]).
-    pub(super) fn into_parts(self) -> (Params, f64, CameraSpec) {
-        let mut p = Params::default();
+    pub(super) fn into_parts(self, material: Option<&Material>) -> (Params, f64, CameraSpec) {
+        let mut p = Params {
+            springs: self.springs(material),
+            ..Params::default()
+        };
         let s = self.simulation.0;
         set(&mut p.integrator, s.integrator.map(|c| c.0));
         set(&mut p.dt, s.dt);
         set(&mut p.gravity, s.gravity);
-
-        p.springs = self.springs.0.over(p.springs);
 
         let (fixup, implicit) = (self.fixup.0, self.implicit.0);
         set(&mut p.fixup.iterations, fixup.iterations);

@@ -180,10 +180,9 @@ impl Scene {
         let (mut character, character_colliders) = parsed.take_character();
         let colliders = parsed.take_colliders();
         let mut render_mesh_keys = parsed.take_render_meshes();
-        let (mut params, duration, camera) = parsed.into_parts();
+        let (mut params, duration, camera) = parsed.into_parts(material.as_ref());
         if let Some(m) = &material {
             m.validate().map_err(|e| fail(e.to_string()))?;
-            params.springs = m.spring_params();
         }
         if let Some(c) = &character {
             c.validate().map_err(|e| fail(e.to_string()))?;
@@ -246,15 +245,13 @@ impl Scene {
                     .to_string(),
             ));
         }
-        let (scale, origin) = match (several, cloths.first()) {
-            (
-                false,
-                Some(SceneCloth {
-                    mesh: Some(m),
-                    spec,
-                    ..
-                }),
-            ) => (m.scale, spec.origin),
+        // Render meshes are placed as their one cloth is.
+        let (scale, origin) = match &cloths[..] {
+            [SceneCloth {
+                mesh: Some(m),
+                spec,
+                ..
+            }] => (m.scale, spec.origin),
             _ => (1.0, DVec3::ZERO),
         };
         let mut render_meshes = Vec::with_capacity(render_mesh_keys.len());
@@ -287,11 +284,6 @@ impl Scene {
             character,
             render_meshes,
         };
-        for (n, cloth) in scene.cloths.iter().enumerate() {
-            cloth
-                .check_material_geometry()
-                .map_err(|e| fail(name_cloth(e, n, several).to_string()))?;
-        }
         Ok(scene)
     }
 
@@ -428,9 +420,11 @@ impl Scene {
         let several = self.cloths.len() > 1;
         let mut parts = Vec::with_capacity(self.cloths.len());
         for (n, cloth) in self.cloths.iter().enumerate() {
-            let model = cloth
-                .model(&self.params)
-                .map_err(|e| name_cloth(e, n, several))?;
+            let key = match several {
+                true => format!("cloth[{n}]"),
+                false => "cloth".to_string(),
+            };
+            let model = cloth.model(&self.params).map_err(|e| name_cloth(e, &key))?;
             parts.push((model, cloth.springs.unwrap_or(self.params.springs)));
         }
         world::join(parts, &self.params.springs, &self.seams)
@@ -610,26 +604,30 @@ impl SceneCloth {
     }
 }
 
-/// `e` with its `cloth.` key named `cloth[n].` in a world of `several`
-/// cloths.
-fn name_cloth(e: Error, n: usize, several: bool) -> Error {
+/// `e` with its `cloth.` or `material.` key named for the cloth `cloth`
+/// (`cloth[1]`: `cloth[1].pins[2]`, `cloth[1].material.density`); as it
+/// is for `cloth`, the one cloth of a `[cloth]` table.
+fn name_cloth(e: Error, cloth: &str) -> Error {
     match e {
-        Error::InvalidParameter { key, allowed, got } if several => Error::InvalidParameter {
-            key: match key.strip_prefix("cloth.") {
-                Some(rest) => format!("cloth[{n}].{rest}"),
-                None if key.starts_with("material.") => format!("cloth[{n}].{key}"),
-                None => key,
-            },
-            allowed,
-            got,
-        },
+        Error::InvalidParameter { key, allowed, got } if cloth != "cloth" => {
+            Error::InvalidParameter {
+                key: match key.strip_prefix("cloth.") {
+                    Some(rest) => format!("{cloth}.{rest}"),
+                    None if key.starts_with("material.") => format!("{cloth}.{key}"),
+                    None => key,
+                },
+                allowed,
+                got,
+            }
+        }
         e => e,
     }
 }
 
 /// A cloth of the scene file `path` from its keys: its mesh read (through
 /// `read_mesh`, relative to the scene's folder) and everything checked,
-/// errors naming the cloth as the file does (`cloth`, `cloth[1]`).
+/// its material against its cells included, errors naming the cloth as
+/// the file does (`cloth`, `cloth[1]`).
 fn scene_cloth(
     keys: file::ClothKeys,
     path: &Path,
@@ -644,13 +642,7 @@ fn scene_cloth(
         color,
         ..
     } = keys;
-    let several = key != "cloth";
-    let n = key
-        .strip_prefix("cloth[")
-        .and_then(|k| k.strip_suffix(']'))
-        .and_then(|k| k.parse().ok())
-        .unwrap_or(0);
-    let named = |e: Error| name_cloth(e, n, several);
+    let named = |e: Error| name_cloth(e, &key);
     if let Some(m) = &material {
         m.validate().map_err(named)?;
         // What the model's masses add up to on a grid (a mesh's follow
@@ -699,13 +691,15 @@ fn scene_cloth(
             Some(mesh)
         }
     };
-    Ok(SceneCloth {
+    let cloth = SceneCloth {
         spec,
         mesh,
         material,
         springs,
         color,
-    })
+    };
+    cloth.check_material_geometry().map_err(named)?;
+    Ok(cloth)
 }
 
 /// The `[[seam]]`s of a scene as springs between the world's particles:
