@@ -409,11 +409,18 @@ pub fn gpu_bytes(
     );
     // The two buffers the kernels bind: read-only model data, scratch.
     let grids = array::<u32>(crate::gpu::build::mesh_grid_words(&params.mesh_colliders));
+    // Self-collision's rest positions and their seam partners'.
+    let rest = if params.self_collision.is_some() {
+        vec4(2 * n)
+    } else {
+        0
+    };
     let model = total(&[
         springs,
         topo,
         dense_buffer,
         grids,
+        rest,
         bending_bytes::<f32>(counts),
     ]);
     let scratch = total(&[work, spring_work, partials]);

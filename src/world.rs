@@ -17,8 +17,10 @@
 //! Contact between cloths is self-collision over the world: the grid and
 //! the Jacobi passes already see every particle. Only its exclusion rule
 //! (pairs near each other at rest never collide) needs the cloths: the
-//! rest positions it compares are laid out cloth by cloth, apart
-//! ([`exclusion_rest`]), so two cloths that start close still collide.
+//! rest positions it compares are laid out cloth by cloth, apart, so two
+//! cloths that start close still collide, and a particle on a seam is
+//! also compared at its partner's, so a seam's two sides, which touch
+//! once sewn, do not ([`exclusion_rest`]).
 
 use std::ops::Range;
 
@@ -217,16 +219,32 @@ pub fn cloth_ranges(model: &Model) -> Vec<Range<usize>> {
         .collect()
 }
 
-/// The rest positions self-collision's exclusion compares, in units of
-/// `radius` \[m\] (pairs less than 1 apart never collide): each cloth's
-/// own, the cloths laid side by side along x two units apart (the first
-/// where it is), so that particles of different cloths are never excluded
-/// however close they start. One cloth's are its rest positions over
-/// `radius`.
-pub fn exclusion_rest(model: &Model, radius: f64) -> Vec<DVec3> {
+/// The positions self-collision's exclusion compares, in units of the
+/// exclusion radius: particles `p` and `q` never collide where `own[p]`
+/// and `own[q]`, `seam[p]` and `own[q]`, or `own[p]` and `seam[q]` lie
+/// less than 1 apart (`cpu::self_collision::excluded`; the same three
+/// tests from either end, as the differences negate exactly, so both of a
+/// pair agree).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExclusionRest {
+    /// Each particle's rest position, the cloths laid side by side along x
+    /// two units apart (the first where it is), so that particles of
+    /// different cloths are never excluded however close they start.
+    pub own: Vec<DVec3>,
+    /// Each particle's seam partner's `own` (the other end of the first
+    /// seam it is on), its own `own` where it is on no seam: a seam's two
+    /// sides, and each side's neighbours within the radius of the other,
+    /// touch when sewn, so they are excluded as a cloth's neighbours are.
+    pub seam: Vec<DVec3>,
+}
+
+/// Self-collision's exclusion positions of `model` in units of `radius`
+/// \[m\] (see [`ExclusionRest`]). A seam is a stretch spring of zero rest
+/// length (see the module's "seam").
+pub fn exclusion_rest(model: &Model, radius: f64) -> ExclusionRest {
     let x = &model.rest_positions;
     let ranges = cloth_ranges(model);
-    let mut out = Vec::with_capacity(x.len());
+    let mut own = Vec::with_capacity(x.len());
     // Where the next cloth's lowest x goes (the first stays where it is).
     let mut at = None;
     for r in ranges {
@@ -234,9 +252,17 @@ pub fn exclusion_rest(model: &Model, radius: f64) -> Vec<DVec3> {
         let low = cloth.iter().map(|p| p.x).fold(f64::INFINITY, f64::min);
         let high = cloth.iter().map(|p| p.x).fold(f64::NEG_INFINITY, f64::max);
         let shift = at.map_or(0.0, |a| a - low);
-        out.extend(cloth.iter().map(|&p| (p + DVec3::X * shift) / radius));
+        own.extend(cloth.iter().map(|&p| (p + DVec3::X * shift) / radius));
         // Two units past this cloth's far side.
         at = Some(high + shift + 2.0 * radius);
     }
-    out
+    let mut partner: Vec<Option<usize>> = vec![None; x.len()];
+    let stretch = &model.springs[model.kind_ranges[SpringKind::Stretch.index()].clone()];
+    for s in stretch.iter().filter(|s| s.rest == 0.0) {
+        let (i, j) = (s.i as usize, s.j as usize);
+        partner[i] = partner[i].or(Some(j));
+        partner[j] = partner[j].or(Some(i));
+    }
+    let seam = (0..x.len()).map(|p| own[partner[p].unwrap_or(p)]).collect();
+    ExclusionRest { own, seam }
 }

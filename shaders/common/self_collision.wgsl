@@ -53,9 +53,29 @@ fn sc_run(b: u32) -> vec2<u32> {
     return select(e.xy, e.zw, (b & 1u) == 1u);
 }
 
-// Particle p's rest position, in exclusion radii.
+// Particle p's rest position, in exclusion radii (the cloths laid apart).
 fn sc_rest(p: u32) -> vec3<f32> {
     return bitcast<vec3<f32>>(model[params.self_grid.w + local(p)].xyz);
+}
+
+// Particle p's seam partner's rest position (its own off seams), after
+// the cloth's rest positions.
+fn sc_seam_rest(p: u32) -> vec3<f32> {
+    return bitcast<vec3<f32>>(model[params.self_grid.w + params.particle_count + local(p)].xyz);
+}
+
+fn sc_near(a: vec3<f32>, b: vec3<f32>) -> bool {
+    let d = a - b;
+    return dot3(d, d) < 1.0;
+}
+
+// Whether particles p and q never collide (twin:
+// cpu::self_collision::excluded): their rest positions, or either's seam
+// partner's and the other's, less than an exclusion radius apart.
+fn sc_excluded(p: u32, q: u32) -> bool {
+    let rp = sc_rest(p);
+    let rq = sc_rest(q);
+    return sc_near(rp, rq) || sc_near(sc_seam_rest(p), rq) || sc_near(rp, sc_seam_rest(q));
 }
 
 // Particle p into the grid (twin: the first loop of
@@ -143,7 +163,6 @@ fn self_collision_respond_item(p: u32, src: u32, dst: u32, last: bool) -> bool {
         let t = params.self_collision.x;
         let friction = params.self_collision.y;
         let t2 = t * t;
-        let rest = sc_rest(p);
         let corner = sc_corner(work[wi(W_SC_A, p)].xyz);
         var sum = vec3<f32>(0.0);
         var slip = vec3<f32>(0.0);
@@ -162,8 +181,7 @@ fn self_collision_respond_item(p: u32, src: u32, dst: u32, last: bool) -> bool {
                 let xq = work[wi(src, q)].xyz;
                 let diff = xp - xq;
                 let d2 = dot3(diff, diff);
-                let apart = sc_rest(q) - rest;
-                if (d2 >= t2 || d2 <= 0.0 || dot3(apart, apart) < 1.0) {
+                if (d2 >= t2 || d2 <= 0.0 || sc_excluded(p, q)) {
                     continue;
                 }
                 let dist = sqrt(d2);

@@ -43,7 +43,9 @@
 //!    position per particle) and is the same rule on grids and meshes; the
 //!    factor 2 keeps a cloth's own in-plane neighbours (compressed as it
 //!    buckles) from pushing one another apart unless it is compressed to
-//!    half its rest size.
+//!    half its rest size. A particle on a seam is also compared at its
+//!    seam partner's rest position ([`excluded`]), so a seam's two sides,
+//!    which the seam holds together, do not push each other apart.
 //! 4. **Tunnelling guard**: at the end, each free particle's displacement
 //!    over the step *relative to a reference particle's* (see
 //!    [`reference_particle`]) is capped at [`STEP_CAP`] `× thickness`, so
@@ -117,9 +119,12 @@ pub struct SelfCollisionR<R> {
     /// thickness)`.
     pub inv_cell: R,
     /// Rest positions in units of the exclusion radius
-    /// (`EXCLUDE_REST × thickness`): a pair less than 1 apart never
-    /// collides.
+    /// (`EXCLUDE_REST × thickness`), the cloths laid apart: a pair less
+    /// than 1 apart never collides ([`excluded`]).
     pub rest: Vec<Vec3<R>>,
+    /// Each particle's seam partner's `rest` (its own where it is on no
+    /// seam; see [`crate::world::ExclusionRest`]).
+    pub seam_rest: Vec<Vec3<R>>,
     /// Hash table size (a power of two ≥ particles, at least 2).
     pub table: usize,
 }
@@ -242,6 +247,8 @@ impl<R: Real> SelfCollisionR<R> {
 
     /// Self-collision of `model` with `c` at `thickness` \[m\].
     pub fn new(model: &Model, c: &SelfCollision, thickness: f64) -> Self {
+        let exclusion = crate::world::exclusion_rest(model, EXCLUDE_REST * thickness);
+        let convert = |v: Vec<glam::DVec3>| v.into_iter().map(Vec3::from_f64).collect();
         SelfCollisionR {
             thickness: R::from_f64(thickness),
             friction: R::from_f64(c.friction),
@@ -249,10 +256,8 @@ impl<R: Real> SelfCollisionR<R> {
             cap: R::from_f64(STEP_CAP * thickness),
             reference: reference_particle(model),
             inv_cell: R::from_f64(1.0 / (CELL_THICKNESSES * thickness)),
-            rest: crate::world::exclusion_rest(model, EXCLUDE_REST * thickness)
-                .into_iter()
-                .map(Vec3::from_f64)
-                .collect(),
+            rest: convert(exclusion.own),
+            seam_rest: convert(exclusion.seam),
             table: table_size(model.particle_count()),
         }
     }
@@ -355,6 +360,14 @@ pub fn build<R: Real>(c: &SelfCollisionR<R>, x: &[Vec3<R>], g: &mut Grid<R>) {
     g.start[0] = 0;
 }
 
+/// Whether particles `p` and `q` never collide (twin: `sc_excluded`):
+/// their rest positions, or either's seam partner's and the other's, less
+/// than an exclusion radius apart (see [`crate::world::ExclusionRest`]).
+pub fn excluded<R: Real>(c: &SelfCollisionR<R>, p: usize, q: usize) -> bool {
+    let near = |a: Vec3<R>, b: Vec3<R>| (a - b).length_squared() < R::ONE;
+    near(c.rest[p], c.rest[q]) || near(c.seam_rest[p], c.rest[q]) || near(c.rest[p], c.seam_rest[q])
+}
+
 /// The 8 cell offsets from a particle's corner cell in the order every
 /// particle visits them: x fastest, then y, then z.
 const NEIGHBOUR_CELLS: [[i32; 3]; 8] = {
@@ -400,7 +413,7 @@ pub fn respond<R: Real>(
             }
             let diff = xp - g.snapshot[q];
             let d2 = diff.length_squared();
-            if d2 >= t2 || d2 <= R::ZERO || (c.rest[p] - c.rest[q]).length_squared() < R::ONE {
+            if d2 >= t2 || d2 <= R::ZERO || excluded(c, p, q) {
                 continue;
             }
             let dist = d2.sqrt();

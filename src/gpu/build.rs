@@ -527,9 +527,21 @@ pub(super) fn cloth_arrays(
         grids: grid_at,
     };
     let params = uniform_block(model, params, shape);
-    let no_rest = Vec::new();
-    let rest = self_collision.as_ref().map_or(&no_rest, |c| &c.rest);
-    let rest = try_collect(rest.iter().map(|r| [r.x, r.y, r.z, 0.0]), UPLOAD)?;
+    // Self-collision's rest positions, then their seam partners' (see
+    // `sc_rest` and `sc_seam_rest`).
+    let rest = match &self_collision {
+        Some(c) => {
+            let mut rest = try_with_capacity(2 * c.rest.len(), UPLOAD)?;
+            rest.extend(
+                c.rest
+                    .iter()
+                    .chain(&c.seam_rest)
+                    .map(|r| [r.x, r.y, r.z, 0.0]),
+            );
+            rest
+        }
+        None => Vec::new(),
+    };
     Ok(ClothArrays {
         params,
         springs,

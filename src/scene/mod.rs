@@ -238,13 +238,6 @@ impl Scene {
             )));
         }
         let seams = seam_springs(&cloths, seam_keys).map_err(in_file)?;
-        if let (false, Some(_)) = (seams.is_empty(), &params.self_collision) {
-            return Err(fail(
-                "`[[seam]]` with `[self_collision]`: self-collision would push a seam's two \
-                 sides a thickness apart as the seam pulls them together; remove one of them"
-                    .to_string(),
-            ));
-        }
         // Render meshes are placed as their one cloth is.
         let (scale, origin) = match &cloths[..] {
             [SceneCloth {
