@@ -178,6 +178,10 @@ pub struct Embedding {
     pub triangles: Vec<[u32; 3]>,
     /// The render mesh's texture coordinates, if it has them.
     pub uvs: Option<Vec<[f32; 2]>>,
+    /// The cloth of the world it follows and is drawn in place of
+    /// ([`Embedding::on_cloth`]); `None`: the whole model, drawn in place of
+    /// every cloth ([`Embedding::new`]).
+    pub cloth: Option<usize>,
 }
 
 /// Iterations of the embedding's solve for `(u, v, h)` (each a 3 × 3
@@ -192,6 +196,41 @@ impl Embedding {
     /// cloth triangle, refused (naming the vertex) where that is farther
     /// than `max_distance` \[m\].
     pub fn new(model: &Model, mesh: &RenderMesh, max_distance: f64) -> Result<Embedding> {
+        Self::embed(model, None, mesh, max_distance)
+    }
+
+    /// As [`Embedding::new`], on cloth `cloth` of a world (`model`, see
+    /// [`crate::world`]) alone: every vertex on that cloth's nearest
+    /// triangle, and the mesh drawn in place of that cloth only.
+    pub fn on_cloth(
+        model: &Model,
+        cloth: usize,
+        mesh: &RenderMesh,
+        max_distance: f64,
+    ) -> Result<Embedding> {
+        Self::embed(model, Some(cloth), mesh, max_distance)
+    }
+
+    fn embed(
+        model: &Model,
+        cloth: Option<usize>,
+        mesh: &RenderMesh,
+        max_distance: f64,
+    ) -> Result<Embedding> {
+        let ranges = crate::world::cloth_ranges(model);
+        let particles = match cloth {
+            None => 0..model.particle_count(),
+            Some(c) => match ranges.get(c) {
+                Some(r) => r.clone(),
+                None => {
+                    return Err(Error::InvalidParameter {
+                        key: "render_mesh.cloth".into(),
+                        allowed: format!("a cloth of the model: 0 ≤ cloth < {}", ranges.len()),
+                        got: c.to_string(),
+                    })
+                }
+            },
+        };
         let fail = |message: String| Error::Mesh {
             path: mesh.name.clone(),
             message,
@@ -233,6 +272,7 @@ impl Embedding {
             let nearest = cells
                 .near(p)
                 .iter()
+                .filter(|&&t| particles.contains(&(model.triangles[t as usize][0] as usize)))
                 .map(|&t| {
                     let tri = corners(x, model.triangles[t as usize]);
                     (t, (p - closest_on_triangle(&tri, p).0).length())
@@ -269,6 +309,7 @@ impl Embedding {
             vertices,
             triangles: mesh.triangles.clone(),
             uvs: mesh.uvs.clone(),
+            cloth,
         })
     }
 

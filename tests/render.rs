@@ -419,3 +419,84 @@ fn each_cloth_of_a_world_is_drawn_in_its_colour() {
     }
     std::fs::remove_dir_all(&dir).expect("remove the test directory");
 }
+
+/// A render mesh over the left half of [`WORLD`]'s second cloth
+/// (0.1 ≤ x ≤ 0.5), a millimetre above it, as two triangles.
+fn second_cloth_left_half() -> wgcloth::mesh::Mesh {
+    let at = |x: f64, z: f64| wgcloth::glam::DVec3::new(x, 1.001, z);
+    let positions = vec![at(0.1, -0.4), at(0.5, -0.4), at(0.5, 0.4), at(0.1, 0.4)];
+    wgcloth::mesh::Mesh::from_triangles(
+        "second cloth's left half",
+        positions,
+        &[[0, 3, 2], [0, 2, 1]],
+    )
+    .expect("a valid mesh")
+}
+
+/// A render mesh on one cloth of a world is drawn in place of that cloth
+/// alone, in its colour: the first cloth green everywhere, the second blue
+/// where its render mesh lies and not drawn where only it would be (a
+/// mesh drawn in place of every cloth leaves the first undrawn; one in the
+/// first's colour draws the second's half green).
+#[test]
+fn a_render_mesh_on_one_cloth_of_a_world_replaces_that_cloth_alone() {
+    use wgcloth::gpu::{GpuRenderMesh, SkinLayout};
+    use wgcloth::render_mesh::{Embedding, RenderMesh};
+    let ctx = gpu_common::gpu();
+    let scene = Scene::from_toml(WORLD, Path::new("world.toml")).expect("the world");
+    let model = scene.model().expect("the model");
+    let solver = GpuSolver::new(&ctx.device, &ctx.queue, &model, &scene.params)
+        .unwrap_or_else(|e| panic!("GPU solver: {e}"));
+    let half = RenderMesh::from_mesh(
+        Path::new("second cloth's left half"),
+        &second_cloth_left_half(),
+        1.0,
+        wgcloth::glam::DVec3::ZERO,
+    );
+    let embedding = Embedding::on_cloth(&model, 1, &half, 0.01).expect("embeds");
+    assert!(
+        Embedding::on_cloth(&model, 0, &half, 0.01).is_err(),
+        "the mesh lies on the second cloth, not the first"
+    );
+    let mesh =
+        GpuRenderMesh::new(&solver, &embedding, SkinLayout::POSITION_NORMAL).expect("render mesh");
+    let camera = Camera::for_scene(&scene, &model, WIDTH as f32 / HEIGHT as f32);
+    let mut renderer = Renderer::new(&ctx.device, &ctx.queue, &scene.params, &camera);
+    renderer.set_cloth_colors(&ctx.device, &model, &scene.cloth_colors());
+    renderer.set_render_meshes(vec![mesh]).expect("its layout");
+    let target = FrameTarget::new(&ctx.device, WIDTH, HEIGHT);
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    solver.encode_normals(&mut encoder);
+    renderer.encode_frame(&mut encoder, &solver, &target);
+    ctx.queue.submit([encoder.finish()]);
+    let rgba = render::read_rgba(&ctx.device, &ctx.queue, &target.color).expect("read back");
+    let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
+    let mut checked = [0; 3];
+    for p in interior(&rest[..81]) {
+        let c = colour_at(&rgba, &camera, p);
+        assert_eq!(dominant(c), Some(1), "first cloth at {p:?}: colour {c:?}");
+        checked[0] += 1;
+    }
+    for p in interior(&rest[81..]) {
+        let c = colour_at(&rgba, &camera, p);
+        if p.x <= 0.4 {
+            assert_eq!(
+                dominant(c),
+                Some(2),
+                "second cloth's render mesh at {p:?}: colour {c:?}"
+            );
+            checked[1] += 1;
+        } else if p.x >= 0.6 {
+            assert_eq!(
+                c,
+                render::BACKGROUND,
+                "{p:?}: the second cloth is drawn beside its render mesh"
+            );
+            checked[2] += 1;
+        }
+    }
+    assert!(
+        checked.iter().all(|&n| n > 0),
+        "{checked:?} particles checked"
+    );
+}

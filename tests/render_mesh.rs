@@ -380,3 +380,63 @@ fn a_scene_s_render_mesh_is_read_as_its_cloth_s_mesh_would_be() {
     assert!(e.to_string().contains("colour"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// In a world, a cloth's own `render_mesh` follows that cloth and a
+/// `[[render_mesh]]` the cloth its `cloth` key names: each is embedded on
+/// its cloth's triangles alone (a mesh over the second cloth, given to the
+/// first, lies farther than `max_distance` from every triangle it may use).
+#[test]
+fn a_world_s_render_meshes_follow_the_cloths_they_name() {
+    let dir = std::env::temp_dir().join(format!("wgcloth-world-render-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("a temp folder");
+    // A quad over each cloth, a millimetre above it.
+    let quad = |x0: f64| {
+        let x1 = x0 + 0.4;
+        format!(
+            "v {x0} 1.001 -0.2\nv {x1} 1.001 -0.2\nv {x1} 1.001 0.2\nv {x0} 1.001 0.2\n\
+             f 1 4 3\nf 1 3 2\n"
+        )
+    };
+    std::fs::write(dir.join("first.obj"), quad(-0.8)).expect("written");
+    std::fs::write(dir.join("second.obj"), quad(0.2)).expect("written");
+    let cloth = |x: f64, extra: &str| {
+        format!(
+            "[[cloth]]\nresolution = [5, 5]\nsize = [0.6, 0.6]\norigin = [{x}, 1.0, -0.3]\n{extra}"
+        )
+    };
+    let text = |second_key: u32| {
+        format!(
+            "{}{}[[render_mesh]]\nfile = \"first.obj\"\ncloth = {second_key}\n",
+            cloth(-0.9, ""),
+            cloth(0.1, "render_mesh = \"second.obj\"\n")
+        )
+    };
+    let path = dir.join("world.toml");
+    std::fs::write(&path, text(0)).expect("written");
+    let scene = wgcloth::Scene::load(&path).expect("the world");
+    let model = scene.model().expect("its model");
+    // The cloth's own first, then the table's.
+    let follows: Vec<usize> = scene.render_meshes.iter().map(|r| r.cloth).collect();
+    assert_eq!(follows, [1, 0]);
+    let embeddings = scene.embeddings(&model).expect("embedded");
+    let second_cloth_triangles = model.triangles.len() / 2;
+    for (e, cloth) in embeddings.iter().zip([1, 0]) {
+        assert_eq!(e.cloth, Some(cloth));
+        assert!(
+            e.vertices
+                .iter()
+                .all(|v| (v.triangle as usize >= second_cloth_triangles) == (cloth == 1)),
+            "render mesh on cloth {cloth}: a vertex on the other cloth"
+        );
+    }
+    // The first cloth's mesh given to the second: beyond its reach.
+    std::fs::write(&path, text(1)).expect("written");
+    let scene = wgcloth::Scene::load(&path).expect("the world");
+    let e = scene.embeddings(&model).expect_err("refused");
+    assert!(
+        e.to_string().contains("first.obj") && e.to_string().contains("max_distance"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -484,7 +484,7 @@ fn bad_worlds_are_refused_naming_the_keys() {
             "[[seam]]\na = { cloth = 0, edge = \"left\", vertices = [0] }\nb = { cloth = 1, edge = \"left\" }\n",
             "exactly one of `edge`, `vertices` and `box`",
         ),
-        ("[[render_mesh]]\nfile = \"x.obj\"\n", "`render_mesh[0]`: a render mesh follows one cloth"),
+        ("[[render_mesh]]\nfile = \"x.obj\"\ncloth = 2\n", "`render_mesh[0].cloth` = 2"),
     ] {
         let e = refusal(&format!("{two}{extra}"));
         assert!(e.contains("world.toml") && e.contains(says), "{extra}: {e}");

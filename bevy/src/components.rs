@@ -191,7 +191,9 @@ impl ClothRenderMesh {
 
     /// The render meshes of a wgcloth scene (`[cloth] render_mesh`,
     /// `[[render_mesh]]`) over its cloth `of` (built by
-    /// [`Cloth::from_scene`] from the same scene), in order.
+    /// [`Cloth::from_scene`] from the same scene), in order; in a scene of
+    /// several cloths (one `Cloth` of them all), each on the cloth its
+    /// `cloth` key names.
     pub fn from_scene(
         cloth: Entity,
         of: &Cloth,
@@ -200,7 +202,14 @@ impl ClothRenderMesh {
         scene
             .render_meshes
             .iter()
-            .map(|r| ClothRenderMesh::new(cloth, of, r.mesh.clone(), r.max_distance))
+            .map(|r| {
+                let embedding = Embedding::on_cloth(of.model(), r.cloth, &r.mesh, r.max_distance)?;
+                Ok(ClothRenderMesh {
+                    cloth,
+                    mesh: Arc::new(r.mesh.clone()),
+                    embedding: Arc::new(embedding),
+                })
+            })
             .collect()
     }
 

@@ -115,6 +115,8 @@ pub struct GpuRenderMesh {
     index_count: u32,
     vertex_count: u32,
     layout: SkinLayout,
+    /// The cloth of the world it is drawn in place of (`None`: all).
+    follows: Option<usize>,
     params: SkinParams,
     /// The embedding and the uniform block, bound with `vertices` and the
     /// cloth's buffers (`cloth`: positions, normals, indices) in `group`.
@@ -290,6 +292,7 @@ impl GpuRenderMesh {
                 index_count: flat.len() as u32,
                 vertex_count: n as u32,
                 layout,
+                follows: embedding.cloth,
                 params,
                 embedded,
                 uniform,
@@ -458,6 +461,12 @@ impl GpuRenderMesh {
     /// Where each vertex's position and normal lie in the vertex buffer.
     pub fn layout(&self) -> SkinLayout {
         self.layout
+    }
+
+    /// The cloth of the world it follows and is drawn in place of (its
+    /// embedding's [`Embedding::cloth`]); `None`: every cloth.
+    pub fn follows(&self) -> Option<usize> {
+        self.follows
     }
 
     /// Reads the vertex buffer back: `vertex_count × stride` words from

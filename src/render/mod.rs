@@ -577,8 +577,9 @@ impl Renderer {
         self.round.instance_count.store(count, Ordering::Relaxed);
     }
 
-    /// Draws `meshes` in place of the cloth from now on (none: the cloth
-    /// itself), each written by its `skin` pass
+    /// Draws `meshes` in place of the cloths they follow
+    /// ([`GpuRenderMesh::follows`]) from now on (none: the cloths
+    /// themselves), each written by its `skin` pass
     /// ([`Renderer::encode_render_meshes`]). Refused: a mesh whose vertex
     /// buffer is not [`SkinLayout::POSITION_NORMAL`].
     pub fn set_render_meshes(&mut self, meshes: Vec<GpuRenderMesh>) -> Result<()> {
@@ -628,18 +629,47 @@ impl Renderer {
         pass.set_bind_group(0, &self.bind_group, &[]);
         if let Some(strain) = &self.strain {
             strain.draw(pass);
-        } else if !self.render_meshes.is_empty() {
-            pass.set_pipeline(&self.render_mesh);
-            pass.set_vertex_buffer(1, self.tints.slice(..));
-            for m in &self.render_meshes {
-                pass.set_vertex_buffer(0, m.vertex_buffer().slice(..));
-                pass.set_index_buffer(m.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
-                pass.draw_indexed(0..m.index_count(), 0, 0..1);
-            }
         } else {
-            self.draw_world(pass, &solver.draw_range());
+            self.draw_render_meshes(pass);
+            let range = solver.draw_range();
+            if self.pieces.is_empty() {
+                if self.render_meshes.is_empty() {
+                    self.draw_range(pass, &range);
+                }
+            } else {
+                // The cloths no render mesh is drawn in place of.
+                let replaced = |c: usize| {
+                    self.render_meshes
+                        .iter()
+                        .any(|m| m.follows().is_none_or(|f| f == c))
+                };
+                let shown: Vec<_> = (0..self.pieces.len())
+                    .filter(|&c| !replaced(c))
+                    .map(|c| self.pieces[c].clone())
+                    .collect();
+                self.draw_pieces(pass, &range, &shown);
+            }
         }
         self.draw_colliders(pass);
+    }
+
+    /// Records the render meshes, each in the colour of the cloth it
+    /// follows.
+    fn draw_render_meshes(&self, pass: &mut wgpu::RenderPass<'_>) {
+        if self.render_meshes.is_empty() {
+            return;
+        }
+        pass.set_pipeline(&self.render_mesh);
+        pass.set_vertex_buffer(1, self.tints.slice(..));
+        for m in &self.render_meshes {
+            let tint = m
+                .follows()
+                .and_then(|c| self.pieces.get(c))
+                .map_or(0, |p| p.1);
+            pass.set_vertex_buffer(0, m.vertex_buffer().slice(..));
+            pass.set_index_buffer(m.index_buffer().slice(..), wgpu::IndexFormat::Uint32);
+            pass.draw_indexed(0..m.index_count(), 0, tint..tint + 1);
+        }
     }
 
     /// Records one cloth of a [`GpuBatch`](crate::gpu::GpuBatch) into
@@ -675,16 +705,6 @@ impl Renderer {
     /// vertex buffers, its indices relative to its base vertex.
     fn draw_range(&self, pass: &mut wgpu::RenderPass<'_>, range: &DrawRange<'_>) {
         self.draw_pieces(pass, range, &[(range.indices.clone(), 0)]);
-    }
-
-    /// [`Renderer::draw_range`] one cloth of a world after another, each
-    /// in its tint ([`Renderer::set_cloth_colors`]).
-    fn draw_world(&self, pass: &mut wgpu::RenderPass<'_>, range: &DrawRange<'_>) {
-        if self.pieces.is_empty() {
-            self.draw_range(pass, range);
-        } else {
-            self.draw_pieces(pass, range, &self.pieces);
-        }
     }
 
     fn draw_pieces(

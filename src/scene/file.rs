@@ -444,6 +444,8 @@ struct RenderMeshTable {
     file: String,
     mesh_name: Option<String>,
     max_distance: Option<Number>,
+    /// The cloth it follows (index among the scene's cloths; default 0).
+    cloth: Option<Whole<usize>>,
 }
 
 /// A render mesh as the file gives it (`[cloth] render_mesh` or a
@@ -459,6 +461,9 @@ pub(super) struct RenderMeshKeys {
     pub name: Option<String>,
     /// `max_distance` \[m\].
     pub max_distance: f64,
+    /// The cloth it follows (checked against the scene's cloths by the
+    /// caller).
+    pub cloth: usize,
 }
 
 /// A `[[collider]]`: a closed mesh (see `crate::sdf`).
@@ -943,6 +948,7 @@ impl SceneFile {
                 max_distance: t
                     .max_distance
                     .map_or(DEFAULT_RENDER_MESH_DISTANCE, f64::from),
+                cloth: t.cloth.map_or(0, |Whole(c)| c),
             });
         tables.collect()
     }

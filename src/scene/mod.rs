@@ -91,6 +91,9 @@ pub struct SceneRenderMesh {
     pub mesh: RenderMesh,
     /// `max_distance` \[m\]: a vertex farther from the cloth is refused.
     pub max_distance: f64,
+    /// The cloth it follows and is drawn in place of (its index among the
+    /// scene's cloths).
+    pub cloth: usize,
 }
 
 /// The `[camera]` table: each key overrides one choice of the automatic
@@ -213,42 +216,26 @@ impl Scene {
             let start = c.keys.first().map_or(0.0, |k| k.time);
             params.mesh_colliders.extend(c.colliders_at(start));
         }
-        let several = cloth_keys.len() > 1;
         let mut cloths = Vec::with_capacity(cloth_keys.len());
-        for mut keys in cloth_keys {
+        // Each cloth's own `render_mesh` first, in cloth order, then the
+        // `[[render_mesh]]`s.
+        let mut own_render_meshes = Vec::new();
+        for (c, mut keys) in cloth_keys.into_iter().enumerate() {
             if let Some(file) = keys.render_mesh.take() {
-                render_mesh_keys.insert(
-                    0,
-                    file::RenderMeshKeys {
-                        key: format!("{}.render_mesh", keys.key),
-                        file,
-                        name: None,
-                        max_distance: file::DEFAULT_RENDER_MESH_DISTANCE,
-                    },
-                );
+                own_render_meshes.push(file::RenderMeshKeys {
+                    key: format!("{}.render_mesh", keys.key),
+                    file,
+                    name: None,
+                    max_distance: file::DEFAULT_RENDER_MESH_DISTANCE,
+                    cloth: c,
+                });
             }
             cloths.push(scene_cloth(keys, path, read_mesh).map_err(in_file)?);
         }
-        if let (true, Some(keys)) = (several, render_mesh_keys.first()) {
-            return Err(fail(format!(
-                "`{}`: a render mesh follows one cloth, and this scene has {} (`[[cloth]]`); \
-                 remove it, or give the scene one cloth",
-                keys.key,
-                cloths.len()
-            )));
-        }
+        own_render_meshes.append(&mut render_mesh_keys);
         let seams = seam_springs(&cloths, seam_keys).map_err(in_file)?;
-        // Render meshes are placed as their one cloth is.
-        let (scale, origin) = match &cloths[..] {
-            [SceneCloth {
-                mesh: Some(m),
-                spec,
-                ..
-            }] => (m.scale, spec.origin),
-            _ => (1.0, DVec3::ZERO),
-        };
-        let mut render_meshes = Vec::with_capacity(render_mesh_keys.len());
-        for keys in render_mesh_keys {
+        let mut render_meshes = Vec::with_capacity(own_render_meshes.len());
+        for keys in own_render_meshes {
             check(
                 &format!("{}.max_distance", keys.key),
                 keys.max_distance,
@@ -256,12 +243,27 @@ impl Scene {
                 "> 0 [m]",
             )
             .map_err(|e| fail(e.to_string()))?;
+            let Some(cloth) = cloths.get(keys.cloth) else {
+                return Err(fail(format!(
+                    "`{}.cloth` = {}: not a cloth of this scene, which has {} (0 ≤ cloth < {})",
+                    keys.key,
+                    keys.cloth,
+                    cloths.len(),
+                    cloths.len()
+                )));
+            };
+            // Placed as its cloth is: a mesh cloth's scale and origin.
+            let (scale, origin) = match &cloth.mesh {
+                Some(m) => (m.scale, cloth.spec.origin),
+                None => (1.0, DVec3::ZERO),
+            };
             let file = path.parent().unwrap_or(Path::new("")).join(&keys.file);
             let read = read_mesh(&file, keys.name.as_deref())?;
             // Named as the scene writes it (as a mesh cloth's file is).
             render_meshes.push(SceneRenderMesh {
                 mesh: RenderMesh::from_mesh(Path::new(&keys.file), &read, scale, origin),
                 max_distance: keys.max_distance,
+                cloth: keys.cloth,
             });
         }
         let name = path
@@ -429,7 +431,7 @@ impl Scene {
     pub fn embeddings(&self, model: &Model) -> Result<Vec<Embedding>> {
         self.render_meshes
             .iter()
-            .map(|r| Embedding::new(model, &r.mesh, r.max_distance))
+            .map(|r| Embedding::on_cloth(model, r.cloth, &r.mesh, r.max_distance))
             .collect()
     }
 
