@@ -373,6 +373,10 @@ fn wgsl_u32() -> Vec<(String, u32)> {
         ("MAX_CAPSULES".to_string(), MAX_CAPSULES as u32),
         ("MAX_MESH_COLLIDERS".to_string(), MAX_MESH_COLLIDERS as u32),
         ("MAX_FRAME_STEPS".to_string(), MAX_FRAME_STEPS),
+        (
+            "COARSE_PIECE_WORDS".to_string(),
+            2 * crate::aggregation::MAX_PIECES as u32,
+        ),
     ];
     out.extend(
         work::NAMES

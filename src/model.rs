@@ -548,6 +548,10 @@ pub struct Model {
     /// The first particle of each cloth of a world ([`crate::world`]), in
     /// order: `[0]` for one cloth.
     pub cloth_starts: Vec<u32>,
+    /// Each cloth's grid, `[columns, rows]`, in `cloth_starts` order
+    /// (`None` for a cloth of another shape): what the implicit CG's
+    /// coarse levels aggregate ([`crate::aggregation`]).
+    pub cloth_grids: Vec<Option<[usize; 2]>>,
 }
 
 impl Model {
@@ -626,6 +630,7 @@ impl Model {
             triangles,
         )?;
         model.grid = Some(spec.clone());
+        model.cloth_grids = vec![Some([nx, ny])];
         Ok(model)
     }
 
@@ -701,6 +706,7 @@ impl Model {
             own_constants: Vec::new(),
             bending: None,
             cloth_starts: vec![0],
+            cloth_grids: vec![None],
         })
     }
 
@@ -727,6 +733,7 @@ impl Model {
             own_constants: try_collect(self.own_constants.iter().copied(), MODEL)?,
             bending: self.bending.clone(),
             cloth_starts: self.cloth_starts.clone(),
+            cloth_grids: self.cloth_grids.clone(),
         })
     }
 

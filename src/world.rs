@@ -86,6 +86,8 @@ pub fn join(
         },
     )?;
     let mut starts = try_with_capacity(cloths.len(), WORLD)?;
+    // Each cloth's grid (a world given as a cloth has none).
+    let mut grids = try_with_capacity(cloths.len(), WORLD)?;
     let mut rest = try_with_capacity(total, WORLD)?;
     let mut mass = try_with_capacity(total, WORLD)?;
     let mut pinned = try_with_capacity(total, WORLD)?;
@@ -95,6 +97,10 @@ pub fn join(
     for (model, kinds) in &cloths {
         let base = rest.len() as u32;
         starts.push(base);
+        grids.push(match &model.cloth_grids[..] {
+            [grid] if model.cloth_starts.len() == 1 => *grid,
+            _ => None,
+        });
         rest.extend_from_slice(&model.rest_positions);
         mass.extend_from_slice(&model.mass);
         pinned.extend_from_slice(&model.pinned);
@@ -160,6 +166,7 @@ pub fn join(
     model.own_constants = constants;
     model.bending = bending;
     model.cloth_starts = starts;
+    model.cloth_grids = grids;
     Ok(model)
 }
 

@@ -240,6 +240,8 @@ fn pod_twins_match_their_wgsl_structs() {
             kind_kd,
             kind_a,
             coarse,
+            coarse_world,
+            coarse_pieces,
             motion,
             self_collision,
             self_grid,

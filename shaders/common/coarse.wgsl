@@ -1,4 +1,5 @@
-// The implicit CG's coarse levels on a grid cloth (twin: cpu::coarse):
+// The implicit CG's coarse levels on a grid cloth or a world of grid
+// cloths (twin: cpu::coarse):
 // each aggregate (common/coarse_layout.wgsl) with the inverse of its 3×3
 // Galerkin diagonal block D, added to the block-Jacobi preconditioner.
 // cg_update takes a slot of the level-2-major order of the level-1
@@ -20,26 +21,28 @@ fn coarse_inverse(k: u32) -> Sym3 {
 fn coarse_setup_item(k: u32) {
     let n1 = params.coarse.z;
     var side = LEVEL1_SIDE;
-    var index = k;
     var sec_d = W_LEVEL1_D;
     var sec_o = W_LEVEL1_O;
+    var pc = coarse_piece_at(3u, k);
+    var index = k - pc.level1;
     if (k >= n1) {
         side = LEVEL2_SIDE;
-        index = k - n1;
         sec_d = W_LEVEL2_D;
         sec_o = W_LEVEL2_O;
+        pc = coarse_piece_at(4u, k - n1);
+        index = k - n1 - pc.level2;
     }
-    let nx = params.coarse.x;
-    let across = coarse_across(side);
+    let nx = pc.nx;
+    let across = piece_across(pc, side);
     let row0 = (index / across) * side;
     let col0 = (index % across) * side;
     var d = vec3<f32>(0.0);
     var o = vec3<f32>(0.0);
     var mass = 0.0;
     var trace = 0.0;
-    for (var row = row0; row < min(row0 + side, params.coarse.y); row++) {
+    for (var row = row0; row < min(row0 + side, pc.ny); row++) {
         for (var col = col0; col < min(col0 + side, nx); col++) {
-            let p = params.particle_base + row * nx + col;
+            let p = params.particle_base + pc.first + row * nx + col;
             d += work[wi(sec_d, p)].xyz;
             o += work[wi(sec_o, p)].xyz;
             mass += v[p].w;

@@ -169,9 +169,13 @@ struct Params {
     kind_kd: vec4<f32>,
     // Semi-implicit CG: the constant block a = dt² k of each spring kind.
     kind_a: vec4<f32>,
-    // The implicit CG's coarse levels (common/coarse.wgsl): columns, rows,
-    // level-1 aggregates, level-2 aggregates.
+    // The implicit CG's coarse levels (common/coarse_layout.wgsl): the
+    // first cloth's columns and rows, level-1 aggregates, level-2
+    // aggregates; the pieces (grid cloths), three unused; two vec4 a
+    // piece (coarse_piece).
     coarse: vec4<u32>,
+    coarse_world: vec4<u32>,
+    coarse_pieces: array<vec4<u32>, COARSE_PIECE_WORDS>,
     // Moving colliders: capsules in use, the step counts at which the
     // spheres and the capsules were set, unused.
     motion: vec4<u32>,

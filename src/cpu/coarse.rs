@@ -92,12 +92,11 @@ impl<R: Real> Coarse<R> {
     /// Coarse levels for `agg`.
     pub fn new(agg: Aggregation) -> Self {
         Coarse {
-            agg,
-            of: (0..agg.nx * agg.ny)
+            of: (0..agg.particle_count())
                 .map(|p| [agg.of(0, p) as u32, agg.of(1, p) as u32])
                 .collect(),
-            contrib: vec![[Sym3::default(); 2]; agg.nx * agg.ny],
-            trace: vec![R::ZERO; agg.nx * agg.ny],
+            contrib: vec![[Sym3::default(); 2]; agg.particle_count()],
+            trace: vec![R::ZERO; agg.particle_count()],
             inv: vec![Sym3::default(); agg.total()],
             r1: vec![Vec3::ZERO; agg.count(0)],
             term1: vec![R::ZERO; agg.count(0)],
@@ -105,6 +104,7 @@ impl<R: Real> Coarse<R> {
             term2: vec![R::ZERO; agg.count(1)],
             rho_partials: vec![R::ZERO; agg.slots().div_ceil(CG_BLOCK)],
             dc_partials: vec![R::ZERO; agg.slots().div_ceil(CG_BLOCK)],
+            agg,
         }
     }
 
@@ -114,28 +114,27 @@ impl<R: Real> Coarse<R> {
     /// particles' masses \[kg\]; writes `inv`.
     pub fn setup(&mut self, mass: &[R]) {
         for level in 0..2 {
-            for row in 0..self.agg.down(level) {
-                for col in 0..self.agg.across(level) {
-                    let mut d = Sym3::default();
-                    let (mut sm, mut st) = (R::ZERO, R::ZERO);
-                    for p in self.agg.particles(level, row, col) {
-                        sm += mass[p];
-                        st += self.trace[p];
-                        for (e, c) in d.m.iter_mut().zip(self.contrib[p][level].m) {
-                            *e += c;
-                        }
+            let offset = if level == 0 { 0 } else { self.agg.count(0) };
+            for a in 0..self.agg.count(level) {
+                let mut d = Sym3::default();
+                let (mut sm, mut st) = (R::ZERO, R::ZERO);
+                for p in self.agg.particles(level, a) {
+                    sm += mass[p];
+                    st += self.trace[p];
+                    for (e, c) in d.m.iter_mut().zip(self.contrib[p][level].m) {
+                        *e += c;
                     }
-                    let mut inv = d.inverse().unwrap_or_default();
-                    let theta = if st > R::ZERO {
-                        R::ONE - R::from_f64(3.0) * sm / st
-                    } else {
-                        R::ZERO
-                    };
-                    for e in inv.m.iter_mut() {
-                        *e *= theta;
-                    }
-                    self.inv[self.agg.index(level, row, col)] = inv;
                 }
+                let mut inv = d.inverse().unwrap_or_default();
+                let theta = if st > R::ZERO {
+                    R::ONE - R::from_f64(3.0) * sm / st
+                } else {
+                    R::ZERO
+                };
+                for e in inv.m.iter_mut() {
+                    *e *= theta;
+                }
+                self.inv[offset + a] = inv;
             }
         }
     }
@@ -145,20 +144,17 @@ impl<R: Real> Coarse<R> {
     /// Jacobi term already there), and the term `(Πᵀr)·z` of `rᵀM⁻¹r`.
     /// The GPU does this in its per-slot `cg_update` (`cg_update_slot`).
     pub fn level1(&mut self, r: &[Vec3<R>], filter: &[Filter<R>], s: &mut [Vec3<R>]) {
-        let agg = self.agg;
-        for row in 0..agg.down(0) {
-            for col in 0..agg.across(0) {
-                let a = agg.index(0, row, col);
-                let mut r1 = Vec3::ZERO;
-                for p in agg.particles(0, row, col) {
-                    r1 += r[p];
-                }
-                let z = self.inv[a].mul(r1);
-                self.r1[a] = r1;
-                self.term1[a] = r1.dot(z);
-                for p in agg.particles(0, row, col) {
-                    s[p] += filter[p].apply(z);
-                }
+        let agg = &self.agg;
+        for a in 0..agg.count(0) {
+            let mut r1 = Vec3::ZERO;
+            for p in agg.particles(0, a) {
+                r1 += r[p];
+            }
+            let z = self.inv[a].mul(r1);
+            self.r1[a] = r1;
+            self.term1[a] = r1.dot(z);
+            for p in agg.particles(0, a) {
+                s[p] += filter[p].apply(z);
             }
         }
     }
@@ -172,7 +168,7 @@ impl<R: Real> Coarse<R> {
     /// sums them in its reduction tree (`cg_update_slot`).
     /// [`Coarse::prolong`] adds the corrections to `s`.
     pub fn level2(&mut self) {
-        let agg = self.agg;
+        let agg = &self.agg;
         for b in 0..agg.count(1) {
             let mut r1 = [Vec3::ZERO; SLOTS_PER_LEVEL2];
             for (k, r) in r1.iter_mut().enumerate() {
@@ -196,7 +192,7 @@ impl<R: Real> Coarse<R> {
     /// workgroup's slots (twin: `cg_update_slot`'s reductions). Writes
     /// `rho_partials` and `dc_partials`.
     pub fn partials(&mut self, rho_terms: &[R]) {
-        let agg = self.agg;
+        let agg = &self.agg;
         let mut rho = [R::ZERO; CG_BLOCK];
         let mut dc = [R::ZERO; CG_BLOCK];
         for (g, start) in (0..agg.slots()).step_by(CG_BLOCK).enumerate() {
@@ -206,8 +202,7 @@ impl<R: Real> Coarse<R> {
                 let Some(a) = agg.slot_aggregate(slot) else {
                     continue;
                 };
-                let (row, col) = (a / agg.across(0), a % agg.across(0));
-                for p in agg.particles(0, row, col) {
+                for p in agg.particles(0, a) {
                     rho[k] += rho_terms[p];
                 }
                 dc[k] = self.term1[a];
@@ -225,13 +220,11 @@ impl<R: Real> Coarse<R> {
     /// of the correction `cg_apply` adds to each `s` it loads
     /// (`near_correction` on a grid, `coarse_source` elsewhere).
     pub fn prolong(&self, filter: &[Filter<R>], s: &mut [Vec3<R>]) {
-        let agg = self.agg;
-        for row2 in 0..agg.down(1) {
-            for col2 in 0..agg.across(1) {
-                let z = self.z2[row2 * agg.across(1) + col2];
-                for p in agg.particles(1, row2, col2) {
-                    s[p] += filter[p].apply(z);
-                }
+        let agg = &self.agg;
+        for b in 0..agg.count(1) {
+            let z = self.z2[b];
+            for p in agg.particles(1, b) {
+                s[p] += filter[p].apply(z);
             }
         }
     }

@@ -225,6 +225,7 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
     let ground = params.ground.unwrap_or(NO_GROUND);
     let dt2 = (params.dt * params.dt) as f32;
     let (bending, bending_rows) = bending_uniform(model, params.dt);
+    let coarse = Aggregation::for_scene(model, params);
     GpuParams {
         gravity: params.gravity.as_vec3().to_array(),
         dt: params.dt as f32,
@@ -273,9 +274,24 @@ fn uniform_block(model: &Model, params: &Params, shape: Shape<'_>) -> GpuParams 
         } else {
             [0.0; 4]
         },
-        coarse: Aggregation::for_scene(model, params).map_or([0; 4], |a| {
-            [a.nx, a.ny, a.count(0), a.count(1)].map(|c| c as u32)
+        coarse: coarse.as_ref().map_or([0; 4], |a| {
+            let first = a.pieces()[0];
+            [first.nx, first.ny, a.count(0), a.count(1)].map(|c| c as u32)
         }),
+        coarse_world: [
+            coarse.as_ref().map_or(0, |a| a.pieces().len() as u32),
+            0,
+            0,
+            0,
+        ],
+        coarse_pieces: {
+            let mut words = [[0; 4]; 2 * crate::aggregation::MAX_PIECES];
+            for (k, p) in coarse.iter().flat_map(|a| a.pieces()).enumerate() {
+                words[2 * k] = [p.nx, p.ny, p.first, p.level1].map(|c| c as u32);
+                words[2 * k + 1] = [p.level2 as u32, 0, 0, 0];
+            }
+            words
+        },
         motion: [params.capsules.len() as u32, 0, 0, 0],
         self_collision: shape
             .self_collision

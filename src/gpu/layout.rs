@@ -158,9 +158,17 @@ pub struct GpuParams {
     /// Semi-implicit CG: the constant block `a = dt² k` of each spring
     /// kind \[kg\] (zero otherwise; one unused).
     pub kind_a: [f32; 4],
-    /// The implicit CG's coarse levels (`cpu/coarse.rs`): columns,
-    /// rows, level-1 and level-2 aggregates; zero without them.
+    /// The implicit CG's coarse levels (`cpu/coarse.rs`): the first
+    /// cloth's columns and rows, level-1 and level-2 aggregates; zero
+    /// without them.
     pub coarse: [u32; 4],
+    /// The coarse levels' pieces (grid cloths, [`crate::aggregation::Piece`]),
+    /// three unused.
+    pub coarse_world: [u32; 4],
+    /// Two `vec4` a piece: columns, rows, first particle (within the
+    /// cloth's range), first level-1 aggregate; first level-2 aggregate,
+    /// three unused.
+    pub coarse_pieces: [[u32; 4]; 2 * crate::aggregation::MAX_PIECES],
     /// Moving colliders: capsules in use, the step counts at which the
     /// spheres and the capsules were set (their time origin), unused.
     pub motion: [u32; 4],
@@ -191,7 +199,11 @@ pub struct GpuParams {
 }
 const _: () = assert!(
     std::mem::size_of::<GpuParams>()
-        == 384 + 32 * MAX_SPHERES + 48 * MAX_CAPSULES + 64 * MAX_MESH_COLLIDERS
+        == 400
+            + 32 * crate::aggregation::MAX_PIECES
+            + 32 * MAX_SPHERES
+            + 48 * MAX_CAPSULES
+            + 64 * MAX_MESH_COLLIDERS
 );
 // A workgroup kernel's copy of its cloth's parameters, its self-collision
 // scan, the torque's reduction words, the CG reductions' tree (a vec4 per
