@@ -46,20 +46,6 @@ fn pair(scene: Scene) -> (Model, [Params; 2]) {
     (model, [scene.params, on])
 }
 
-/// The median of `times` (not empty).
-fn middle(mut times: Vec<f64>) -> f64 {
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
-}
-
-/// Samples per median.
-fn samples() -> usize {
-    if common::quick() {
-        3
-    } else {
-        7
-    }
-}
 
 /// Seconds per GPU step without and with self-collision, medians of runs
 /// of `batch` steps taken in turn.
@@ -72,14 +58,14 @@ fn gpu_times(ctx: &GpuContext, model: &Model, params: &[Params; 2], batch: u32) 
         g
     });
     let mut times = [Vec::new(), Vec::new()];
-    for _ in 0..samples() {
+    for _ in 0..common::samples() {
         for (g, t) in solvers.iter_mut().zip(&mut times) {
             let start = Instant::now();
             g.step(batch).unwrap_or_else(|e| panic!("GPU step: {e}"));
             t.push(start.elapsed().as_secs_f64() / f64::from(batch));
         }
     }
-    times.map(middle)
+    times.map(common::middle)
 }
 
 /// Seconds per CPU `f32` step without and with self-collision, medians of
@@ -92,14 +78,14 @@ fn cpu_times(model: &Model, params: &[Params; 2]) -> [f64; 2] {
         c
     });
     let mut times = [Vec::new(), Vec::new()];
-    for _ in 0..samples() {
+    for _ in 0..common::samples() {
         for (c, t) in solvers.iter_mut().zip(&mut times) {
             let start = Instant::now();
             c.step().unwrap_or_else(|e| panic!("CPU step: {e}"));
             t.push(start.elapsed().as_secs_f64());
         }
     }
-    times.map(middle)
+    times.map(common::middle)
 }
 
 fn table(ctx: &GpuContext) {

@@ -53,27 +53,13 @@ fn joined(cloths: &[Model; 2], params: &Params) -> Model {
     world::join(parts, &params.springs, &[]).unwrap_or_else(|e| panic!("world: {e}"))
 }
 
-/// The median of `times` (not empty).
-fn middle(mut times: Vec<f64>) -> f64 {
-    times.sort_by(f64::total_cmp);
-    times[times.len() / 2]
-}
-
-/// Samples per median.
-fn samples() -> usize {
-    if common::quick() {
-        3
-    } else {
-        7
-    }
-}
 
 /// Seconds per step of each group of GPU solvers, every group's `batch`
 /// steps recorded into one encoder and submitted once; medians of samples
 /// taken group by group in turn.
 fn gpu_times(ctx: &GpuContext, groups: &mut [Vec<GpuSolver>], batch: u32) -> Vec<f64> {
     let mut times = vec![Vec::new(); groups.len()];
-    for _ in 0..samples() {
+    for _ in 0..common::samples() {
         for (group, t) in groups.iter_mut().zip(&mut times) {
             let start = Instant::now();
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -87,14 +73,14 @@ fn gpu_times(ctx: &GpuContext, groups: &mut [Vec<GpuSolver>], batch: u32) -> Vec
             t.push(start.elapsed().as_secs_f64() / f64::from(batch));
         }
     }
-    times.into_iter().map(middle).collect()
+    times.into_iter().map(common::middle).collect()
 }
 
 /// Seconds per step of each group of CPU `f32` solvers (a group's solvers
 /// stepped one after the other), medians of single steps taken in turn.
 fn cpu_times(groups: &mut [Vec<CpuSolver<f32>>]) -> Vec<f64> {
     let mut times = vec![Vec::new(); groups.len()];
-    for _ in 0..samples() {
+    for _ in 0..common::samples() {
         for (group, t) in groups.iter_mut().zip(&mut times) {
             let start = Instant::now();
             for c in group.iter_mut() {
@@ -103,7 +89,7 @@ fn cpu_times(groups: &mut [Vec<CpuSolver<f32>>]) -> Vec<f64> {
             t.push(start.elapsed().as_secs_f64());
         }
     }
-    times.into_iter().map(middle).collect()
+    times.into_iter().map(common::middle).collect()
 }
 
 /// The solvers of a row: the two cloths apart, then their world, under

@@ -58,6 +58,7 @@ pub mod render;
 pub mod render_mesh;
 pub mod scene;
 pub mod sdf;
+pub mod self_collision;
 mod stats;
 pub mod world;
 

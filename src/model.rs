@@ -550,7 +550,7 @@ pub struct Model {
     pub cloth_starts: Vec<u32>,
     /// Each cloth's grid, `[columns, rows]`, in `cloth_starts` order
     /// (`None` for a cloth of another shape): what the implicit CG's
-    /// coarse levels aggregate ([`crate::aggregation`]).
+    /// coarse levels aggregate (`src/aggregation.rs`).
     pub cloth_grids: Vec<Option<[usize; 2]>>,
 }
 

@@ -155,11 +155,21 @@ pub struct ImplicitParams {
     pub coarse_levels: bool,
 }
 
+/// Largest free-particle count for which [`FilterMethod::Auto`] picks the
+/// dense filter, on either backend: a dense `W` of this size is 16 MiB in
+/// `f32` (32 MiB in `f64`). This is the GPU's crossover — there a dense
+/// product is one fully parallel pass and a triangular solve is sequential
+/// — and the CPU follows it so its `f32` mirror applies the filter as the
+/// GPU does. On the CPU alone the banded factor is faster at every size
+/// (`docs/performance.md`, "Dense or banded filter"). The article's sizes
+/// (15², 25², 33²) all stay dense.
+pub const DENSE_FILTER_MAX_PARTICLES: usize = 1 << 11;
+
 /// How the semi-implicit integrator applies its constant filter `W`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum FilterMethod {
     /// Dense when the free particle count is at most
-    /// [`crate::cpu::DENSE_FILTER_MAX_PARTICLES`], banded otherwise.
+    /// [`DENSE_FILTER_MAX_PARTICLES`], banded otherwise.
     Auto,
     /// The explicit inverse `W`, `N²` numbers: the article's method.
     Dense,
@@ -168,6 +178,17 @@ pub enum FilterMethod {
 }
 
 impl FilterMethod {
+    /// Whether the filter is dense for this many free particles, on either
+    /// backend (`Auto`: up to [`DENSE_FILTER_MAX_PARTICLES`]; the GPU also
+    /// needs the matrix to fit its buffers, else it solves by CG).
+    pub fn is_dense(self, free: usize) -> bool {
+        match self {
+            FilterMethod::Dense => true,
+            FilterMethod::Banded => false,
+            FilterMethod::Auto => free <= DENSE_FILTER_MAX_PARTICLES,
+        }
+    }
+
     /// The scene-file spelling.
     pub fn as_str(self) -> &'static str {
         match self {
@@ -240,6 +261,63 @@ pub struct PinTarget {
     pub position: glam::Vec3,
 }
 
+/// How many steps of `dt` \[s\] a frame of `frame_seconds` \[s\] spans
+/// (the nearest whole number, at least one): the steps after which the
+/// pins are on their targets. Both solvers' `set_pin_targets` take it.
+pub fn frame_steps(frame_seconds: f64, dt: f64) -> Result<u32> {
+    let steps = (frame_seconds / dt).round();
+    if frame_seconds.is_finite()
+        && frame_seconds > 0.0
+        && steps < f64::from(crate::kernel_config::MAX_FRAME_STEPS)
+    {
+        Ok(steps.max(1.0) as u32)
+    } else {
+        Err(Error::InvalidParameter {
+            key: "frame_seconds".into(),
+            allowed: format!(
+                "a time > 0 s of fewer than {} steps of {dt} s",
+                crate::kernel_config::MAX_FRAME_STEPS
+            ),
+            got: frame_seconds.to_string(),
+        })
+    }
+}
+
+/// Checks pin targets against the particles: each index below `count`,
+/// each particle pinned, each position finite. Nothing is changed when
+/// one is refused.
+pub fn check_pin_targets(
+    targets: &[PinTarget],
+    pinned: impl Fn(usize) -> bool,
+    count: usize,
+) -> Result<()> {
+    for t in targets {
+        let got = t.particle.to_string();
+        if t.particle >= count {
+            return Err(Error::InvalidParameter {
+                key: "pin target particle".into(),
+                allowed: format!("an index below {count}"),
+                got,
+            });
+        }
+        if !pinned(t.particle) {
+            return Err(Error::InvalidParameter {
+                key: "pin target particle".into(),
+                allowed: "a pinned particle (set_pinned(p, true) first)".into(),
+                got,
+            });
+        }
+        if !t.position.is_finite() {
+            return Err(Error::InvalidParameter {
+                key: format!("pin target position of particle {}", t.particle),
+                allowed: "finite coordinates (m)".into(),
+                got: format!("{:?}", t.position.to_array()),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// A uniform wind acting on the cloth's triangles.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Wind {
@@ -259,7 +337,7 @@ pub struct Wind {
 pub struct SelfCollision {
     /// The distance \[m\] two layers keep, `> 0`; `None`: the shortest
     /// rest length of a stretch spring (the cloth's rest spacing), see
-    /// `cpu::self_collision::thickness`.
+    /// `self_collision::thickness`.
     pub thickness: Option<f64>,
     /// Coulomb friction coefficient between layers (dimensionless, `≥ 0`).
     pub friction: f64,
@@ -674,5 +752,14 @@ mod tests {
         let message = p.validate().expect_err("negative dt").to_string();
         assert!(message.ends_with("got -1e-300"), "{message}");
         assert!(!message.contains("finite"), "{message}");
+    }
+
+    #[test]
+    fn a_frame_spans_the_nearest_whole_number_of_steps() {
+        assert_eq!(frame_steps(1.0 / 60.0, 1.0 / 600.0).ok(), Some(10));
+        assert_eq!(frame_steps(1e-9, 1.0 / 600.0).ok(), Some(1));
+        assert!(frame_steps(0.0, 0.01).is_err());
+        assert!(frame_steps(f64::NAN, 0.01).is_err());
+        assert!(frame_steps(1e30, 0.01).is_err());
     }
 }

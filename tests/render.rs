@@ -315,33 +315,52 @@ fn left_half() -> wgcloth::mesh::Mesh {
         .expect("a valid mesh")
 }
 
-#[test]
-fn a_render_mesh_is_drawn_in_place_of_the_cloth() {
+/// The first frame of `scene` (`model` its model) as `camera` sees it,
+/// each cloth in its colour, with `mesh` drawn as a render mesh embedded
+/// on cloth `cloth` of the world (`None`: on the whole model): its RGBA
+/// bytes.
+fn frame_with_render_mesh(
+    scene: &Scene,
+    model: &wgcloth::Model,
+    mesh: &wgcloth::mesh::Mesh,
+    cloth: Option<usize>,
+    camera: &Camera,
+) -> Vec<u8> {
     use wgcloth::gpu::{GpuRenderMesh, SkinLayout};
     use wgcloth::render_mesh::{Embedding, RenderMesh};
     let ctx = gpu_common::gpu();
-    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
-    let model = scene.model().expect("the model");
-    let solver = GpuSolver::new(&ctx.device, &ctx.queue, &model, &scene.params)
+    let solver = GpuSolver::new(&ctx.device, &ctx.queue, model, &scene.params)
         .unwrap_or_else(|e| panic!("GPU solver: {e}"));
-    let half = RenderMesh::from_mesh(
-        Path::new("left half"),
-        &left_half(),
+    let render = RenderMesh::from_mesh(
+        Path::new("render mesh"),
+        mesh,
         1.0,
         wgcloth::glam::DVec3::ZERO,
     );
-    let embedding = Embedding::new(&model, &half, 0.01).expect("embeds");
+    let embedding = match cloth {
+        Some(c) => Embedding::on_cloth(model, c, &render, 0.01),
+        None => Embedding::new(model, &render, 0.01),
+    }
+    .expect("embeds");
     let mesh =
         GpuRenderMesh::new(&solver, &embedding, SkinLayout::POSITION_NORMAL).expect("render mesh");
-    let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
-    let mut renderer = Renderer::new(&ctx.device, &ctx.queue, &scene.params, &camera);
+    let mut renderer = Renderer::new(&ctx.device, &ctx.queue, &scene.params, camera);
+    renderer.set_cloth_colors(&ctx.device, model, &scene.cloth_colors());
     renderer.set_render_meshes(vec![mesh]).expect("its layout");
     let target = FrameTarget::new(&ctx.device, WIDTH, HEIGHT);
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     solver.encode_normals(&mut encoder);
     renderer.encode_frame(&mut encoder, &solver, &target);
     ctx.queue.submit([encoder.finish()]);
-    let rgba = render::read_rgba(&ctx.device, &ctx.queue, &target.color).expect("read back");
+    render::read_rgba(&ctx.device, &ctx.queue, &target.color).expect("read back")
+}
+
+#[test]
+fn a_render_mesh_is_drawn_in_place_of_the_cloth() {
+    let scene = Scene::from_toml(SCENE, Path::new("render-test.toml")).expect("the test scene");
+    let model = scene.model().expect("the model");
+    let camera = Camera::framing(&model, &scene.params, WIDTH as f32 / HEIGHT as f32);
+    let rgba = frame_with_render_mesh(&scene, &model, &left_half(), None, &camera);
     // The interior particles: cloth where the render mesh lies (x ≤ −0.2),
     // none where only the cloth would be (x ≥ 0.2).
     let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
@@ -440,36 +459,17 @@ fn second_cloth_left_half() -> wgcloth::mesh::Mesh {
 /// first's colour draws the second's half green).
 #[test]
 fn a_render_mesh_on_one_cloth_of_a_world_replaces_that_cloth_alone() {
-    use wgcloth::gpu::{GpuRenderMesh, SkinLayout};
     use wgcloth::render_mesh::{Embedding, RenderMesh};
-    let ctx = gpu_common::gpu();
     let scene = Scene::from_toml(WORLD, Path::new("world.toml")).expect("the world");
     let model = scene.model().expect("the model");
-    let solver = GpuSolver::new(&ctx.device, &ctx.queue, &model, &scene.params)
-        .unwrap_or_else(|e| panic!("GPU solver: {e}"));
-    let half = RenderMesh::from_mesh(
-        Path::new("second cloth's left half"),
-        &second_cloth_left_half(),
-        1.0,
-        wgcloth::glam::DVec3::ZERO,
-    );
-    let embedding = Embedding::on_cloth(&model, 1, &half, 0.01).expect("embeds");
+    let half = second_cloth_left_half();
+    let render = RenderMesh::from_mesh(Path::new("half"), &half, 1.0, wgcloth::glam::DVec3::ZERO);
     assert!(
-        Embedding::on_cloth(&model, 0, &half, 0.01).is_err(),
+        Embedding::on_cloth(&model, 0, &render, 0.01).is_err(),
         "the mesh lies on the second cloth, not the first"
     );
-    let mesh =
-        GpuRenderMesh::new(&solver, &embedding, SkinLayout::POSITION_NORMAL).expect("render mesh");
     let camera = Camera::for_scene(&scene, &model, WIDTH as f32 / HEIGHT as f32);
-    let mut renderer = Renderer::new(&ctx.device, &ctx.queue, &scene.params, &camera);
-    renderer.set_cloth_colors(&ctx.device, &model, &scene.cloth_colors());
-    renderer.set_render_meshes(vec![mesh]).expect("its layout");
-    let target = FrameTarget::new(&ctx.device, WIDTH, HEIGHT);
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    solver.encode_normals(&mut encoder);
-    renderer.encode_frame(&mut encoder, &solver, &target);
-    ctx.queue.submit([encoder.finish()]);
-    let rgba = render::read_rgba(&ctx.device, &ctx.queue, &target.color).expect("read back");
+    let rgba = frame_with_render_mesh(&scene, &model, &half, Some(1), &camera);
     let rest: Vec<Vec3> = model.rest_positions.iter().map(|p| p.as_vec3()).collect();
     let mut checked = [0; 3];
     for p in interior(&rest[..81]) {

@@ -11,12 +11,12 @@ mod gpu_common;
 use common::{crossing_pairs, differing, edges};
 use gpu_common::agreement;
 use gpu_common::{folded_model, folded_positions, FOLD_SPACING as SPACING};
-use wgcloth::cpu::self_collision::{self, EXCLUDE_REST, STEP_CAP};
 use wgcloth::cpu::{CpuSolver, State};
 use wgcloth::glam::DVec3;
 use wgcloth::model::{ClothSpec, Corner, Model, Orientation, Pin};
 use wgcloth::params::{Ground, Integrator, Params, SelfCollision};
 use wgcloth::real::Vec3;
+use wgcloth::self_collision::{self, EXCLUDE_REST, STEP_CAP};
 use wgcloth::{Error, Real, Scene};
 
 /// The bound: no two particles the exclusion does not pair come

@@ -415,7 +415,7 @@ fn a_tube_sewn_from_two_panels_closes_its_seams() {
             .iter()
             .map(|seam| (x[seam.a as usize] - x[seam.b as usize]).length())
             .fold(0.0, f64::max);
-        let bound = match wgcloth::cpu::self_collision::thickness(&model, &s.params) {
+        let bound = match wgcloth::self_collision::thickness(&model, &s.params) {
             Ok(Some(t)) => SEAM_GAP.max(SEAM_GAP_CONTACT_THICKNESSES * t),
             _ => SEAM_GAP,
         };

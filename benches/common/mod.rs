@@ -115,3 +115,20 @@ pub fn cpu_f32_median(model: &Model, params: &Params, samples: usize) -> f64 {
         t.elapsed().as_secs_f64()
     })
 }
+
+/// The median of `times` (not empty).
+#[allow(dead_code, reason = "the benches that time in turn take medians")]
+pub fn middle(mut times: Vec<f64>) -> f64 {
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+/// Samples per median of the benches that time solvers in turn.
+#[allow(dead_code, reason = "the benches that time in turn take medians")]
+pub fn samples() -> usize {
+    if quick() {
+        3
+    } else {
+        7
+    }
+}

@@ -21,10 +21,9 @@
 //! host would build them before uploading — and applied in the solver's
 //! precision.
 
-use super::{System, DENSE_FILTER_MAX_PARTICLES};
+use super::System;
 use crate::budget::{try_collect, try_vec};
 use crate::error::{Error, Result};
-use crate::params::FilterMethod;
 use crate::real::{Real, Vec3};
 
 /// The free particles in filter order and the matrix `A` in sparse form.
@@ -102,16 +101,6 @@ impl FilterSystem {
         match grid {
             Some((nx, ny)) if nx > ny => (p % nx) * ny + p / nx,
             _ => p,
-        }
-    }
-
-    /// Whether `method` means the dense filter for this many free
-    /// particles (`Auto`: up to [`DENSE_FILTER_MAX_PARTICLES`]).
-    pub fn dense(method: FilterMethod, free: usize) -> bool {
-        match method {
-            FilterMethod::Dense => true,
-            FilterMethod::Banded => false,
-            FilterMethod::Auto => free <= DENSE_FILTER_MAX_PARTICLES,
         }
     }
 

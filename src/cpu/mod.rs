@@ -54,16 +54,8 @@ use filter::{BandedFilter, ConstantFilter, DenseFilter, FilterSystem};
 use implicit::{Filter, SpringBlock};
 use mat3::Sym3;
 
-/// Largest free-particle count for which [`FilterMethod::Auto`] picks the
-/// dense filter: a dense `W` of this size is 16 MiB in `f32` (32 MiB in
-/// `f64`). This is the GPU's crossover — there a dense product is one fully
-/// parallel pass and a triangular solve is sequential — and the CPU follows
-/// it so its `f32` mirror applies the filter as the GPU does. On the CPU
-/// alone the banded factor is faster at every size (`docs/performance.md`,
-/// "Dense or banded filter"). The article's sizes (15², 25², 33²) all stay dense.
-pub const DENSE_FILTER_MAX_PARTICLES: usize = 1 << 11;
-
 pub use crate::kernel_config::REDUCTION_BLOCK;
+pub use crate::params::DENSE_FILTER_MAX_PARTICLES;
 
 /// Positions and velocities: what a step changes.
 #[derive(Clone, Debug, PartialEq)]
@@ -261,14 +253,14 @@ pub struct System<R> {
     /// Semi-implicit torque compensation on/off.
     pub torque_compensation: bool,
     /// Self-collision, `None` when off.
-    pub self_collision: Option<self_collision::SelfCollisionR<R>>,
+    pub self_collision: Option<crate::self_collision::SelfCollisionR<R>>,
     /// The linear bending operator, `None` without one.
     pub bending: Option<BendingR<R>>,
 }
 
 impl<R: Real> System<R> {
     /// The model and parameters in precision `R`; self-collision (when
-    /// `params` has it) at the thickness [`self_collision::thickness`]
+    /// `params` has it) at the thickness [`crate::self_collision::thickness`]
     /// gives, the default where that refuses (the solvers call it first).
     pub fn new(model: &Model, params: &Params) -> Self {
         let springs = model
@@ -347,7 +339,7 @@ impl<R: Real> System<R> {
             cg_tolerance: params.implicit.tolerance,
             cg_max_iterations: params.implicit.max_iterations,
             torque_compensation: params.semi_implicit.torque_compensation,
-            self_collision: self_collision::SelfCollisionR::of(model, params),
+            self_collision: crate::self_collision::SelfCollisionR::of(model, params),
             bending: model.bending.as_ref().map(|b| BendingR::new(b, params.dt)),
         }
     }
@@ -639,10 +631,10 @@ impl<R: Real> CpuSolver<R> {
     pub fn new(model: &Model, params: &Params) -> Result<Self> {
         params.validate()?;
         crate::material::check_explicit_bending(model, params)?;
-        self_collision::thickness(model, params)?;
+        crate::self_collision::thickness(model, params)?;
         let counts = Counts::of_model(model);
         let semi = params.integrator == Integrator::SemiImplicit;
-        let dense = FilterSystem::dense(params.semi_implicit.filter, counts.free as usize);
+        let dense = params.semi_implicit.filter.is_dense(counts.free as usize);
         let filter = if semi {
             budget::filter_bytes::<R>(counts, budget::filter_bandwidth(model), dense)
         } else {
@@ -704,7 +696,7 @@ impl<R: Real> CpuSolver<R> {
     /// changes one of those — never per step.
     fn build_filter(&mut self) -> Result<()> {
         let fs = FilterSystem::new(&self.sys, self.sys.grid);
-        let dense = FilterSystem::dense(self.filter_method, fs.len());
+        let dense = self.filter_method.is_dense(fs.len());
         let counts = Counts {
             particles: self.sys.mass.len() as u64,
             springs: self.sys.springs.len() as u64,
@@ -958,9 +950,9 @@ impl<R: Real> CpuSolver<R> {
     /// range, an unpinned particle or a non-finite position is an error
     /// naming it, and then nothing is changed.
     pub fn set_pin_targets(&mut self, targets: &[PinTarget], frame_seconds: f64) -> Result<()> {
-        let steps = motion::frame_steps(frame_seconds, self.sys.dt.to_f64())?;
+        let steps = crate::params::frame_steps(frame_seconds, self.sys.dt.to_f64())?;
         let inv_mass = &self.sys.inv_mass;
-        motion::check_targets(targets, |p| inv_mass[p] <= R::ZERO, inv_mass.len())?;
+        crate::params::check_pin_targets(targets, |p| inv_mass[p] <= R::ZERO, inv_mass.len())?;
         let end = self.work.clock.wrapping_add(steps);
         for t in targets {
             self.work.pin_goal[t.particle] = motion::PinGoal {

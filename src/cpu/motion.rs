@@ -19,8 +19,6 @@
 //! side see.
 
 use super::{System, Workspace};
-use crate::error::{Error, Result};
-use crate::params::PinTarget;
 use crate::real::{Real, Vec3};
 
 pub use crate::kernel_config::MAX_FRAME_STEPS;
@@ -85,70 +83,5 @@ pub(crate) fn move_pins<R: Real>(
         if sys.inv_mass[p] <= R::ZERO {
             (x[p], v[p]) = pin_step(sys, &w.pin_goal[p], w.clock, x[p]);
         }
-    }
-}
-
-/// How many steps of `dt` \[s\] a frame of `frame_seconds` \[s\] spans
-/// (the nearest whole number, at least one): the steps after which the
-/// pins are on their targets.
-pub fn frame_steps(frame_seconds: f64, dt: f64) -> Result<u32> {
-    let steps = (frame_seconds / dt).round();
-    if frame_seconds.is_finite() && frame_seconds > 0.0 && steps < f64::from(MAX_FRAME_STEPS) {
-        Ok(steps.max(1.0) as u32)
-    } else {
-        Err(Error::InvalidParameter {
-            key: "frame_seconds".into(),
-            allowed: format!("a time > 0 s of fewer than {MAX_FRAME_STEPS} steps of {dt} s"),
-            got: frame_seconds.to_string(),
-        })
-    }
-}
-
-/// Checks pin targets against the particles: each index below `count`,
-/// each particle pinned, each position finite. Nothing is changed when
-/// one is refused.
-pub fn check_targets(
-    targets: &[PinTarget],
-    pinned: impl Fn(usize) -> bool,
-    count: usize,
-) -> Result<()> {
-    for t in targets {
-        let got = t.particle.to_string();
-        if t.particle >= count {
-            return Err(Error::InvalidParameter {
-                key: "pin target particle".into(),
-                allowed: format!("an index below {count}"),
-                got,
-            });
-        }
-        if !pinned(t.particle) {
-            return Err(Error::InvalidParameter {
-                key: "pin target particle".into(),
-                allowed: "a pinned particle (set_pinned(p, true) first)".into(),
-                got,
-            });
-        }
-        if !t.position.is_finite() {
-            return Err(Error::InvalidParameter {
-                key: format!("pin target position of particle {}", t.particle),
-                allowed: "finite coordinates (m)".into(),
-                got: format!("{:?}", t.position.to_array()),
-            });
-        }
-    }
-    Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_frame_spans_the_nearest_whole_number_of_steps() {
-        assert_eq!(frame_steps(1.0 / 60.0, 1.0 / 600.0).ok(), Some(10));
-        assert_eq!(frame_steps(1e-9, 1.0 / 600.0).ok(), Some(1));
-        assert!(frame_steps(0.0, 0.01).is_err());
-        assert!(frame_steps(f64::NAN, 0.01).is_err());
-        assert!(frame_steps(1e30, 0.01).is_err());
     }
 }

@@ -6,7 +6,7 @@
 //! before the colliders:
 //!
 //! 1. **Build** a uniform spatial hash grid of cells a little over two
-//!    thicknesses wide ([`CELL_THICKNESSES`]): each particle's integer cell is hashed
+//!    thicknesses wide ([`CELL_THICKNESSES`](crate::self_collision::CELL_THICKNESSES)): each particle's integer cell is hashed
 //!    into a table of a power-of-two size at least the particle count; the
 //!    particles are counted per bucket, the counts prefix-summed, and the
 //!    particles scattered so that each bucket's run lists its particles in
@@ -37,7 +37,7 @@
 //!    relative motion, at any `friction` — where their sum over several
 //!    contacts sliding alike would reverse the slide and add energy.
 //! 3. **Exclusion**: a pair whose *rest* distance is below
-//!    [`EXCLUDE_REST`] `× thickness` never collides (the rest positions
+//!    [`EXCLUDE_REST`](crate::self_collision::EXCLUDE_REST) `× thickness` never collides (the rest positions
 //!    are kept in units of that radius, so the test is `|Δ|² < 1`). Rest distance rather
 //!    than mesh rings because it needs no per-particle list (one rest
 //!    position per particle) and is the same rule on grids and meshes; the
@@ -48,7 +48,8 @@
 //!    which the seam holds together, do not push each other apart.
 //! 4. **Tunnelling guard**: at the end, each free particle's displacement
 //!    over the step *relative to a reference particle's* (see
-//!    [`reference_particle`]) is capped at [`STEP_CAP`] `× thickness`, so
+//!    [`reference_particle`](crate::self_collision::reference_particle)) is capped at
+//!    [`STEP_CAP`](crate::self_collision::STEP_CAP) `× thickness`, so
 //!    two free particles close the distance between them by at most one
 //!    thickness per step (their displacements differ by at most twice the
 //!    cap): a pair found at least a thickness apart can meet but not pass
@@ -63,223 +64,11 @@
 
 use super::{State, System, Workspace};
 use crate::budget::try_vec;
-use crate::error::{Error, Result};
-use crate::model::Model;
-use crate::params::{format_number, Params, SelfCollision, SpringKind};
+use crate::error::Result;
 use crate::real::{Real, Vec3};
-
-/// Pairs closer than this many thicknesses at rest never collide: see the
-/// module's "Exclusion".
-pub const EXCLUDE_REST: f64 = 2.0;
-
-/// The largest displacement of a particle over a step, in thicknesses:
-/// two particles approach by at most one thickness per step (see the
-/// module's "Tunnelling guard").
-pub const STEP_CAP: f64 = 0.5;
-
-/// The largest thickness, in default thicknesses: beyond, the exclusion
-/// radius ([`EXCLUDE_REST`] thicknesses) spans more than eight rest
-/// spacings, so tight folds go unseen, and each grid cell holds tens of
-/// particles of one layer (the cost grows with its square).
-pub const MAX_THICKNESS_DEFAULTS: f64 = 4.0;
-
-/// How far (relative) a `self_collision.thickness` may pass its bounds:
-/// the bounds come from rest positions (a 0.3 m cloth of 4 × 4 particles
-/// has its spacing computed as 0.09999999999999998 m, its largest
-/// thickness 0.3999999999999999 m), a few ulps (1e-16) off the round
-/// value a user reads in the docs and writes (0.4); 1e-9 admits that
-/// rounding and no thickness anyone means differently.
-pub const THICKNESS_BOUND_TOLERANCE: f64 = 1e-9;
-
-/// The grid's cell size in thicknesses: a little over two, so that every
-/// point within a thickness of a particle lies in the 2 × 2 × 2 cells its
-/// respond visits however the cell's inverse size is rounded — 8 bucket
-/// look-ups per particle and pass where cells one thickness wide need 27,
-/// for about four times the particles per cell of a flat layer.
-pub const CELL_THICKNESSES: f64 = 2.0 * (1.0 + 1e-4);
+use crate::self_collision::SelfCollisionR;
 
 const HASH: [u32; 3] = crate::kernel_config::SELF_COLLISION_HASH;
-
-/// Self-collision in the solver's precision, with what the model fixes.
-#[derive(Clone, Debug)]
-#[doc(hidden)]
-pub struct SelfCollisionR<R> {
-    /// Distance two layers keep \[m\].
-    pub thickness: R,
-    /// Coulomb friction coefficient between layers.
-    pub friction: R,
-    /// Jacobi passes per step.
-    pub iterations: u32,
-    /// Largest displacement per step relative to the reference particle's
-    /// \[m\]: `STEP_CAP × thickness`.
-    pub cap: R,
-    /// The reference particle of the cap ([`reference_particle`]).
-    pub reference: usize,
-    /// The inverse of the cell size \[1/m\]: `1 / (CELL_THICKNESSES ×
-    /// thickness)`.
-    pub inv_cell: R,
-    /// Rest positions in units of the exclusion radius
-    /// (`EXCLUDE_REST × thickness`), the cloths laid apart: a pair less
-    /// than 1 apart never collides ([`excluded`]).
-    pub rest: Vec<Vec3<R>>,
-    /// Each particle's seam partner's `rest` (its own where it is on no
-    /// seam; see [`crate::world::ExclusionRest`]).
-    pub seam_rest: Vec<Vec3<R>>,
-    /// Hash table size (a power of two ≥ particles, at least 2).
-    pub table: usize,
-}
-
-/// The hash table size for `particles`: the power of two at least the
-/// count (and at least 2: the GPU keeps two buckets' runs per entry), so
-/// that most buckets hold at most one cell. Which bucket a cell falls in
-/// changes no result: a run's other cells are skipped.
-pub fn table_size(particles: usize) -> usize {
-    particles.max(2).next_power_of_two()
-}
-
-/// The shortest rest length \[m\] of a stretch spring (of any spring if
-/// the model has no stretch springs); `None` without springs.
-fn rest_spacing(model: &Model) -> Option<f64> {
-    let stretch = &model.springs[model.kind_ranges[SpringKind::Stretch.index()].clone()];
-    let springs = if stretch.is_empty() {
-        &model.springs[..]
-    } else {
-        stretch
-    };
-    springs
-        .iter()
-        .map(|s| s.rest)
-        .filter(|r| *r > 0.0)
-        .min_by(f64::total_cmp)
-}
-
-/// The largest in-plane gap \[m\] of the rest triangles: the farthest a
-/// point of a triangle lies from its nearest corner — the circumradius of
-/// a triangle without an obtuse angle, half the longest edge (a lower
-/// bound) of an obtuse one. A particle whose thickness is below it can
-/// pass through the triangle's middle untouched.
-pub fn triangle_gap(model: &Model) -> f64 {
-    let x = &model.rest_positions;
-    let mut gap: f64 = 0.0;
-    for t in &model.triangles {
-        let [a, b, c] = t.map(|i| x[i as usize]);
-        let mut e2 = [
-            (b - c).length_squared(),
-            (c - a).length_squared(),
-            (a - b).length_squared(),
-        ];
-        e2.sort_by(f64::total_cmp);
-        let g = if e2[2] > e2[0] + e2[1] {
-            0.5 * e2[2].sqrt()
-        } else {
-            let area2 = (b - a).cross(c - a).length();
-            if area2 > 0.0 {
-                (e2[0] * e2[1] * e2[2]).sqrt() / (2.0 * area2)
-            } else {
-                0.5 * e2[2].sqrt()
-            }
-        };
-        gap = gap.max(g);
-    }
-    gap
-}
-
-/// The default thickness \[m\]: the cloth's rest spacing (the shortest
-/// stretch spring), or the largest triangle gap where that is larger, so
-/// that no particle slips through a rest triangle.
-pub fn default_thickness(model: &Model) -> Option<f64> {
-    rest_spacing(model).map(|h| h.max(triangle_gap(model)))
-}
-
-/// The thickness \[m\] `params` give `model`, checked against it: at least
-/// the largest triangle gap ([`triangle_gap`]; a thinner one lets particles
-/// through the cloth) and at most [`MAX_THICKNESS_DEFAULTS`] default
-/// thicknesses. `Ok(None)` without self-collision. The error names
-/// `self_collision.thickness` and what this model allows.
-pub fn thickness(model: &Model, params: &Params) -> Result<Option<f64>> {
-    let Some(c) = &params.self_collision else {
-        return Ok(None);
-    };
-    let key = "self_collision.thickness";
-    let Some(default) = default_thickness(model) else {
-        return Err(Error::InvalidParameter {
-            key: "self_collision".into(),
-            allowed: "a cloth with springs (the thickness derives from their rest lengths)".into(),
-            got: "a cloth without springs".into(),
-        });
-    };
-    let Some(t) = c.thickness else {
-        return Ok(Some(default));
-    };
-    let (low, high) = (triangle_gap(model), MAX_THICKNESS_DEFAULTS * default);
-    let slack = 1.0 + THICKNESS_BOUND_TOLERANCE;
-    if t * slack < low || t > high * slack {
-        return Err(Error::InvalidParameter {
-            key: key.into(),
-            allowed: format!(
-                "{} ≤ thickness ≤ {} (m, each to {} relative) for this cloth: at least its \
-                 largest rest triangle's gap (a particle slips through a thinner one), at most \
-                 {} × the default {} (the rest spacing)",
-                format_number(low),
-                format_number(high),
-                format_number(THICKNESS_BOUND_TOLERANCE),
-                MAX_THICKNESS_DEFAULTS,
-                format_number(default)
-            ),
-            got: format_number(t),
-        });
-    }
-    Ok(Some(t))
-}
-
-impl<R: Real> SelfCollisionR<R> {
-    /// Self-collision of `model` under `params`, at the thickness they give
-    /// it (the default where theirs is out of range: a solver refuses that
-    /// first, see [`thickness`]); `None` without self-collision or springs.
-    pub fn of(model: &Model, params: &Params) -> Option<Self> {
-        let c = params.self_collision.as_ref()?;
-        let t = thickness(model, params)
-            .ok()
-            .flatten()
-            .or_else(|| default_thickness(model))?;
-        Some(SelfCollisionR::new(model, c, t))
-    }
-
-    /// Self-collision of `model` with `c` at `thickness` \[m\].
-    pub fn new(model: &Model, c: &SelfCollision, thickness: f64) -> Self {
-        let exclusion = crate::world::exclusion_rest(model, EXCLUDE_REST * thickness);
-        let convert = |v: Vec<glam::DVec3>| v.into_iter().map(Vec3::from_f64).collect();
-        SelfCollisionR {
-            thickness: R::from_f64(thickness),
-            friction: R::from_f64(c.friction),
-            iterations: c.iterations,
-            cap: R::from_f64(STEP_CAP * thickness),
-            reference: reference_particle(model),
-            inv_cell: R::from_f64(1.0 / (CELL_THICKNESSES * thickness)),
-            rest: convert(exclusion.own),
-            seam_rest: convert(exclusion.seam),
-            table: table_size(model.particle_count()),
-        }
-    }
-}
-
-/// The particle whose displacement the cap is relative to: the free
-/// particle nearest the rest positions' centroid, which moves with the
-/// cloth as a whole (falling, or carried by its pins: a pinned particle
-/// would not do, as the explicit and semi-implicit steps move the pins
-/// after self-collision); 0 for a cloth without a free particle.
-pub fn reference_particle(model: &Model) -> usize {
-    let x = &model.rest_positions;
-    let centroid = x.iter().copied().sum::<glam::DVec3>() / (x.len().max(1) as f64);
-    (0..x.len())
-        .filter(|&p| !model.pinned[p])
-        .min_by(|&a, &b| {
-            (x[a] - centroid)
-                .length_squared()
-                .total_cmp(&(x[b] - centroid).length_squared())
-        })
-        .unwrap_or(0)
-}
 
 /// The grid and scratch of self-collision, allocated once per solver.
 #[derive(Clone, Debug)]

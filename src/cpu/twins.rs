@@ -70,7 +70,8 @@ pub mod semi_implicit {
 /// `_scatter` and `_rank` together), `bucket`, `pass` (of
 /// `self_collision_respond`).
 pub mod self_collision {
-    pub use crate::cpu::self_collision::{bucket, build, pass, Grid, SelfCollisionR};
+    pub use crate::cpu::self_collision::{bucket, build, pass, Grid};
+    pub use crate::self_collision::SelfCollisionR;
 }
 
 /// The torque compensation's twins.

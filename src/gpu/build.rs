@@ -15,13 +15,13 @@ use super::solver::{
 };
 use crate::aggregation::Aggregation;
 use crate::budget::{try_collect, try_with_capacity};
-use crate::cpu::self_collision::SelfCollisionR;
 use crate::diagnostics::Motion;
 use crate::error::Result;
 use crate::kernel_config::{integrator, partials, spring_work, status, work, WORKGROUP};
 use crate::model::Model;
 use crate::params::{Integrator, Params, SpringParams};
 use crate::sdf::{DistanceGrid, MeshCollider};
+use crate::self_collision::SelfCollisionR;
 use std::sync::Arc;
 
 /// Word offsets of the parts of `topo` after the spring adjacency offsets.

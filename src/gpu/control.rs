@@ -11,7 +11,6 @@ use super::solver::{
     check_collider_counts, compiled_features, gpu_capsules, gpu_mesh_colliders, gpu_spheres,
     scene_features, GpuSolver, NO_GROUND, NO_WIND,
 };
-use crate::cpu::motion;
 use crate::error::{Error, Result};
 use crate::model::Model;
 use crate::params::{Capsule, Ground, Params, PinTarget, Sphere, Wind};
@@ -75,8 +74,8 @@ pub(super) fn pin_goals(
     pinned: &[bool],
     steps_recorded: u64,
 ) -> Result<Vec<(usize, [f32; 4])>> {
-    let steps = motion::frame_steps(frame_seconds, dt)?;
-    motion::check_targets(targets, |p| pinned[p], pinned.len())?;
+    let steps = crate::params::frame_steps(frame_seconds, dt)?;
+    crate::params::check_pin_targets(targets, |p| pinned[p], pinned.len())?;
     let end = (steps_recorded as u32).wrapping_add(steps);
     Ok(targets
         .iter()
@@ -223,8 +222,10 @@ impl GpuSolver {
         for (p, goal) in goals {
             self.write_pin_goal(p, goal);
         }
-        let duration = f64::from(motion::frame_steps(frame_seconds, self.host_params.dt)?)
-            * self.host_params.dt;
+        let duration = f64::from(crate::params::frame_steps(
+            frame_seconds,
+            self.host_params.dt,
+        )?) * self.host_params.dt;
         self.motion.set_pin_targets(self.time(), targets, duration);
         Ok(())
     }

@@ -162,7 +162,7 @@ pub struct GpuParams {
     /// cloth's columns and rows, level-1 and level-2 aggregates; zero
     /// without them.
     pub coarse: [u32; 4],
-    /// The coarse levels' pieces (grid cloths, [`crate::aggregation::Piece`]),
+    /// The coarse levels' pieces (grid cloths, `aggregation::Piece`),
     /// three unused.
     pub coarse_world: [u32; 4],
     /// Two `vec4` a piece: columns, rows, first particle (within the

@@ -37,7 +37,7 @@ impl SemiFilter {
         let sys = crate::cpu::System::<f32>::new(model, params);
         let grid = model.grid.as_ref().map(|g| (g.nx, g.ny));
         let fs = FilterSystem::new(&sys, grid);
-        if !(fits && FilterSystem::dense(params.semi_implicit.filter, fs.len())) {
+        if !(fits && params.semi_implicit.filter.is_dense(fs.len())) {
             return Ok(SemiFilter {
                 count: 0,
                 words: Vec::new(),

@@ -18,7 +18,6 @@ use super::semi_filter::SemiFilter;
 use super::DrawRange;
 use crate::aggregation::Aggregation;
 use crate::budget::{self, Counts};
-use crate::cpu::filter::FilterSystem;
 use crate::diagnostics::Motion;
 use crate::error::{Error, Result};
 use crate::kernel_config::WORKGROUP;
@@ -536,11 +535,11 @@ impl GpuSolver {
         let device = kernels.device();
         params.validate()?;
         crate::material::check_explicit_bending(model, params)?;
-        crate::cpu::self_collision::thickness(model, params)?;
+        crate::self_collision::thickness(model, params)?;
         let counts = Counts::of_model(model);
         let limits = device.limits();
         let dense = params.integrator == Integrator::SemiImplicit
-            && FilterSystem::dense(params.semi_implicit.filter, counts.free as usize)
+            && params.semi_implicit.filter.is_dense(counts.free as usize)
             && (params.semi_implicit.filter != FilterMethod::Auto
                 || dense_fits(model, counts, params, &limits));
         let grid = GridLayout::of(model, params);

@@ -172,7 +172,7 @@ impl GpuBatch {
             |c, t| c.set_pin_targets(t, targets, frame_seconds),
         )?;
         let dt = self.dt(id)?;
-        let duration = f64::from(crate::cpu::motion::frame_steps(frame_seconds, dt)?) * dt;
+        let duration = f64::from(crate::params::frame_steps(frame_seconds, dt)?) * dt;
         self.moved(id, |m, t| m.set_pin_targets(t, targets, duration))
     }
 }

@@ -9,7 +9,6 @@ use super::ranges::{Extents, Region};
 use super::table::{self, Table};
 use super::DrawRange;
 use crate::budget::{self, Counts};
-use crate::cpu::filter::FilterSystem;
 use crate::error::{Error, Result};
 use crate::gpu::build::cloth_arrays;
 use crate::gpu::control::{pin, pin_goals};
@@ -31,7 +30,7 @@ use crate::stats::StepStats;
 /// of its own on the multi-dispatch path.
 pub(super) fn path(kernels: &GpuKernels, model: &Model, params: &Params) -> Result<StepPath> {
     params.validate()?;
-    crate::cpu::self_collision::thickness(model, params)?;
+    crate::self_collision::thickness(model, params)?;
     let counts = Counts::of_model(model);
     let dense = dense_filter(model, params);
     let limits = kernels.device().limits();
@@ -51,10 +50,10 @@ pub(super) fn path(kernels: &GpuKernels, model: &Model, params: &Params) -> Resu
 /// Whether the cloth is semi-implicit with the dense filter.
 fn dense_filter(model: &Model, params: &Params) -> bool {
     params.integrator == Integrator::SemiImplicit
-        && FilterSystem::dense(
-            params.semi_implicit.filter,
-            Counts::of_model(model).free as usize,
-        )
+        && params
+            .semi_implicit
+            .filter
+            .is_dense(Counts::of_model(model).free as usize)
 }
 
 /// The integrators present among `cloths`, and the union of their
