@@ -46,7 +46,6 @@ fn pair(scene: Scene) -> (Model, [Params; 2]) {
     (model, [scene.params, on])
 }
 
-
 /// Seconds per GPU step without and with self-collision, medians of runs
 /// of `batch` steps taken in turn.
 fn gpu_times(ctx: &GpuContext, model: &Model, params: &[Params; 2], batch: u32) -> [f64; 2] {

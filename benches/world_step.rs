@@ -53,7 +53,6 @@ fn joined(cloths: &[Model; 2], params: &Params) -> Model {
     world::join(parts, &params.springs, &[]).unwrap_or_else(|e| panic!("world: {e}"))
 }
 
-
 /// Seconds per step of each group of GPU solvers, every group's `batch`
 /// steps recorded into one encoder and submitted once; medians of samples
 /// taken group by group in turn.

@@ -264,6 +264,11 @@ impl Embedding {
                 mesh.triangles[t]
             )));
         }
+        // How a refusal names the cloth: by its index in a world.
+        let the_cloth = match cloth {
+            Some(c) if ranges.len() > 1 => format!("cloth {c}"),
+            _ => String::from("the cloth"),
+        };
         let x = &model.rest_positions;
         let normals = area_normals(x, &model.triangles);
         let cells = TriangleCells::new(x, &model.triangles, max_distance);
@@ -283,9 +288,9 @@ impl Embedding {
                 other => {
                     let how_far = match other {
                         Some((_, d)) => {
-                            format!("{d:.4} m from the cloth's nearest triangle, farther than")
+                            format!("{d:.4} m from {the_cloth}'s nearest triangle, farther than")
                         }
-                        None => String::from("farther from every triangle of the cloth than"),
+                        None => format!("farther from every triangle of {the_cloth} than"),
                     };
                     return Err(fail(format!(
                         "vertex {i} (0-based) at {p} lies {how_far} `max_distance` = \

@@ -435,7 +435,9 @@ fn a_world_s_render_meshes_follow_the_cloths_they_name() {
     let scene = wgcloth::Scene::load(&path).expect("the world");
     let e = scene.embeddings(&model).expect_err("refused");
     assert!(
-        e.to_string().contains("first.obj") && e.to_string().contains("max_distance"),
+        e.to_string().contains("first.obj")
+            && e.to_string().contains("cloth 1")
+            && e.to_string().contains("max_distance"),
         "{e}"
     );
     let _ = std::fs::remove_dir_all(&dir);
