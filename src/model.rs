@@ -443,6 +443,12 @@ pub struct Spring {
 pub const SEAM_FIXUP_LIMIT: f64 = 1e-3;
 
 impl Spring {
+    /// Whether it is a seam: a spring of zero rest length (see
+    /// [`crate::world`]).
+    pub fn is_seam(&self) -> bool {
+        self.rest == 0.0
+    }
+
     /// The spring `i–j` of `kind` at rest in `positions`: its rest length
     /// is their distance \[m\].
     pub fn at_rest(positions: &[DVec3], i: u32, j: u32, kind: SpringKind) -> Spring {
@@ -755,7 +761,7 @@ impl Model {
     pub fn fixup_limit(&self, s: usize, params: &Params) -> f64 {
         let sp = &self.springs[s];
         match params.spring(sp.kind).max_stretch {
-            Some(_) if params.fixup.iterations > 0 && sp.rest == 0.0 => {
+            Some(_) if params.fixup.iterations > 0 && sp.is_seam() => {
                 let apart = self.rest_positions[sp.i as usize] - self.rest_positions[sp.j as usize];
                 SEAM_FIXUP_LIMIT.max(apart.length())
             }
@@ -767,10 +773,17 @@ impl Model {
     /// The stiffness and damping of spring `s` under `params`: its own
     /// where the cloth is of a material, else its kind's.
     pub fn spring_constants(&self, s: usize, params: &Params) -> SpringConstants {
+        self.spring_constants_of(s, &params.springs)
+    }
+
+    /// The stiffness and damping of spring `s` where the spring kinds'
+    /// constants are `kinds`: its own where the cloth is of a material,
+    /// else its kind's.
+    pub fn spring_constants_of(&self, s: usize, kinds: &[SpringParams; 3]) -> SpringConstants {
         match self.own_constants.get(s) {
             Some(&own) => own,
             None => {
-                let kind = params.spring(self.springs[s].kind);
+                let kind = &kinds[self.springs[s].kind.index()];
                 SpringConstants {
                     k: kind.stiffness,
                     kd: kind.damping,

@@ -106,16 +106,7 @@ pub fn join(
         pinned.extend_from_slice(&model.pinned);
         triangles.extend(model.triangles.iter().map(|t| t.map(|p| p + base)));
         for (s, sp) in model.springs.iter().enumerate() {
-            let constants = match model.own_constants.get(s) {
-                Some(&own) => own,
-                None => {
-                    let kind = &kinds[sp.kind.index()];
-                    SpringConstants {
-                        k: kind.stiffness,
-                        kd: kind.damping,
-                    }
-                }
-            };
+            let constants = model.spring_constants_of(s, kinds);
             let moved = Spring {
                 i: sp.i + base,
                 j: sp.j + base,
@@ -265,7 +256,7 @@ pub fn exclusion_rest(model: &Model, radius: f64) -> ExclusionRest {
     }
     let mut partner: Vec<Option<usize>> = vec![None; x.len()];
     let stretch = &model.springs[model.kind_ranges[SpringKind::Stretch.index()].clone()];
-    for s in stretch.iter().filter(|s| s.rest == 0.0) {
+    for s in stretch.iter().filter(|s| s.is_seam()) {
         let (i, j) = (s.i as usize, s.j as usize);
         partner[i] = partner[i].or(Some(j));
         partner[j] = partner[j].or(Some(i));

@@ -210,6 +210,14 @@ fn a_world_of_grids_iterates_as_its_cloths_alone() {
     );
 }
 
+/// How far the widest of `seams` stands open at positions `x` \[m\].
+fn widest_seam(seams: &[wgcloth::world::SeamSpring], x: &[wgcloth::real::Vec3<f64>]) -> f64 {
+    seams
+        .iter()
+        .map(|seam| (x[seam.a as usize] - x[seam.b as usize]).length())
+        .fold(0.0, f64::max)
+}
+
 /// How far the explicit and semi-implicit world's cloths may end from
 /// each alone \[m\]: a rebuilt velocity `(x* − x) / dt` differs from `v*`
 /// by a few ulps of the step's displacement, a position by a few ulps of
@@ -410,11 +418,7 @@ fn a_tube_sewn_from_two_panels_closes_its_seams() {
         let steps = (TUBE_SECONDS / s.params.dt).round() as u64;
         let solver = run_checked_f64(&model, &s.params, steps);
         let x = &solver.state().x;
-        let gap = s
-            .seams
-            .iter()
-            .map(|seam| (x[seam.a as usize] - x[seam.b as usize]).length())
-            .fold(0.0, f64::max);
+        let gap = widest_seam(&s.seams, x);
         let bound = match wgcloth::self_collision::thickness(&model, &s.params) {
             Ok(Some(t)) => SEAM_GAP.max(SEAM_GAP_CONTACT_THICKNESSES * t),
             _ => SEAM_GAP,
@@ -594,11 +598,7 @@ fn the_skirt_keeps_its_seams_on_the_running_character() {
             }
         }
         let x = &s.state().x;
-        let gap = scene
-            .seams
-            .iter()
-            .map(|seam| (x[seam.a as usize] - x[seam.b as usize]).length())
-            .fold(0.0, f64::max);
+        let gap = widest_seam(&scene.seams, x);
         if t + frame <= SKIRT_STANDING + 1e-9 {
             standing = gap;
         } else {
@@ -639,10 +639,7 @@ fn the_fixup_holds_a_soft_seam_within_its_limit() {
             let mut widest = 0.0f64;
             for _ in 0..steps {
                 solver.step().expect("finite");
-                let x = &solver.state().x;
-                for seam in &s.seams {
-                    widest = widest.max((x[seam.a as usize] - x[seam.b as usize]).length());
-                }
+                widest = widest.max(widest_seam(&s.seams, &solver.state().x));
             }
             widest
         };

@@ -643,11 +643,10 @@ impl Renderer {
                         .iter()
                         .any(|m| m.follows().is_none_or(|f| f == c))
                 };
-                let shown: Vec<_> = (0..self.pieces.len())
+                let shown = (0..self.pieces.len())
                     .filter(|&c| !replaced(c))
-                    .map(|c| self.pieces[c].clone())
-                    .collect();
-                self.draw_pieces(pass, &range, &shown);
+                    .map(|c| self.pieces[c].clone());
+                self.draw_pieces(pass, &range, shown);
             }
         }
         self.draw_colliders(pass);
@@ -704,14 +703,14 @@ impl Renderer {
     /// A shaded cloth where `range` places it: its position and normal
     /// vertex buffers, its indices relative to its base vertex.
     fn draw_range(&self, pass: &mut wgpu::RenderPass<'_>, range: &DrawRange<'_>) {
-        self.draw_pieces(pass, range, &[(range.indices.clone(), 0)]);
+        self.draw_pieces(pass, range, [(range.indices.clone(), 0)]);
     }
 
     fn draw_pieces(
         &self,
         pass: &mut wgpu::RenderPass<'_>,
         range: &DrawRange<'_>,
-        pieces: &[(Range<u32>, u32)],
+        pieces: impl IntoIterator<Item = (Range<u32>, u32)>,
     ) {
         pass.set_pipeline(&self.cloth);
         pass.set_vertex_buffer(0, range.positions.slice(..));
@@ -719,7 +718,7 @@ impl Renderer {
         pass.set_vertex_buffer(2, self.tints.slice(..));
         pass.set_index_buffer(range.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
         for (indices, tint) in pieces {
-            pass.draw_indexed(indices.clone(), range.base_vertex, *tint..*tint + 1);
+            pass.draw_indexed(indices, range.base_vertex, tint..tint + 1);
         }
     }
 
