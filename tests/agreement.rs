@@ -3,11 +3,14 @@
 //! admit what hardware does.
 //!
 //! - **Red proofs.** Kernels changed as a bug would change them (a spring
-//!   term dropped, a neighbour's index shifted, `dt` one ulp high, a
+//!   term dropped, a neighbour's index shifted, `dt` 1 % high, a
 //!   damping coefficient 10⁻³ off, a term of the implicit CG's product
 //!   dropped) must fail the bounded tier against the mirror (the implicit
-//!   one its `f64` residual). They run the bounded tier whatever the policy, so they prove
-//!   the bounds on every adapter.
+//!   one its `f64` residual) without the increments' drift; `dt` one ulp
+//!   high must fail it by the drift where the adapter rounds as the mirror
+//!   does, the only adapters whose comparisons check the drift.
+//!   They run the bounded tier whatever the policy, so they prove the
+//!   bounds on every adapter.
 //! - **Admission.** A CPU mirror that fuses every product into the sum it
 //!   feeds (`gpu_common::fused`: what a hardware GPU may do to any `a·b + c`)
 //!   must pass the bounded tier against the unfused mirror, for every
@@ -72,6 +75,10 @@ struct Mutation {
     kernel: Kernel,
     find: &'static str,
     replace: &'static str,
+    /// Caught by the increments' drift alone, at this allowance (`None`:
+    /// caught without the drift, on every adapter); tried only where this
+    /// adapter's comparisons check the drift (`agreement::checked_drift`).
+    drift: Option<f64>,
 }
 
 /// The mutations every bounded comparison must catch.
@@ -83,6 +90,7 @@ const MUTATIONS: &[Mutation] = &[
         kernel: Kernel::ExplicitIntegrate,
         find: "for (var k = begin; k < end; k++) {\n        let e = topo(params.spring_adj_entries + k);",
         replace: "for (var k = begin + 1u; k < end; k++) {\n        let e = topo(params.spring_adj_entries + k);",
+        drift: None,
     },
     Mutation {
         what: "a neighbour's index shifted by one in the gather",
@@ -91,6 +99,7 @@ const MUTATIONS: &[Mutation] = &[
         kernel: Kernel::ExplicitIntegrate,
         find: "let e = topo(params.spring_adj_entries + k);",
         replace: "let e = topo(params.spring_adj_entries + min(k + 1u, end - 1u));",
+        drift: None,
     },
     Mutation {
         what: "dt one ulp high (2⁻²³ relative) in the integration",
@@ -99,6 +108,16 @@ const MUTATIONS: &[Mutation] = &[
         kernel: Kernel::ExplicitIntegrate,
         find: "params.dt",
         replace: "(params.dt * 1.00000012)",
+        drift: Some(agreement::DRIFT_SYSTEMATIC),
+    },
+    Mutation {
+        what: "dt 1 % high in the integration",
+        integrator: Integrator::Explicit,
+        damping: None,
+        kernel: Kernel::ExplicitIntegrate,
+        find: "params.dt",
+        replace: "(params.dt * 1.01)",
+        drift: None,
     },
     Mutation {
         what: "the damping coefficient 10⁻³ high",
@@ -107,6 +126,7 @@ const MUTATIONS: &[Mutation] = &[
         kernel: Kernel::SpringForces,
         find: "kd * rate",
         replace: "(kd * 1.001) * rate",
+        drift: None,
     },
     Mutation {
         what: "each spring's m mᵀ part dropped from the implicit CG's product",
@@ -115,6 +135,7 @@ const MUTATIONS: &[Mutation] = &[
         kernel: Kernel::CgApply,
         find: "let y = d * blk.w + blk.xyz * dot3(blk.xyz, d);",
         replace: "let y = d * blk.w;",
+        drift: None,
     },
 ];
 
@@ -154,13 +175,13 @@ fn the_bounded_tier_catches_each_mutation() {
             .unwrap_or_else(|e| panic!("kernels: {e}"));
         tuning.set_adaptive_cg_budget(false);
         let mut c = CpuSolver::<f32>::new(&model, &params).expect("CPU solver");
-        let verdict = agreement::check_reseeded(
-            m.what,
-            &mut g,
-            &mut c,
-            STEPS,
-            &agreement::step_bound(&params),
-        );
+        let mut bound = agreement::step_bound(&params);
+        if m.drift.is_some() && agreement::checked_drift(&bound).is_none() {
+            eprintln!("{}: this adapter's comparisons check no drift", m.what);
+            continue;
+        }
+        bound.drift = m.drift;
+        let verdict = agreement::check_reseeded(m.what, &mut g, &mut c, STEPS, &bound);
         match verdict {
             Err(e) => eprintln!("caught: {e}"),
             Ok(()) => panic!("{}: passed the bounded tier", m.what),

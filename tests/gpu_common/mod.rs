@@ -42,6 +42,50 @@ pub fn worst(gpu: &[Vec3], cpu: &[Vec3]) -> (f64, usize) {
         )
 }
 
+/// The bound of one step of `model` under `params` against the mirror
+/// re-seeded before it: [`agreement::step_bound`], or where the device
+/// solves the semi-implicit filter by CG (beyond the dense filter's size)
+/// and the mirror exactly, the implicit step's bound at that CG's
+/// tolerance.
+pub fn scene_bound(model: &Model, params: &Params) -> agreement::Bound {
+    let free = model.pinned.iter().filter(|&&p| !p).count();
+    if params.integrator == Integrator::SemiImplicit && !params.semi_implicit.filter.is_dense(free)
+    {
+        agreement::implicit_step(wgcloth::gpu::FILTER_CG_TOLERANCE)
+    } else {
+        agreement::step_bound(params)
+    }
+}
+
+/// Under the bounded policy, `steps` steps of the device `make` builds,
+/// each against the mirror of `model` re-seeded before it, within
+/// [`scene_bound`]; `None` under bits, where the caller compares its own
+/// way.
+pub fn bounded_steps<S: agreement::Stepper>(
+    what: &str,
+    make: impl FnOnce() -> S,
+    model: &Model,
+    params: &Params,
+    steps: u32,
+) -> Option<Result<(), String>> {
+    if agreement::policy() == agreement::Policy::Bits {
+        return None;
+    }
+    let mut device = make();
+    let mut c = match CpuSolver::<f32>::new(model, params) {
+        Ok(c) => c,
+        Err(e) => return Some(Err(format!("{what}: CPU solver: {e}"))),
+    };
+    let bound = scene_bound(model, params);
+    Some(agreement::check_reseeded(
+        what,
+        &mut device,
+        &mut c,
+        steps,
+        &bound,
+    ))
+}
+
 /// Runs `steps` on both backends and returns the largest position
 /// difference [m], the particle, and both positions there.
 pub fn compare(model: &Model, params: &Params, steps: u32) -> (f64, usize, Vec3, Vec3) {
