@@ -10,7 +10,7 @@ mod gpu_common;
 
 use gpu_common::agreement::{self, Policy};
 
-use gpu_common::{busy_params, corners, gpu, grid, scene_bound, worst};
+use gpu_common::{bounded_steps, busy_params, corners, gpu, grid, scene_bound, worst};
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::Vec3;
 use wgcloth::gpu::{GpuBatch, GpuKernels, GpuSolver, GpuState, StepPath};
@@ -147,16 +147,13 @@ fn every_integrator_runs_on_both_paths_within_webgpu_default_limits() {
             };
             g.tuning_mut().set_adaptive_cg_budget(false);
             let what = format!("{} on the {path} path", case.name);
-            if agreement::policy() == Policy::Bounded
-                && case.params.semi_implicit.filter != FilterMethod::Banded
-            {
-                // Each step against the mirror re-seeded with the GPU's
-                // state: such an adapter rounds apart from the mirror.
-                let mut c = CpuSolver::<f32>::new(&case.model, &case.params)
-                    .unwrap_or_else(|e| panic!("{what}: CPU solver: {e}"));
-                let bound = agreement::step_bound(&case.params);
-                agreement::check_reseeded(&what, &mut g, &mut c, STEPS, &bound)
-                    .unwrap_or_else(|e| panic!("{e}"));
+            // Each step against the mirror re-seeded with the GPU's state
+            // where the adapter rounds apart from the mirror.
+            let bounded = (case.params.semi_implicit.filter != FilterMethod::Banded)
+                .then(|| bounded_steps(&what, || &mut g, &case.model, &case.params, STEPS))
+                .flatten();
+            if let Some(verdict) = bounded {
+                verdict.unwrap_or_else(|e| panic!("{e}"));
                 ran += 1;
                 continue;
             }

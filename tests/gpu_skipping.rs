@@ -10,17 +10,26 @@ mod gpu_common;
 use gpu_common::*;
 use wgcloth::cpu::CpuSolver;
 use wgcloth::glam::DVec3;
-use wgcloth::gpu::{DebugBuffer, FixupPhase, GpuState, Kernel, Launch, StepPath, Variant};
+use wgcloth::gpu::{
+    DebugBuffer, FixupPhase, GpuSolver, GpuState, Kernel, Launch, StepPath, Variant,
+};
 use wgcloth::model::{Corner, Pin};
 use wgcloth::params::{Integrator, Wind};
 use wgcloth::{Model, Params};
 
-fn run(model: &Model, params: &Params, specialised: bool) -> (GpuState, f64) {
+/// A solver on the multi-dispatch path with its kernels `specialised` or
+/// not, recording the full CG budget.
+fn variant(model: &Model, params: &Params, specialised: bool) -> GpuSolver {
     let mut g = solver_on(model, params, StepPath::MultiDispatch);
     g.tuning_mut().set_adaptive_cg_budget(false);
     g.tuning_mut()
         .set_specialised(specialised)
         .expect("variants");
+    g
+}
+
+fn run(model: &Model, params: &Params, specialised: bool) -> (GpuState, f64) {
+    let mut g = variant(model, params, specialised);
     g.step(40).expect("GPU steps");
     (
         g.read_state().expect("read-back"),
@@ -65,31 +74,28 @@ fn specialised_kernels_equal_the_general_ones_for_every_feature() {
         scenes.push(("everything", busy_params(integrator), corners.clone()));
         for (what, params, pins) in scenes {
             let m = model(&params, pins);
-            if agreement::policy() == agreement::Policy::Bounded {
+            let (fewer, more) = if agreement::policy() == agreement::Policy::Bounded {
                 // Each variant's own rounding (an adapter fuses what each
                 // compiles to as it likes): each against the mirror.
-                for specialised in [true, false] {
-                    let make = || {
-                        let mut g = solver_on(&m, &params, StepPath::MultiDispatch);
-                        g.tuning_mut().set_adaptive_cg_budget(false);
-                        g.tuning_mut()
-                            .set_specialised(specialised)
-                            .expect("variants");
-                        g
-                    };
+                let dispatches = [true, false].map(|specialised| {
+                    let mut g = variant(&m, &params, specialised);
                     let at = format!("{integrator}, {what}, specialised {specialised}");
-                    if let Some(verdict) = bounded_steps(&at, make, &m, &params, 40) {
+                    if let Some(verdict) = bounded_steps(&at, || &mut g, &m, &params, 40) {
                         verdict.unwrap_or_else(|e| panic!("{e}"));
                     }
-                }
-            }
-            let (special, fewer) = run(&m, &params, true);
-            let (general, more) = run(&m, &params, false);
-            let (d, p) = worst(&special.x, &general.x);
-            assert!(
-                d == 0.0 || agreement::policy() == agreement::Policy::Bounded,
-                "{integrator}, {what}: particle {p} differs by {d:e} m"
-            );
+                    g.tuning().dispatches_per_step()
+                });
+                (dispatches[0], dispatches[1])
+            } else {
+                let (special, fewer) = run(&m, &params, true);
+                let (general, more) = run(&m, &params, false);
+                let (d, p) = worst(&special.x, &general.x);
+                assert!(
+                    d == 0.0,
+                    "{integrator}, {what}: particle {p} differs by {d:e} m"
+                );
+                (fewer, more)
+            };
             assert!(
                 fewer <= more,
                 "{integrator}, {what}: {fewer} vs {more} dispatches"
