@@ -488,7 +488,10 @@ impl Adjacency {
     /// Builds the list from `(particle, entry)` pairs, keeping each
     /// particle's entries in ascending order so every consumer (CPU twin and
     /// GPU kernel) sums in the same, fixed order.
-    fn build(particles: usize, pairs: impl Iterator<Item = (usize, u32)> + Clone) -> Result<Self> {
+    pub(crate) fn build(
+        particles: usize,
+        pairs: impl Iterator<Item = (usize, u32)> + Clone,
+    ) -> Result<Self> {
         let mut counts = try_vec(particles + 1, 0u32, MODEL)?;
         for (p, _) in pairs.clone() {
             counts[p + 1] += 1;

@@ -125,6 +125,28 @@ impl FixupMethod {
     }
 }
 
+/// What self-collision's contacts are between (`[self_collision] method`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ContactMethod {
+    /// Particle against particle, layers a thickness of at least the
+    /// cloth's largest rest triangle gap apart (`src/cpu/self_collision.rs`).
+    Particles,
+    /// Vertex against triangle and edge against edge, at any thickness from
+    /// [`crate::self_collision::MIN_THICKNESS`] up, no crossing
+    /// (`src/cpu/triangle_contact.rs`); the CPU solvers only, so far.
+    Triangles,
+}
+
+impl ContactMethod {
+    /// The scene-file spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            ContactMethod::Particles => "particles",
+            ContactMethod::Triangles => "triangles",
+        }
+    }
+}
+
 /// Deformation-constraint (fix-up) settings, used by the explicit and
 /// semi-implicit integrators.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -343,6 +365,8 @@ pub struct SelfCollision {
     pub friction: f64,
     /// Jacobi passes over the contacts per step, `1..=100`.
     pub iterations: u32,
+    /// What the contacts are between.
+    pub method: ContactMethod,
 }
 
 impl Default for SelfCollision {
@@ -353,6 +377,7 @@ impl Default for SelfCollision {
             thickness: None,
             friction: 0.3,
             iterations: 2,
+            method: ContactMethod::Particles,
         }
     }
 }

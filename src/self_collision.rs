@@ -5,8 +5,8 @@
 //! and the CPU twin of its kernels, is [`crate::cpu::self_collision`].
 
 use crate::error::{Error, Result};
-use crate::model::Model;
-use crate::params::{format_number, Params, SelfCollision, SpringKind};
+use crate::model::{Adjacency, Model};
+use crate::params::{format_number, ContactMethod, Params, SelfCollision, SpringKind};
 use crate::real::{Real, Vec3};
 
 /// Pairs closer than this many thicknesses at rest never collide: see
@@ -39,6 +39,36 @@ pub const THICKNESS_BOUND_TOLERANCE: f64 = 1e-9;
 /// for about four times the particles per cell of a flat layer.
 pub const CELL_THICKNESSES: f64 = 2.0 * (1.0 + 1e-4);
 
+/// The thinnest `self_collision.thickness` the triangle method takes \[m\]:
+/// half a millimetre, a thin shirting's two halves (a contact's thickness
+/// is both layers' half-thickness together); `f32` positions a few metres
+/// from the origin round to well under a micrometre, so a layer this thin
+/// is still a thousand roundings wide.
+pub const MIN_THICKNESS: f64 = 5e-4;
+
+/// The triangle method's default thickness \[m\]: 2 mm, a medium woven
+/// fabric's (a cotton twill or a light denim is 0.5–1 mm thick, and two
+/// layers of it in contact keep their mid-surfaces that far apart,
+/// give or take the hairiness of their faces).
+pub const DEFAULT_TRIANGLE_THICKNESS: f64 = 2e-3;
+
+/// The triangle method's bound, as a fraction of the distance from a
+/// vertex's primitives to the nearest primitive they are not adjacent to
+/// (see [`crate::cpu::triangle_contact`]'s "No crossing"): below one half,
+/// so that two primitives whose vertices all move less than this fraction
+/// of their distance, relative to one common displacement, close at most
+/// `2 × 0.45 = 0.9` of it and never meet; the 0.05 left is what keeps the
+/// next step's pairs apart by a twentieth of their distance.
+pub const BOUND_FRACTION: f64 = 0.45;
+
+/// The longest an edge may be when the triangle method searches for
+/// candidates, in its longest rest length: the search reaches from a
+/// vertex as far as two such edges and the query radius, so a longer edge
+/// (a cloth torn apart by a blow-up) could hide a pair; its length is
+/// taken at this cap, so the search stays local (no grid cell holding the
+/// whole cloth) and what it then misses is stated in the docs.
+pub const MAX_EDGE_STRETCH: f64 = 3.0;
+
 /// Self-collision in the solver's precision, with what the model fixes.
 #[derive(Clone, Debug)]
 #[doc(hidden)]
@@ -66,6 +96,95 @@ pub struct SelfCollisionR<R> {
     pub seam_rest: Vec<Vec3<R>>,
     /// Hash table size (a power of two ≥ particles, at least 2).
     pub table: usize,
+    /// The triangle method's primitives, `None` for the particle method.
+    pub triangles: Option<TriangleTopology<R>>,
+}
+
+/// What the triangle method ([`crate::cpu::triangle_contact`]) knows of a
+/// model: its edges, which vertex owns each primitive, the seam partners
+/// and the rest positions its exclusion compares.
+#[derive(Clone, Debug)]
+#[doc(hidden)]
+pub struct TriangleTopology<R> {
+    /// The mesh edges (of the triangles), each `[low, high]`, sorted.
+    pub edges: Vec<[u32; 2]>,
+    /// Per vertex, the edges it ends.
+    pub vertex_edges: Adjacency,
+    /// Per vertex, the triangles whose lowest corner it is.
+    pub owned_triangles: Adjacency,
+    /// Per vertex, the edges whose lower end it is.
+    pub owned_edges: Adjacency,
+    /// Each vertex's seam partner ([`crate::world::seam_partners`]): the two
+    /// count as one vertex, so a seam's two sides are adjacent.
+    pub partner: Vec<u32>,
+    /// Rest positions \[m\], the cloths laid apart
+    /// ([`crate::world::exclusion_rest`]): a pair nearer than a thickness
+    /// there touches at rest and never collides.
+    pub rest: Vec<Vec3<R>>,
+    /// The query radius \[m\]: the thickness and the largest rest triangle
+    /// gap ([`triangle_gap`]). Pairs within it at the step's start are the
+    /// candidates, and it caps each vertex's bound.
+    pub query: R,
+    /// The longest edge the search allows for \[m\]: [`MAX_EDGE_STRETCH`]
+    /// × the longest rest edge.
+    pub max_edge: R,
+}
+
+impl<R: Real> TriangleTopology<R> {
+    /// The topology of `model`, its query radius for `thickness` \[m\].
+    pub fn new(model: &Model, thickness: f64) -> Result<Self> {
+        let n = model.particle_count();
+        let mut edges: Vec<[u32; 2]> = model
+            .triangles
+            .iter()
+            .flat_map(|t| [[t[0], t[1]], [t[1], t[2]], [t[2], t[0]]])
+            .map(|[a, b]| [a.min(b), a.max(b)])
+            .collect();
+        edges.sort_unstable();
+        edges.dedup();
+        let ends = edges
+            .iter()
+            .enumerate()
+            .flat_map(|(e, &[a, b])| [(a as usize, e as u32), (b as usize, e as u32)]);
+        let vertex_edges = Adjacency::build(n, ends)?;
+        let owned_triangles = Adjacency::build(
+            n,
+            model
+                .triangles
+                .iter()
+                .enumerate()
+                .map(|(t, c)| (c[0].min(c[1]).min(c[2]) as usize, t as u32)),
+        )?;
+        let owned_edges = Adjacency::build(
+            n,
+            edges
+                .iter()
+                .enumerate()
+                .map(|(e, &[a, _])| (a as usize, e as u32)),
+        )?;
+        let x = &model.rest_positions;
+        let longest = edges
+            .iter()
+            .map(|&[a, b]| (x[a as usize] - x[b as usize]).length())
+            .fold(0.0, f64::max);
+        Ok(TriangleTopology {
+            edges,
+            vertex_edges,
+            owned_triangles,
+            owned_edges,
+            partner: crate::world::seam_partners(model)
+                .into_iter()
+                .map(|p| p as u32)
+                .collect(),
+            rest: crate::world::exclusion_rest(model, 1.0)
+                .own
+                .into_iter()
+                .map(Vec3::from_f64)
+                .collect(),
+            query: R::from_f64(thickness + triangle_gap(model)),
+            max_edge: R::from_f64(MAX_EDGE_STRETCH * longest),
+        })
+    }
 }
 
 /// The hash table size for `particles`: the power of two at least the
@@ -147,6 +266,9 @@ pub fn thickness(model: &Model, params: &Params) -> Result<Option<f64>> {
             got: "a cloth without springs".into(),
         });
     };
+    if c.method == ContactMethod::Triangles {
+        return triangle_thickness(model, c, default).map(Some);
+    }
     let Some(t) = c.thickness else {
         return Ok(Some(default));
     };
@@ -169,6 +291,57 @@ pub fn thickness(model: &Model, params: &Params) -> Result<Option<f64>> {
         });
     }
     Ok(Some(t))
+}
+
+/// Refuses what the GPU solvers cannot run yet: the triangle method
+/// (`method = "triangles"`), which only the CPU solvers have, so far.
+pub fn check_gpu(params: &Params) -> Result<()> {
+    match &params.self_collision {
+        Some(c) if c.method == ContactMethod::Triangles => Err(Error::InvalidParameter {
+            key: "self_collision.method".into(),
+            allowed: "\"particles\" on the GPU backends (\"triangles\" runs on the CPU \
+                      backend, `--backend cpu` in either `--precision`, so far)"
+                .into(),
+            got: "\"triangles\"".into(),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// The triangle method's thickness \[m\] (`c.thickness` or
+/// [`DEFAULT_TRIANGLE_THICKNESS`], at most `high`): any from
+/// [`MIN_THICKNESS`] up to [`MAX_THICKNESS_DEFAULTS`] × the particle
+/// method's default `default` (beyond, the search reaches over more than a
+/// few rest spacings); the model needs triangles.
+fn triangle_thickness(model: &Model, c: &SelfCollision, default: f64) -> Result<f64> {
+    if model.triangles.is_empty() {
+        return Err(Error::InvalidParameter {
+            key: "self_collision.method".into(),
+            allowed: "\"particles\" for a cloth without triangles (\"triangles\" contacts them)"
+                .into(),
+            got: "\"triangles\"".into(),
+        });
+    }
+    let high = MAX_THICKNESS_DEFAULTS * default;
+    let Some(t) = c.thickness else {
+        return Ok(DEFAULT_TRIANGLE_THICKNESS.min(high));
+    };
+    let slack = 1.0 + THICKNESS_BOUND_TOLERANCE;
+    if t * slack < MIN_THICKNESS || t > high * slack {
+        return Err(Error::InvalidParameter {
+            key: "self_collision.thickness".into(),
+            allowed: format!(
+                "{} ≤ thickness ≤ {} (m) for this cloth with method = \"triangles\": at least \
+                 half a millimetre, at most {} × its rest spacing {}",
+                format_number(MIN_THICKNESS),
+                format_number(high),
+                MAX_THICKNESS_DEFAULTS,
+                format_number(default)
+            ),
+            got: format_number(t),
+        });
+    }
+    Ok(t)
 }
 
 impl<R: Real> SelfCollisionR<R> {
@@ -198,6 +371,9 @@ impl<R: Real> SelfCollisionR<R> {
             rest: convert(exclusion.own),
             seam_rest: convert(exclusion.seam),
             table: table_size(model.particle_count()),
+            triangles: (c.method == ContactMethod::Triangles)
+                .then(|| TriangleTopology::new(model, thickness).ok())
+                .flatten(),
         }
     }
 }

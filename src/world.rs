@@ -254,13 +254,24 @@ pub fn exclusion_rest(model: &Model, radius: f64) -> ExclusionRest {
         // Two units past this cloth's far side.
         at = Some(high + shift + 2.0 * radius);
     }
-    let mut partner: Vec<Option<usize>> = vec![None; x.len()];
+    let partner = seam_partners(model);
+    let seam = (0..x.len()).map(|p| own[partner[p]]).collect();
+    ExclusionRest { own, seam }
+}
+
+/// Each particle's seam partner: the other end of the first seam it is on,
+/// itself where it is on no seam.
+pub fn seam_partners(model: &Model) -> Vec<usize> {
+    let mut partner: Vec<usize> = (0..model.particle_count()).collect();
     let stretch = &model.springs[model.kind_ranges[SpringKind::Stretch.index()].clone()];
     for s in stretch.iter().filter(|s| s.is_seam()) {
         let (i, j) = (s.i as usize, s.j as usize);
-        partner[i] = partner[i].or(Some(j));
-        partner[j] = partner[j].or(Some(i));
+        if partner[i] == i {
+            partner[i] = j;
+        }
+        if partner[j] == j {
+            partner[j] = i;
+        }
     }
-    let seam = (0..x.len()).map(|p| own[partner[p].unwrap_or(p)]).collect();
-    ExclusionRest { own, seam }
+    partner
 }

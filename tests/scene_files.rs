@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 use wgcloth::glam::DVec3;
 use wgcloth::model::{ClothSpec, Corner, Edge, Orientation, Pin};
 use wgcloth::params::{
-    FilterMethod, FixupMethod, FixupParams, Ground, ImplicitParams, Integrator, Params,
-    SelfCollision, SemiImplicitParams, Sphere, SpringKind, SpringParams, Wind,
+    ContactMethod, FilterMethod, FixupMethod, FixupParams, Ground, ImplicitParams, Integrator,
+    Params, SelfCollision, SemiImplicitParams, Sphere, SpringKind, SpringParams, Wind,
 };
 use wgcloth::scene::MAX_SCENE_BYTES;
 use wgcloth::{Error, Scene};
@@ -158,6 +158,7 @@ lift = 0.2
 thickness = 0.05
 friction = 0.4
 iterations = 3
+method = "triangles"
 "#;
 
 #[test]
@@ -244,6 +245,7 @@ fn a_file_with_every_key_gives_exactly_those_values() {
             thickness: Some(0.05),
             friction: 0.4,
             iterations: 3,
+            method: ContactMethod::Triangles,
         }),
     };
     assert_eq!(scene.cloths[0].spec, cloth);

@@ -13,7 +13,7 @@ use gpu_common::agreement;
 use gpu_common::{folded_model, folded_positions, FOLD_SPACING as SPACING};
 use wgcloth::cpu::{CpuSolver, State};
 use wgcloth::glam::DVec3;
-use wgcloth::model::{ClothSpec, Corner, Model, Orientation, Pin};
+use wgcloth::model::Model;
 use wgcloth::params::{Ground, Integrator, Params, SelfCollision};
 use wgcloth::real::Vec3;
 use wgcloth::self_collision::{self, EXCLUDE_REST, STEP_CAP};
@@ -209,16 +209,7 @@ fn without_self_collision_the_layers_meet() {
 /// nothing to do, and the sheet must move bit for bit as without it.
 #[test]
 fn a_hanging_sheet_moves_exactly_as_without_it() {
-    let spec = ClothSpec {
-        nx: 12,
-        ny: 12,
-        size: [0.5, 0.5],
-        origin: DVec3::new(-0.25, 1.0, 0.0),
-        orientation: Orientation::Horizontal,
-        mass: 0.1,
-        pins: vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)],
-    };
-    let model = Model::new(&spec, &Params::default().springs).expect("model");
+    let model = common::swinging_sheet();
     for integrator in Integrator::ALL {
         let off = Params {
             integrator,

@@ -37,6 +37,7 @@ pub mod self_collision;
 pub(crate) mod semi_implicit;
 pub mod skin;
 pub(crate) mod torque;
+pub mod triangle_contact;
 #[doc(hidden)]
 pub mod twins;
 
@@ -479,6 +480,8 @@ pub struct Workspace<R> {
     pub clock: u32,
     /// Self-collision's grid, `None` when it is off.
     pub self_grid: Option<self_collision::Grid<R>>,
+    /// The triangle method's lists, `None` without it.
+    pub contacts: Option<triangle_contact::Contacts<R>>,
 }
 
 impl<R: Real> Workspace<R> {
@@ -522,6 +525,7 @@ impl<R: Real> Workspace<R> {
             touching: try_vec(particles, false, WHAT)?,
             clock: 0,
             self_grid: None,
+            contacts: None,
         })
     }
 }
@@ -631,7 +635,11 @@ impl<R: Real> CpuSolver<R> {
     pub fn new(model: &Model, params: &Params) -> Result<Self> {
         params.validate()?;
         crate::material::check_explicit_bending(model, params)?;
-        crate::self_collision::thickness(model, params)?;
+        let thickness = crate::self_collision::thickness(model, params)?;
+        let triangles = params
+            .self_collision
+            .as_ref()
+            .is_some_and(|c| c.method == crate::params::ContactMethod::Triangles);
         let counts = Counts::of_model(model);
         let semi = params.integrator == Integrator::SemiImplicit;
         let dense = params.semi_implicit.filter.is_dense(counts.free as usize);
@@ -673,6 +681,13 @@ impl<R: Real> CpuSolver<R> {
             Some(c) => Some(self_collision::Grid::new(n, c.table)?),
             None => None,
         };
+        if let Some(c) = sys.self_collision.as_ref().filter(|_| triangles) {
+            if c.triangles.is_none() {
+                // Its allocation failed in `System::new`: again, for the error.
+                crate::self_collision::TriangleTopology::<R>::new(model, thickness.unwrap_or(0.0))?;
+            }
+            work.contacts = Some(triangle_contact::Contacts::new(n)?);
+        }
         let mut solver = CpuSolver {
             integrator: params.integrator,
             filter_method: params.semi_implicit.filter,

@@ -536,6 +536,7 @@ impl GpuSolver {
         params.validate()?;
         crate::material::check_explicit_bending(model, params)?;
         crate::self_collision::thickness(model, params)?;
+        crate::self_collision::check_gpu(params)?;
         let counts = Counts::of_model(model);
         let limits = device.limits();
         let dense = params.integrator == Integrator::SemiImplicit

@@ -22,8 +22,8 @@ use super::CameraSpec;
 use crate::material::{Material, WarpWeft};
 use crate::model::{ClothSpec, Orientation, Pin, MAX_PARTICLES};
 use crate::params::{
-    Capsule, FilterMethod, FixupMethod, Ground, Integrator, Params, SelfCollision, Sphere,
-    SpringKind, SpringParams, Wind,
+    Capsule, ContactMethod, FilterMethod, FixupMethod, Ground, Integrator, Params, SelfCollision,
+    Sphere, SpringKind, SpringParams, Wind,
 };
 
 /// `[simulation] duration` when absent \[s\].
@@ -527,6 +527,7 @@ struct SelfCollisionTable {
     thickness: Option<Number>,
     friction: Option<Number>,
     iterations: Option<Whole<u32>>,
+    method: Option<Choice<ContactMethod>>,
 }
 
 /// How a table written `[header]` looks, for "expected …".
@@ -897,6 +898,7 @@ impl SceneFile {
             };
             set(&mut c.friction, t.friction);
             set(&mut c.iterations, t.iterations);
+            set(&mut c.method, t.method.map(|m| m.0));
             c
         });
         let c = self.camera.0;
@@ -1044,6 +1046,14 @@ trait Named: Copy + 'static {
 impl Named for Integrator {
     const WHAT: &'static str = "integrator";
     const ALL: &'static [Self] = &Integrator::ALL;
+    fn name(self) -> &'static str {
+        self.as_str()
+    }
+}
+
+impl Named for ContactMethod {
+    const WHAT: &'static str = "self-collision method";
+    const ALL: &'static [Self] = &[ContactMethod::Particles, ContactMethod::Triangles];
     fn name(self) -> &'static str {
         self.as_str()
     }

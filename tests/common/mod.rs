@@ -21,6 +21,21 @@ pub fn cloth(nx: usize, ny: usize, pins: Vec<Pin>) -> ClothSpec {
     }
 }
 
+/// A 0.5 m sheet of 12² lying flat, pinned at its top corners: released,
+/// it swings down and never comes near itself.
+pub fn swinging_sheet() -> Model {
+    let spec = ClothSpec {
+        nx: 12,
+        ny: 12,
+        size: [0.5, 0.5],
+        origin: DVec3::new(-0.25, 1.0, 0.0),
+        orientation: Orientation::Horizontal,
+        mass: 0.1,
+        pins: vec![Pin::Corner(Corner::TopLeft), Pin::Corner(Corner::TopRight)],
+    };
+    Model::new(&spec, &Params::default().springs).expect("model")
+}
+
 /// The four corners.
 pub fn four_corners() -> Vec<Pin> {
     vec![

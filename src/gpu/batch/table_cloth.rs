@@ -31,6 +31,7 @@ use crate::stats::StepStats;
 pub(super) fn path(kernels: &GpuKernels, model: &Model, params: &Params) -> Result<StepPath> {
     params.validate()?;
     crate::self_collision::thickness(model, params)?;
+    crate::self_collision::check_gpu(params)?;
     let counts = Counts::of_model(model);
     let dense = dense_filter(model, params);
     let limits = kernels.device().limits();
