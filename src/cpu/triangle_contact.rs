@@ -176,9 +176,11 @@ type CellBox = ([i32; 3], [i32; 3]);
 /// entries in primitive order (the build visits primitives in order and
 /// sorts by bucket stably), each entry with its cell to tell apart the
 /// cells a bucket mixes.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 #[doc(hidden)]
-pub struct BoxGrid {
+pub struct BoxGrid<R> {
+    /// Each primitive's box \[m\], lowest and highest corner.
+    pub spans: Vec<(Vec3<R>, Vec3<R>)>,
     /// The cell range of each primitive's box.
     pub boxes: Vec<CellBox>,
     /// Per bucket, the start of its run in `entries`; `table + 1`.
@@ -188,10 +190,29 @@ pub struct BoxGrid {
     /// The buckets (a power of two).
     pub table: usize,
     scratch: Vec<(u32, [i32; 3], u32)>,
+    cursor: Vec<u32>,
 }
 
-impl BoxGrid {
-    fn build(&mut self) {
+impl<R> Default for BoxGrid<R> {
+    fn default() -> Self {
+        BoxGrid {
+            spans: Vec::new(),
+            boxes: Vec::new(),
+            start: Vec::new(),
+            entries: Vec::new(),
+            table: 0,
+            scratch: Vec::new(),
+            cursor: Vec::new(),
+        }
+    }
+}
+
+impl<R: Real> BoxGrid<R> {
+    /// The grid of `spans`' boxes in cells of inverse size `inv` \[1/m\].
+    fn build(&mut self, inv: R) {
+        self.boxes.clear();
+        self.boxes
+            .extend(self.spans.iter().map(|&(lo, hi)| cells_of(lo, hi, inv)));
         self.scratch.clear();
         for (k, &(lo, hi)) in self.boxes.iter().enumerate() {
             for z in lo[2]..=hi[2] {
@@ -214,10 +235,10 @@ impl BoxGrid {
         }
         self.entries.clear();
         self.entries.resize(self.scratch.len(), ([0; 3], 0));
-        let mut at = self.start.clone();
+        self.cursor.clone_from(&self.start);
         for &(b, cell, k) in &self.scratch {
-            self.entries[at[b as usize] as usize] = (cell, k);
-            at[b as usize] += 1;
+            self.entries[self.cursor[b as usize] as usize] = (cell, k);
+            self.cursor[b as usize] += 1;
         }
     }
 
@@ -237,9 +258,9 @@ impl BoxGrid {
 #[doc(hidden)]
 pub struct Contacts<R> {
     /// The triangles' boxes grown by the query radius.
-    pub triangles: BoxGrid,
+    pub triangles: BoxGrid<R>,
     /// The edges' boxes grown by the query radius.
-    pub edges: BoxGrid,
+    pub edges: BoxGrid<R>,
     /// Per vertex, the triangles near it.
     pub vt: Lists<Listed<R>>,
     /// Per triangle, the vertices near it (`vt` inverted).
@@ -253,6 +274,10 @@ pub struct Contacts<R> {
     pub weight: Vec<R>,
     /// The snapshot a pass reads.
     pub snapshot: Vec<Vec3<R>>,
+    /// Per vertex, the distance \[m\] of its nearest pair (the bound's).
+    nearest: Vec<R>,
+    /// Per triangle, a cursor of the inversion.
+    count: Vec<u32>,
 }
 
 impl<R: Real> Contacts<R> {
@@ -268,6 +293,8 @@ impl<R: Real> Contacts<R> {
             bound: try_vec(particles, R::ZERO, WHAT)?,
             weight: try_vec(particles, R::ZERO, WHAT)?,
             snapshot: try_vec(particles, Vec3::ZERO, WHAT)?,
+            nearest: try_vec(particles, R::ZERO, WHAT)?,
+            count: Vec::new(),
         })
     }
 }
@@ -512,36 +539,22 @@ pub fn find<R: Real>(
         }
         (lo, hi)
     };
-    // Each primitive's box grown by the query radius \[m\], and its cells.
-    let tri_boxes: Vec<(Vec3<R>, Vec3<R>)> = sys
-        .triangles
-        .iter()
-        .map(|t| {
-            let (lo, hi) = span(t);
-            (lo - grow, hi + grow)
-        })
-        .collect();
-    let edge_boxes: Vec<(Vec3<R>, Vec3<R>)> = topo
-        .edges
-        .iter()
-        .map(|e| {
-            let (lo, hi) = span(e);
-            (lo - grow, hi + grow)
-        })
-        .collect();
-    k.triangles.boxes.clear();
+    // Each primitive's box grown by the query radius, and its cells.
+    let grown = |(lo, hi): (Vec3<R>, Vec3<R>)| (lo - grow, hi + grow);
+    k.triangles.spans.clear();
     k.triangles
-        .boxes
-        .extend(tri_boxes.iter().map(|&(lo, hi)| cells_of(lo, hi, inv)));
-    k.triangles.build();
-    k.edges.boxes.clear();
+        .spans
+        .extend(sys.triangles.iter().map(|t| grown(span(t))));
+    k.triangles.build(inv);
+    k.edges.spans.clear();
     k.edges
-        .boxes
-        .extend(edge_boxes.iter().map(|&(lo, hi)| cells_of(lo, hi, inv)));
-    k.edges.build();
+        .spans
+        .extend(topo.edges.iter().map(|e| grown(span(e))));
+    k.edges.build(inv);
 
     let n = x_old.len();
-    let mut nearest = vec![r; n];
+    k.nearest.fill(r);
+    let nearest = &mut k.nearest;
     // A pair's distance at `x_old`, noted on all four vertices (the bound
     // is on the primitives' every point), and its listing: `None` where it
     // is a query radius or more apart or touches at rest.
@@ -574,7 +587,7 @@ pub fn find<R: Real>(
             if adjacent(topo, &[p], &tri.map(|i| i as usize)) {
                 continue;
             }
-            let (lo, hi) = tri_boxes[t as usize];
+            let (lo, hi) = k.triangles.spans[t as usize];
             let xp = x_old[p];
             if [0, 1, 2]
                 .iter()
@@ -607,7 +620,7 @@ pub fn find<R: Real>(
                         {
                             continue;
                         }
-                        let (flo, fhi) = edge_boxes[f as usize];
+                        let (flo, fhi) = k.edges.spans[f as usize];
                         if [0, 1, 2]
                             .iter()
                             .any(|&a| elo.get(a) > fhi.get(a) || ehi.get(a) < flo.get(a))
@@ -627,7 +640,7 @@ pub fn find<R: Real>(
         k.ee.close();
     }
     let fraction = R::from_f64(BOUND_FRACTION);
-    for (b, d) in k.bound.iter_mut().zip(nearest) {
+    for (b, &d) in k.bound.iter_mut().zip(&k.nearest) {
         *b = fraction * d;
     }
     // Only a pair whose primitives' bounds let it close to within the
@@ -637,19 +650,25 @@ pub fn find<R: Real>(
     let t = c.thickness;
     k.vt.retain(|p, l| l.d - (bound[p] + reach(&sys.triangles[l.other as usize])) < t);
     k.ee.retain(|e, l| l.d - (reach(&topo.edges[e]) + reach(&topo.edges[l.other as usize])) < t);
-    invert(&k.vt, sys.triangles.len(), &mut k.tv);
+    invert(&k.vt, sys.triangles.len(), &mut k.count, &mut k.tv);
 }
 
 /// `tv`: per triangle, the vertices whose `vt` lists it, in vertex order.
-fn invert<R: Real>(vt: &Lists<Listed<R>>, triangles: usize, tv: &mut Lists<Listed<R>>) {
-    let mut count = vec![0u32; triangles + 1];
+fn invert<R: Real>(
+    vt: &Lists<Listed<R>>,
+    triangles: usize,
+    count: &mut Vec<u32>,
+    tv: &mut Lists<Listed<R>>,
+) {
+    count.clear();
+    count.resize(triangles + 1, 0);
     for l in &vt.items {
         count[l.other as usize + 1] += 1;
     }
     for t in 0..triangles {
         count[t + 1] += count[t];
     }
-    tv.start.clone_from(&count);
+    tv.start.clone_from(count);
     tv.items.clear();
     tv.items.extend_from_slice(&vt.items);
     for p in 0..vt.start.len() - 1 {
