@@ -56,17 +56,18 @@ pub const DEFAULT_TRIANGLE_THICKNESS: f64 = 2e-3;
 /// vertex's primitives to the nearest primitive they are not adjacent to
 /// (see [`crate::cpu::triangle_contact`]'s "No crossing"): below one half,
 /// so that two primitives whose vertices all move less than this fraction
-/// of their distance, relative to one common displacement, close at most
-/// `2 × 0.45 = 0.9` of it and never meet; the 0.05 left is what keeps the
-/// next step's pairs apart by a twentieth of their distance.
+/// of their distance close at most `2 × 0.45 = 0.9` of it and never meet;
+/// the 0.05 left is what keeps the next step's pairs apart by a twentieth
+/// of their distance.
 pub const BOUND_FRACTION: f64 = 0.45;
 
 /// The longest an edge may be when the triangle method searches for
-/// candidates, in its longest rest length: the search reaches from a
-/// vertex as far as two such edges and the query radius, so a longer edge
-/// (a cloth torn apart by a blow-up) could hide a pair; its length is
-/// taken at this cap, so the search stays local (no grid cell holding the
-/// whole cloth) and what it then misses is stated in the docs.
+/// candidates, in its longest rest length: the grid's cells are as wide as
+/// the longest edge at the step's start and two query radii, so a longer
+/// edge (a cloth torn apart by a blow-up) would make cells that hold the
+/// whole cloth; its length is taken at this cap, so the search stays
+/// local, and a box of a longer edge is cut to two cells along an axis
+/// (what it then misses, the docs say).
 pub const MAX_EDGE_STRETCH: f64 = 3.0;
 
 /// Self-collision in the solver's precision, with what the model fixes.
@@ -96,13 +97,15 @@ pub struct SelfCollisionR<R> {
     pub seam_rest: Vec<Vec3<R>>,
     /// Hash table size (a power of two ≥ particles, at least 2).
     pub table: usize,
-    /// The triangle method's primitives, `None` for the particle method.
+    /// The triangle method's primitives, `None` for the particle method:
+    /// the CPU solver sets them (the only solver with the method), so that
+    /// their allocation's failure is its error.
     pub triangles: Option<TriangleTopology<R>>,
 }
 
 /// What the triangle method ([`crate::cpu::triangle_contact`]) knows of a
-/// model: its edges, which vertex owns each primitive, the seam partners
-/// and the rest positions its exclusion compares.
+/// model: its edges and which end at each vertex, the seam partners and
+/// the rest positions its exclusion compares.
 #[derive(Clone, Debug)]
 #[doc(hidden)]
 pub struct TriangleTopology<R> {
@@ -110,10 +113,6 @@ pub struct TriangleTopology<R> {
     pub edges: Vec<[u32; 2]>,
     /// Per vertex, the edges it ends.
     pub vertex_edges: Adjacency,
-    /// Per vertex, the triangles whose lowest corner it is.
-    pub owned_triangles: Adjacency,
-    /// Per vertex, the edges whose lower end it is.
-    pub owned_edges: Adjacency,
     /// Each vertex's seam partner ([`crate::world::seam_partners`]): the two
     /// count as one vertex, so a seam's two sides are adjacent.
     pub partner: Vec<u32>,
@@ -147,21 +146,6 @@ impl<R: Real> TriangleTopology<R> {
             .enumerate()
             .flat_map(|(e, &[a, b])| [(a as usize, e as u32), (b as usize, e as u32)]);
         let vertex_edges = Adjacency::build(n, ends)?;
-        let owned_triangles = Adjacency::build(
-            n,
-            model
-                .triangles
-                .iter()
-                .enumerate()
-                .map(|(t, c)| (c[0].min(c[1]).min(c[2]) as usize, t as u32)),
-        )?;
-        let owned_edges = Adjacency::build(
-            n,
-            edges
-                .iter()
-                .enumerate()
-                .map(|(e, &[a, _])| (a as usize, e as u32)),
-        )?;
         let x = &model.rest_positions;
         let longest = edges
             .iter()
@@ -170,8 +154,6 @@ impl<R: Real> TriangleTopology<R> {
         Ok(TriangleTopology {
             edges,
             vertex_edges,
-            owned_triangles,
-            owned_edges,
             partner: crate::world::seam_partners(model)
                 .into_iter()
                 .map(|p| p as u32)
@@ -371,9 +353,7 @@ impl<R: Real> SelfCollisionR<R> {
             rest: convert(exclusion.own),
             seam_rest: convert(exclusion.seam),
             table: table_size(model.particle_count()),
-            triangles: (c.method == ContactMethod::Triangles)
-                .then(|| TriangleTopology::new(model, thickness).ok())
-                .flatten(),
+            triangles: None,
         }
     }
 }

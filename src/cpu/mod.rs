@@ -663,7 +663,7 @@ impl<R: Real> CpuSolver<R> {
                 )
             },
         )?;
-        let sys = System::new(model, params);
+        let mut sys = System::new(model, params);
         let n = model.particle_count();
         let state = State {
             x: try_collect(
@@ -681,11 +681,8 @@ impl<R: Real> CpuSolver<R> {
             Some(c) => Some(self_collision::Grid::new(n, c.table)?),
             None => None,
         };
-        if let Some(c) = sys.self_collision.as_ref().filter(|_| triangles) {
-            if c.triangles.is_none() {
-                // Its allocation failed in `System::new`: again, for the error.
-                crate::self_collision::TriangleTopology::<R>::new(model, thickness.unwrap_or(0.0))?;
-            }
+        if let (Some(c), Some(t), true) = (&mut sys.self_collision, thickness, triangles) {
+            c.triangles = Some(crate::self_collision::TriangleTopology::new(model, t)?);
             work.contacts = Some(triangle_contact::Contacts::new(n)?);
         }
         let mut solver = CpuSolver {

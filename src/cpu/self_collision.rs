@@ -128,28 +128,22 @@ pub fn bucket(c: [i32; 3], table: usize) -> usize {
 /// prefix-sums the counts into `start` and scatters the particles into
 /// `order`, each bucket's run in index order.
 pub fn build<R: Real>(c: &SelfCollisionR<R>, x: &[Vec3<R>], g: &mut Grid<R>) {
-    build_with(c.inv_cell, c.table, x, g);
-}
-
-/// [`build`] with cells of inverse size `inv` \[1/m\] in a table of
-/// `table` buckets.
-pub(crate) fn build_with<R: Real>(inv: R, table: usize, x: &[Vec3<R>], g: &mut Grid<R>) {
     g.start.fill(0);
     for (p, &xp) in x.iter().enumerate() {
-        (g.cell[p], g.corner[p]) = cell_of(xp, inv);
-        g.start[bucket(g.cell[p], table) + 1] += 1;
+        (g.cell[p], g.corner[p]) = cell_of(xp, c.inv_cell);
+        g.start[bucket(g.cell[p], c.table) + 1] += 1;
     }
-    for b in 0..table {
+    for b in 0..c.table {
         g.start[b + 1] += g.start[b];
     }
     // Filled in particle order, so each run is in index order; `start[b]`
     // walks to the run's end and is then restored from its neighbour.
     for p in 0..x.len() {
-        let b = bucket(g.cell[p], table);
+        let b = bucket(g.cell[p], c.table);
         g.order[g.start[b] as usize] = p as u32;
         g.start[b] += 1;
     }
-    for b in (1..=table).rev() {
+    for b in (1..=c.table).rev() {
         g.start[b] = g.start[b - 1];
     }
     g.start[0] = 0;
@@ -165,7 +159,7 @@ pub fn excluded<R: Real>(c: &SelfCollisionR<R>, p: usize, q: usize) -> bool {
 
 /// The 8 cell offsets from a particle's corner cell in the order every
 /// particle visits them: x fastest, then y, then z.
-pub(crate) const NEIGHBOUR_CELLS: [[i32; 3]; 8] = {
+const NEIGHBOUR_CELLS: [[i32; 3]; 8] = {
     let mut cells = [[0; 3]; 8];
     let mut k = 0;
     while k < 8 {

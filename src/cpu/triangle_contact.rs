@@ -42,7 +42,8 @@
 //!    takes `g_i w_i / W × (thickness − Σ g_j y_j · n)` along `n`, `W =
 //!    Σ g_j² w_j` (the projection that closes the constraint, shared as
 //!    the inverse masses `w` say; a vertex on a collider at the step's
-//!    start counts as immovable, as the collider would undo its share).
+//!    start, or predicted into one, counts as immovable, as the collider
+//!    would undo its share).
 //!    Friction removes the pair's relative tangential displacement over
 //!    the step the same way, capped at `friction ×` the normal push
 //!    (Coulomb). Every vertex of a pair evaluates it alike (the same
@@ -279,7 +280,8 @@ pub struct Contacts<R> {
     /// Per vertex, the largest displacement this step \[m\].
     pub bound: Vec<R>,
     /// Per vertex, the inverse mass \[1/kg\] its contacts share pushes by:
-    /// 0 where it is pinned or touches a collider at the step's start.
+    /// 0 where it is pinned, touches a collider at the round's start or is
+    /// predicted into one.
     pub weight: Vec<R>,
     /// The snapshot a pass reads.
     pub snapshot: Vec<Vec3<R>>,
