@@ -61,15 +61,6 @@ pub const DEFAULT_TRIANGLE_THICKNESS: f64 = 2e-3;
 /// of their distance.
 pub const BOUND_FRACTION: f64 = 0.45;
 
-/// The longest an edge may be when the triangle method searches for
-/// candidates, in its longest rest length: the grid's cells are as wide as
-/// the longest edge at the step's start and two query radii, so a longer
-/// edge (a cloth torn apart by a blow-up) would make cells that hold the
-/// whole cloth; its length is taken at this cap, so the search stays
-/// local, and a box of a longer edge is cut to two cells along an axis
-/// (what it then misses, the docs say).
-pub const MAX_EDGE_STRETCH: f64 = 3.0;
-
 /// Self-collision in the solver's precision, with what the model fixes.
 #[derive(Clone, Debug)]
 #[doc(hidden)]
@@ -124,9 +115,30 @@ pub struct TriangleTopology<R> {
     /// gap ([`triangle_gap`]). Pairs within it at the step's start are the
     /// candidates, and it caps each vertex's bound.
     pub query: R,
-    /// The longest edge the search allows for \[m\]: [`MAX_EDGE_STRETCH`]
-    /// × the longest rest edge.
-    pub max_edge: R,
+    /// Each edge's box at rest \[m\] (in `rest`), lowest and highest
+    /// corner: pairs whose boxes lie a thickness apart along an axis do not
+    /// touch at rest, without measuring.
+    pub edge_rest_boxes: Vec<(Vec3<R>, Vec3<R>)>,
+    /// Each triangle's box at rest \[m\], as `edge_rest_boxes`.
+    pub triangle_rest_boxes: Vec<(Vec3<R>, Vec3<R>)>,
+}
+
+/// The box of points `corners` of `x`: lowest and highest corner.
+pub(crate) fn box_of<R: Real>(x: &[Vec3<R>], corners: &[u32]) -> (Vec3<R>, Vec3<R>) {
+    let mut lo = x[corners[0] as usize];
+    let mut hi = lo;
+    for &i in &corners[1..] {
+        let x = x[i as usize];
+        lo = Vec3::new(lo.x.min(x.x), lo.y.min(x.y), lo.z.min(x.z));
+        hi = Vec3::new(hi.x.max(x.x), hi.y.max(x.y), hi.z.max(x.z));
+    }
+    (lo, hi)
+}
+
+/// Whether boxes `a` and `b` lie at least `gap` apart along an axis (so
+/// every two of their points do).
+pub(crate) fn boxes_apart<R: Real>(a: (Vec3<R>, Vec3<R>), b: (Vec3<R>, Vec3<R>), gap: R) -> bool {
+    (0..3).any(|k| b.0.get(k) - a.1.get(k) >= gap || a.0.get(k) - b.1.get(k) >= gap)
 }
 
 impl<R: Real> TriangleTopology<R> {
@@ -146,25 +158,24 @@ impl<R: Real> TriangleTopology<R> {
             .enumerate()
             .flat_map(|(e, &[a, b])| [(a as usize, e as u32), (b as usize, e as u32)]);
         let vertex_edges = Adjacency::build(n, ends)?;
-        let x = &model.rest_positions;
-        let longest = edges
-            .iter()
-            .map(|&[a, b]| (x[a as usize] - x[b as usize]).length())
-            .fold(0.0, f64::max);
+        let rest: Vec<Vec3<R>> = crate::world::exclusion_rest(model, 1.0)
+            .own
+            .into_iter()
+            .map(Vec3::from_f64)
+            .collect();
+        let edge_rest_boxes = edges.iter().map(|e| box_of(&rest, e)).collect();
+        let triangle_rest_boxes = model.triangles.iter().map(|t| box_of(&rest, t)).collect();
         Ok(TriangleTopology {
+            edge_rest_boxes,
+            triangle_rest_boxes,
             edges,
             vertex_edges,
             partner: crate::world::seam_partners(model)
                 .into_iter()
                 .map(|p| p as u32)
                 .collect(),
-            rest: crate::world::exclusion_rest(model, 1.0)
-                .own
-                .into_iter()
-                .map(Vec3::from_f64)
-                .collect(),
+            rest,
             query: R::from_f64(thickness + triangle_gap(model)),
-            max_edge: R::from_f64(MAX_EDGE_STRETCH * longest),
         })
     }
 }

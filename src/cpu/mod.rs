@@ -17,6 +17,7 @@
 //! # Ok(()) }
 //! ```
 
+pub(crate) mod bvh;
 pub(crate) mod cg;
 pub(crate) mod coarse;
 pub(crate) mod collide;
@@ -682,8 +683,9 @@ impl<R: Real> CpuSolver<R> {
             None => None,
         };
         if let (Some(c), Some(t), true) = (&mut sys.self_collision, thickness, triangles) {
-            c.triangles = Some(crate::self_collision::TriangleTopology::new(model, t)?);
-            work.contacts = Some(triangle_contact::Contacts::new(n)?);
+            let topo = crate::self_collision::TriangleTopology::new(model, t)?;
+            work.contacts = Some(triangle_contact::Contacts::new(n, &sys.triangles, &topo)?);
+            c.triangles = Some(topo);
         }
         let mut solver = CpuSolver {
             integrator: params.integrator,

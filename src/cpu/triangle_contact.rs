@@ -10,23 +10,24 @@
 //! started at (which this method left with no crossing) and the predicted
 //! positions `x`:
 //!
-//! 1. **Candidates**, at `x_old`. Every triangle and edge goes into the
-//!    cells of a hashed uniform grid that its box, grown by the query
-//!    radius `r` ([`TriangleTopology::query`]: the thickness and the
-//!    largest rest triangle gap), covers; the cells are as wide as such a
-//!    box of the longest edge at `x_old` (at most
-//!    [`MAX_EDGE_STRETCH`](crate::self_collision::MAX_EDGE_STRETCH) × the
-//!    longest at rest), so a box covers at most two cells along an axis and
-//!    each bucket lists its primitives in index order. Each vertex lists
-//!    the triangles within `r` of it from its own cell (`vt`), each edge
-//!    the edges within `r` of it from the cells its box covers, each pair
-//!    in the lowest cell both boxes cover, so once (`ee`), and each
-//!    triangle the vertices that list it (`tv`, `vt` inverted); every list
-//!    in index order. Pairs that share a vertex (a seam's two ends count as
+//! 1. **Candidates**, at `x_old`. A search lists every pair nearer than
+//!    the query radius `r` ([`TriangleTopology::query`]: the thickness and
+//!    the largest rest triangle gap) and a skin ([`Candidates`]), from two
+//!    bounding-volume hierarchies cut once from the rest mesh and fitted
+//!    to the cloth where it is (`cpu::bvh`): each vertex against the
+//!    triangles' boxes grown by that reach, and the edges against one
+//!    another, their boxes grown by half of it, each pair once and listed
+//!    on both edges. Pairs that share a vertex (a seam's two ends count as
 //!    one) are not pairs, and a pair nearer than a thickness at rest (the
 //!    cloths laid apart) touches at rest: it never collides and bounds
-//!    nothing. Each listed pair keeps its distance, its nearest points'
-//!    coefficients and its normal at `x_old`.
+//!    nothing. The lists serve the rounds that follow while the cloth has
+//!    deformed by less than half the skin since (a common translation does
+//!    not count); each round measures their pairs at its start and lists
+//!    those within `r`: per vertex the triangles (`vt`), per edge the
+//!    edges (`ee`, each pair measured once), per triangle the vertices
+//!    that list it (`tv`, `vt` inverted); every list in index order. Each
+//!    listed pair keeps its distance, its nearest points' coefficients and
+//!    its normal at `x_old`.
 //! 2. **Bound**: each vertex's `bound` is [`BOUND_FRACTION`] × the
 //!    distance at `x_old` of the nearest pair it is part of, or of `r`
 //!    where that is nearer. A pair whose two primitives' largest bounds
@@ -72,9 +73,8 @@
 //!    state with no crossing steps to one with none. What this leaves out:
 //!    pairs touching at rest (neither pushed nor bounded: a cell folding
 //!    over its immediate neighbour, which only the springs resist, where
-//!    the thickness exceeds the triangles' height), edges stretched past
-//!    [`MAX_EDGE_STRETCH`](crate::self_collision::MAX_EDGE_STRETCH), and the pins and colliders, which move vertices
-//!    after this.
+//!    the thickness exceeds the triangles' height), and the pins and
+//!    colliders, which move vertices after this.
 //!
 //! 5. **Rounds**: where the bound stopped a vertex in open cloth (no pair
 //!    of its that could touch) short of its prediction, another round
@@ -94,19 +94,16 @@
 //! that much a step.
 
 use super::collide::{contact, CONTACT_SLOP};
-use super::self_collision::bucket;
 use super::{System, Workspace};
-use crate::budget::try_vec;
+use crate::budget::{try_collect, try_vec};
 use crate::error::Result;
 use crate::real::{Real, Vec3};
-use crate::self_collision::{table_size, SelfCollisionR, TriangleTopology, BOUND_FRACTION};
+use crate::self_collision::{
+    box_of, boxes_apart, SelfCollisionR, TriangleTopology, BOUND_FRACTION,
+};
+use glam::DVec3;
 
-/// The most cells a primitive's box spans along an axis: cells are a
-/// longest edge and two query radii wide, so a box of an edge grown by a
-/// radius on each side spans at most two; an edge stretched past
-/// [`MAX_EDGE_STRETCH`](crate::self_collision::MAX_EDGE_STRETCH) is cut
-/// to that many (what it then misses, the docs say).
-const MAX_BOX_CELLS: i32 = 2;
+use super::bvh::{overlap, Aabb, Bvh};
 
 /// A listed pair: the other primitive, and the pair's nearest points'
 /// coefficients `g` and unit normal `n` at the step's start.
@@ -179,98 +176,21 @@ impl<T> Lists<T> {
     }
 }
 
-/// A cell range: the lowest and highest cell a box covers.
-type CellBox = ([i32; 3], [i32; 3]);
-
-/// Primitives hashed into every cell their box covers, each bucket's
-/// entries in primitive order (the build visits primitives in order and
-/// sorts by bucket stably), each entry with its cell to tell apart the
-/// cells a bucket mixes.
-#[derive(Clone, Debug)]
-#[doc(hidden)]
-pub struct BoxGrid<R> {
-    /// Each primitive's box \[m\], lowest and highest corner.
-    pub spans: Vec<(Vec3<R>, Vec3<R>)>,
-    /// The cell range of each primitive's box.
-    pub boxes: Vec<CellBox>,
-    /// Per bucket, the start of its run in `entries`; `table + 1`.
-    pub start: Vec<u32>,
-    /// `(cell, primitive)`, bucket by bucket.
-    pub entries: Vec<([i32; 3], u32)>,
-    /// The buckets (a power of two).
-    pub table: usize,
-    scratch: Vec<(u32, [i32; 3], u32)>,
-    cursor: Vec<u32>,
-}
-
-impl<R> Default for BoxGrid<R> {
-    fn default() -> Self {
-        BoxGrid {
-            spans: Vec::new(),
-            boxes: Vec::new(),
-            start: Vec::new(),
-            entries: Vec::new(),
-            table: 0,
-            scratch: Vec::new(),
-            cursor: Vec::new(),
-        }
-    }
-}
-
-impl<R: Real> BoxGrid<R> {
-    /// The grid of `spans`' boxes in cells of inverse size `inv` \[1/m\].
-    fn build(&mut self, inv: R) {
-        self.boxes.clear();
-        self.boxes
-            .extend(self.spans.iter().map(|&(lo, hi)| cells_of(lo, hi, inv)));
-        self.scratch.clear();
-        for (k, &(lo, hi)) in self.boxes.iter().enumerate() {
-            for z in lo[2]..=hi[2] {
-                for y in lo[1]..=hi[1] {
-                    for x in lo[0]..=hi[0] {
-                        self.scratch.push((0, [x, y, z], k as u32));
-                    }
-                }
-            }
-        }
-        self.table = table_size(self.scratch.len());
-        self.start.clear();
-        self.start.resize(self.table + 1, 0);
-        for e in &mut self.scratch {
-            e.0 = bucket(e.1, self.table) as u32;
-            self.start[e.0 as usize + 1] += 1;
-        }
-        for b in 0..self.table {
-            self.start[b + 1] += self.start[b];
-        }
-        self.entries.clear();
-        self.entries.resize(self.scratch.len(), ([0; 3], 0));
-        self.cursor.clone_from(&self.start);
-        for &(b, cell, k) in &self.scratch {
-            self.entries[self.cursor[b as usize] as usize] = (cell, k);
-            self.cursor[b as usize] += 1;
-        }
-    }
-
-    /// The primitives in cell `c`, in order.
-    fn cell(&self, c: [i32; 3]) -> impl Iterator<Item = u32> + '_ {
-        let b = bucket(c, self.table);
-        self.entries[self.start[b] as usize..self.start[b + 1] as usize]
-            .iter()
-            .filter(move |e| e.0 == c)
-            .map(|e| e.1)
-    }
-}
-
 /// The triangle method's per-step state, allocated once per solver (its
 /// lists grow to the most a step has needed).
 #[derive(Clone, Debug)]
 #[doc(hidden)]
 pub struct Contacts<R> {
-    /// The triangles' boxes grown by the query radius.
-    pub triangles: BoxGrid<R>,
-    /// The edges' boxes grown by the query radius.
-    pub edges: BoxGrid<R>,
+    /// The hierarchy of the triangles, their boxes grown by the search's
+    /// reach.
+    triangle_tree: Bvh<R>,
+    /// The hierarchy of the edges, their boxes grown by half the reach
+    /// (two overlap where the edges may lie within the reach).
+    edge_tree: Bvh<R>,
+    /// Each triangle's box grown by the reach, as last searched.
+    triangle_boxes: Vec<Aabb<R>>,
+    /// Each edge's box grown by half the reach, as last searched.
+    edge_boxes: Vec<Aabb<R>>,
     /// Per vertex, the triangles near it.
     pub vt: Lists<Listed<R>>,
     /// Per triangle, the vertices near it (`vt` inverted).
@@ -292,19 +212,72 @@ pub struct Contacts<R> {
     pub start: Vec<Vec3<R>>,
     /// Per vertex, the distance \[m\] of its nearest pair (the bound's).
     nearest: Vec<R>,
-    /// Per triangle, a cursor of the inversion.
+    /// Per list, a cursor of the inversions (`tv`, the edges' lists).
     count: Vec<u32>,
     /// Per vertex, whether a pair of this round's lists involves it.
     near: Vec<bool>,
+    /// Per item of `candidates.ee`, its pair measured this round.
+    measured: Vec<Option<Listed<R>>>,
+    /// The search's pairs of edges, each `(lower, higher)`.
+    edge_pairs: Vec<(u32, u32)>,
+    /// The candidates: per vertex the triangles, per edge the edges,
+    /// within the query radius and its skin where they were built
+    /// ([`Candidates`]).
+    pub candidates: Candidates<R>,
+}
+
+/// Pairs that may come within the query radius `r` before the lists are
+/// built again: every pair nearer than `r + skin` at the positions they
+/// were built at, excluding the adjacent and those touching at rest, each
+/// list in index order. A pair left out was `r + skin` or more apart then,
+/// and while no vertex has moved more than `skin / 2` relative to the
+/// others (a displacement less a common translation), no two points of
+/// it have closed by `skin`: it is still `r` or more apart. So a round
+/// searches the hierarchies only when the cloth has deformed by half a
+/// skin since the last search, and otherwise only measures its listed
+/// pairs. The skin is worn only where it pays ([`SKIN_FRACTION`]).
+#[derive(Clone, Debug, Default)]
+#[doc(hidden)]
+pub struct Candidates<R> {
+    /// Per vertex, the triangles that may come near it.
+    pub vt: Lists<u32>,
+    /// Per edge, the edges that may come near it.
+    pub ee: Lists<u32>,
+    /// Per item of `ee` listing `f` in edge `e`'s list, with `f < e`: the
+    /// place of `e` in `f`'s list (each pair is measured once, from its
+    /// lower edge); `u32::MAX` where `f > e`.
+    pub mirror: Vec<u32>,
+    /// Where the lists were built \[m\] (empty before the first search).
+    pub at: Vec<Vec3<R>>,
+    /// The skin they were built with \[m\].
+    pub skin: R,
+    /// The rounds that have used them.
+    pub uses: u32,
+    /// How many times the lists were built.
+    pub builds: u64,
 }
 
 impl<R: Real> Contacts<R> {
-    /// The state for `particles` vertices.
-    pub fn new(particles: usize) -> Result<Self> {
+    /// The state for `particles` vertices, `triangles` and `topo`'s
+    /// edges (the hierarchies cut from their rest positions).
+    pub fn new(
+        particles: usize,
+        triangles: &[[u32; 3]],
+        topo: &TriangleTopology<R>,
+    ) -> Result<Self> {
         const WHAT: &str = "the triangle contacts";
+        let rest = |i: u32| DVec3::from_array(topo.rest[i as usize].to_f64());
+        let centroid = |corners: &[u32]| {
+            corners.iter().map(|&i| rest(i)).sum::<DVec3>() / corners.len() as f64
+        };
+        let triangle_centroids = try_collect(triangles.iter().map(|t| centroid(t)), WHAT)?;
+        let edge_centroids = try_collect(topo.edges.iter().map(|e| centroid(e)), WHAT)?;
+        let empty = (Vec3::ZERO, Vec3::ZERO);
         Ok(Contacts {
-            triangles: BoxGrid::default(),
-            edges: BoxGrid::default(),
+            triangle_tree: Bvh::new(&triangle_centroids)?,
+            edge_tree: Bvh::new(&edge_centroids)?,
+            triangle_boxes: try_vec(triangles.len(), empty, WHAT)?,
+            edge_boxes: try_vec(topo.edges.len(), empty, WHAT)?,
             vt: Lists::default(),
             tv: Lists::default(),
             ee: Lists::default(),
@@ -316,6 +289,9 @@ impl<R: Real> Contacts<R> {
             nearest: try_vec(particles, R::ZERO, WHAT)?,
             count: Vec::new(),
             near: try_vec(particles, false, WHAT)?,
+            measured: Vec::new(),
+            edge_pairs: Vec::new(),
+            candidates: Candidates::default(),
         })
     }
 }
@@ -508,16 +484,168 @@ fn adjacent(topo: &TriangleTopology<impl Real>, a: &[usize], b: &[usize]) -> boo
     })
 }
 
-/// The cells a box from `lo` to `hi` \[m\] covers in cells of inverse size
-/// `inv`, at most [`MAX_BOX_CELLS`] along each axis.
-fn cells_of<R: Real>(lo: Vec3<R>, hi: Vec3<R>, inv: R) -> CellBox {
-    let cell = |x: Vec3<R>| [0, 1, 2].map(|k| (x.get(k) * inv).to_f64().floor() as i32);
-    let (lo, hi) = (cell(lo), cell(hi));
-    let hi = [0, 1, 2].map(|k| hi[k].min(lo[k].saturating_add(MAX_BOX_CELLS - 1)));
-    (lo, hi)
+/// The skin of the candidate lists ([`Candidates`]), as a fraction of the
+/// query radius, where it is worn: where the last lists' rounds deformed
+/// the cloth by less than the skin allows a round (half of it), so that
+/// it lasts a round or more — a cloth settling or resting (the three
+/// layers of `layers` settling on a ball search half as often, for a
+/// quarter less time). Where it deforms faster (a sheet swinging from its
+/// pins at 1/50 s, a centimetre a round), lists built with it cost more
+/// to build and to measure than they save, and each search lists only
+/// the pairs within the radius. A quarter measured best of 0.125, 0.25
+/// and 0.5 on both.
+pub const SKIN_FRACTION: f64 = 0.25;
+
+/// The share of the skin the cloth may deform by before the lists are
+/// built again: the rest is a margin for the rounding of the distances
+/// that decided which pairs were listed (relative errors of a few `f32`
+/// ulps of the coordinates, far below a tenth of a skin of millimetres
+/// at any scene's scale).
+const SKIN_SLACK: f64 = 0.9;
+
+/// The largest displacement \[m\] of a vertex from `at` to `x` relative to
+/// a common translation (the middle of the displacements' box): two points
+/// of the cloth have closed by at most twice it. `None` where a position
+/// is not finite.
+fn deformation<R: Real>(at: &[Vec3<R>], x: &[Vec3<R>]) -> Option<R> {
+    let mut moved = at.iter().zip(x).map(|(&a, &b)| b - a);
+    let first = moved.next()?;
+    let (mut lo, mut hi) = (first, first);
+    for u in std::iter::once(first).chain(moved) {
+        if !u.is_finite() {
+            return None;
+        }
+        lo = Vec3::new(lo.x.min(u.x), lo.y.min(u.y), lo.z.min(u.z));
+        hi = Vec3::new(hi.x.max(u.x), hi.y.max(u.y), hi.z.max(u.z));
+    }
+    let common = (lo + hi) * R::from_f64(0.5);
+    let most = at
+        .iter()
+        .zip(x)
+        .map(|(&a, &b)| (b - a - common).length())
+        .fold(R::ZERO, R::max);
+    most.is_finite().then_some(most)
 }
 
-/// The candidates and bounds at `x_old` (steps 1 and 2 of the module).
+/// The candidate lists at `x` (module step 1's search): every pair of a
+/// vertex and a triangle or of two edges nearer than `reach` (the query
+/// radius and the skin), neither adjacent nor touching at rest.
+fn search<R: Real>(
+    sys: &System<R>,
+    c: &SelfCollisionR<R>,
+    topo: &TriangleTopology<R>,
+    x: &[Vec3<R>],
+    reach: R,
+    k: &mut Contacts<R>,
+) {
+    let grown = |corners: &[u32], by: R| {
+        let (lo, hi) = box_of(x, corners);
+        let g = Vec3::new(by, by, by);
+        (lo - g, hi + g)
+    };
+    // A pair is a candidate where it is nearer than the reach and does not
+    // touch at rest (measured only where the rest boxes do not tell).
+    let t = c.thickness;
+    let candidate = |pair: &Pair<R>, apart: bool, rest: &dyn Fn() -> Pair<R>| {
+        combine(x, pair.v, pair.g).length() < reach
+            && (apart || {
+                let rest = rest();
+                combine(&topo.rest, rest.v, rest.g).length() >= t
+            })
+    };
+    let list = &mut k.candidates;
+    for (b, t) in k.triangle_boxes.iter_mut().zip(&sys.triangles) {
+        *b = grown(t, reach);
+    }
+    let boxes = &k.triangle_boxes;
+    k.triangle_tree.refit(|t| boxes[t as usize]);
+    list.vt.clear();
+    for (p, &xp) in x.iter().enumerate() {
+        let from = list.vt.items.len();
+        k.triangle_tree.overlapping(&(xp, xp), |t| {
+            let tri = sys.triangles[t as usize];
+            if !overlap(&boxes[t as usize], &(xp, xp))
+                || adjacent(topo, &[p], &tri.map(|i| i as usize))
+            {
+                return;
+            }
+            let pair = vertex_triangle(x, p, tri);
+            let rest_p = (topo.rest[p], topo.rest[p]);
+            let apart = boxes_apart(rest_p, topo.triangle_rest_boxes[t as usize], c.thickness);
+            if candidate(&pair, apart, &|| vertex_triangle(&topo.rest, p, tri)) {
+                list.vt.items.push(t);
+            }
+        });
+        // In index order, whichever leaves held them.
+        list.vt.items[from..].sort_unstable();
+        list.vt.close();
+    }
+
+    // Each pair of edges once, then listed on both.
+    let half = reach * R::from_f64(0.5);
+    for (b, e) in k.edge_boxes.iter_mut().zip(&topo.edges) {
+        *b = grown(e, half);
+    }
+    let boxes = &k.edge_boxes;
+    k.edge_tree.refit(|e| boxes[e as usize]);
+    let pairs = &mut k.edge_pairs;
+    pairs.clear();
+    k.edge_tree.self_pairs(|a, b| {
+        let (e, f) = (a.min(b), a.max(b));
+        let (ends, other) = (topo.edges[e as usize], topo.edges[f as usize]);
+        if !overlap(&boxes[e as usize], &boxes[f as usize])
+            || adjacent(topo, &ends.map(|i| i as usize), &other.map(|i| i as usize))
+        {
+            return;
+        }
+        let (pe, pf) = ((e, ends), (f, other));
+        let rest = &topo.edge_rest_boxes;
+        let apart = boxes_apart(rest[e as usize], rest[f as usize], t);
+        if candidate(&edge_edge(x, pe, pf), apart, &|| {
+            edge_edge(&topo.rest, pe, pf)
+        }) {
+            pairs.push((e, f));
+        }
+    });
+    pairs.sort_unstable();
+    // Both edges of each pair list the other. The pairs run by their lower
+    // edge, then the higher, so an edge's list takes the lower edges it
+    // pairs with first, in order, then the higher, in order: every list in
+    // index order. The higher edge's item points to the lower's, where
+    // the pair is measured.
+    let ee = &mut list.ee;
+    ee.start.clear();
+    ee.start.resize(topo.edges.len() + 1, 0);
+    for &(e, f) in pairs.iter() {
+        ee.start[e as usize + 1] += 1;
+        ee.start[f as usize + 1] += 1;
+    }
+    for e in 0..topo.edges.len() {
+        ee.start[e + 1] += ee.start[e];
+    }
+    let total = 2 * pairs.len();
+    ee.items.clear();
+    ee.items.resize(total, 0);
+    list.mirror.clear();
+    list.mirror.resize(total, u32::MAX);
+    k.count.clone_from(&ee.start);
+    for &(e, f) in pairs.iter() {
+        let low = k.count[e as usize];
+        let high = k.count[f as usize];
+        k.count[e as usize] += 1;
+        k.count[f as usize] += 1;
+        ee.items[low as usize] = f;
+        ee.items[high as usize] = e;
+        list.mirror[high as usize] = low;
+    }
+    list.at.clear();
+    list.at.extend_from_slice(x);
+    list.builds += 1;
+}
+
+/// The listed pairs and the bounds at `x_old` (steps 1 and 2 of the
+/// module), from the candidate lists, searched again first where the cloth
+/// has deformed past their skin since they were built.
 pub fn find<R: Real>(
     sys: &System<R>,
     c: &SelfCollisionR<R>,
@@ -538,124 +666,87 @@ pub fn find<R: Real>(
             || contact(sys, x[p], R::ZERO, clock).is_some();
         *w = if held { R::ZERO } else { sys.inv_mass[p] };
     }
-    let longest = topo
-        .edges
-        .iter()
-        .map(|&[a, b]| (x_old[a as usize] - x_old[b as usize]).length())
-        .fold(R::ZERO, R::max)
-        .min(topo.max_edge);
     let r = topo.query;
-    // Cells as wide as a grown edge's box: no box spans more than two
-    // (`MAX_BOX_CELLS`); finer cells hold fewer boxes a query meets in
-    // vain but put each box in more cells, and measured slower.
-    let inv = R::ONE / (longest + r * R::from_f64(2.0));
-    let grow = Vec3::new(r, r, r);
-    let span = |corners: &[u32]| {
-        let mut lo = x_old[corners[0] as usize];
-        let mut hi = lo;
-        for &i in &corners[1..] {
-            let x = x_old[i as usize];
-            lo = Vec3::new(lo.x.min(x.x), lo.y.min(x.y), lo.z.min(x.z));
-            hi = Vec3::new(hi.x.max(x.x), hi.y.max(x.y), hi.z.max(x.z));
-        }
-        (lo, hi)
+    let list = &mut k.candidates;
+    let slack = R::from_f64(SKIN_SLACK);
+    let deformed = if list.at.len() == x_old.len() {
+        deformation(&list.at, x_old)
+    } else {
+        None
     };
-    // Each primitive's box grown by the query radius, and its cells.
-    let grown = |(lo, hi): (Vec3<R>, Vec3<R>)| (lo - grow, hi + grow);
-    k.triangles.spans.clear();
-    k.triangles
-        .spans
-        .extend(sys.triangles.iter().map(|t| grown(span(t))));
-    k.triangles.build(inv);
-    k.edges.spans.clear();
-    k.edges
-        .spans
-        .extend(topo.edges.iter().map(|e| grown(span(e))));
-    k.edges.build(inv);
-
-    let n = x_old.len();
+    if deformed.is_some_and(|m| m * R::from_f64(2.0) <= list.skin * slack) {
+        list.uses += 1;
+    } else {
+        // Worn where the last lists' rounds deformed the cloth, on
+        // average, by less than a full skin allows (and at the first
+        // search).
+        let full = r * R::from_f64(SKIN_FRACTION);
+        let slow = match deformed {
+            Some(m) => m * R::from_f64(2.0) <= full * slack * R::from_usize(list.uses as usize),
+            None => list.at.is_empty(),
+        };
+        let skin = if slow { full } else { R::ZERO };
+        search(sys, c, topo, x_old, r + skin, k);
+        k.candidates.skin = skin;
+        k.candidates.uses = 1;
+    }
     k.nearest.fill(r);
     let nearest = &mut k.nearest;
     // A pair's distance at `x_old`, noted on all four vertices (the bound
     // is on the primitives' every point), and its listing: `None` where it
-    // is a query radius or more apart or touches at rest.
-    let mut consider =
-        |pair: &Pair<R>, rest: &dyn Fn() -> Pair<R>, other: u32| -> Option<Listed<R>> {
-            let gap = combine(x_old, pair.v, pair.g);
-            let d = gap.length();
-            if d >= r {
-                return None;
-            }
-            let rest = rest();
-            if combine(&topo.rest, rest.v, rest.g).length() < c.thickness {
-                return None;
-            }
-            for &i in &pair.v {
-                nearest[i] = nearest[i].min(d);
-            }
-            (d > R::ZERO).then(|| Listed {
-                other,
-                g: pair.g,
-                n: gap / d,
-                d,
-            })
-        };
+    // is a query radius or more apart.
+    let mut consider = |pair: &Pair<R>, other: u32| -> Option<Listed<R>> {
+        let gap = combine(x_old, pair.v, pair.g);
+        let d = gap.length();
+        if d >= r {
+            return None;
+        }
+        for &i in &pair.v {
+            nearest[i] = nearest[i].min(d);
+        }
+        (d > R::ZERO).then(|| Listed {
+            other,
+            g: pair.g,
+            n: gap / d,
+            d,
+        })
+    };
+    let list = &k.candidates;
     k.vt.clear();
-    for p in 0..n {
-        let cell = cells_of(x_old[p], x_old[p], inv).0;
-        for t in k.triangles.cell(cell) {
-            let tri = sys.triangles[t as usize];
-            if adjacent(topo, &[p], &tri.map(|i| i as usize)) {
-                continue;
-            }
-            let (lo, hi) = k.triangles.spans[t as usize];
-            let xp = x_old[p];
-            if [0, 1, 2]
-                .iter()
-                .any(|&a| xp.get(a) < lo.get(a) || xp.get(a) > hi.get(a))
-            {
-                continue;
-            }
-            let pair = vertex_triangle(x_old, p, tri);
-            if let Some(l) = consider(&pair, &|| vertex_triangle(&topo.rest, p, tri), t) {
+    for p in 0..x_old.len() {
+        for &t in list.vt.of(p) {
+            let pair = vertex_triangle(x_old, p, sys.triangles[t as usize]);
+            if let Some(l) = consider(&pair, t) {
                 k.vt.items.push(l);
             }
         }
         k.vt.close();
     }
-    k.ee.clear();
+    // Each edge pair measured once, from its lower edge (the same bits
+    // from either: `edge_edge` orders the pair), and noted on both.
+    k.measured.clear();
     for (e, &ends) in topo.edges.iter().enumerate() {
-        let (elo, ehi) = span(&ends);
-        let (lo, hi) = cells_of(elo, ehi, inv);
-        for z in lo[2]..=hi[2] {
-            for y in lo[1]..=hi[1] {
-                for x in lo[0]..=hi[0] {
-                    let cell = [x, y, z];
-                    for f in k.edges.cell(cell) {
-                        let other = topo.edges[f as usize];
-                        // Each pair once: in the lowest cell both boxes cover.
-                        let their = k.edges.boxes[f as usize].0;
-                        if f as usize == e
-                            || [0, 1, 2].map(|a| lo[a].max(their[a])) != cell
-                            || adjacent(topo, &ends.map(|i| i as usize), &other.map(|i| i as usize))
-                        {
-                            continue;
-                        }
-                        let (flo, fhi) = k.edges.spans[f as usize];
-                        if [0, 1, 2]
-                            .iter()
-                            .any(|&a| elo.get(a) > fhi.get(a) || ehi.get(a) < flo.get(a))
-                        {
-                            continue;
-                        }
-                        let pe = (e as u32, ends);
-                        let pf = (f, other);
-                        let pair = edge_edge(x_old, pe, pf);
-                        if let Some(l) = consider(&pair, &|| edge_edge(&topo.rest, pe, pf), f) {
-                            k.ee.items.push(l);
-                        }
-                    }
-                }
+        let from = list.ee.start[e] as usize;
+        for (i, &f) in list.ee.of(e).iter().enumerate() {
+            let mut measured = None;
+            if list.mirror[from + i] == u32::MAX {
+                let pair = edge_edge(x_old, (e as u32, ends), (f, topo.edges[f as usize]));
+                measured = consider(&pair, f);
+            }
+            k.measured.push(measured);
+        }
+    }
+    k.ee.clear();
+    for e in 0..topo.edges.len() {
+        let from = list.ee.start[e] as usize;
+        for (i, &f) in list.ee.of(e).iter().enumerate() {
+            let item = from + i;
+            let measured = match list.mirror[item] {
+                u32::MAX => k.measured[item],
+                mirror => k.measured[mirror as usize].map(|l| Listed { other: f, ..l }),
+            };
+            if let Some(l) = measured {
+                k.ee.items.push(l);
             }
         }
         k.ee.close();
@@ -846,6 +937,76 @@ pub fn apply<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], w: &mut Workspace<R>) 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::CpuSolver;
+    use crate::params::ContactMethod;
+
+    /// A listed pair's every field, as bits.
+    fn bits(l: &Listed<f32>) -> [u32; 9] {
+        let [g0, g1, g2, g3] = l.g.map(f32::to_bits);
+        [
+            l.other,
+            g0,
+            g1,
+            g2,
+            g3,
+            l.n.x.to_bits(),
+            l.n.y.to_bits(),
+            l.n.z.to_bits(),
+            l.d.to_bits(),
+        ]
+    }
+
+    fn all(lists: &Lists<Listed<f32>>) -> (Vec<u32>, Vec<[u32; 9]>) {
+        (lists.start.clone(), lists.items.iter().map(bits).collect())
+    }
+
+    /// The pairs listed from candidate lists built rounds ago are those a
+    /// search from scratch lists, in the same order, to the bit: the heap
+    /// (a 33² cloth falling into folds on the floor, in `f32`) at every
+    /// step of its first second, while its lists are both kept and built
+    /// again along the way.
+    #[test]
+    fn reused_candidates_list_what_a_search_lists() {
+        let Ok(mut scene) = crate::Scene::builtin("heap") else {
+            panic!("the heap is built in");
+        };
+        if let Some(c) = &mut scene.params.self_collision {
+            c.method = ContactMethod::Triangles;
+        } else {
+            panic!("the heap has self-collision");
+        }
+        let model = scene.model().expect("the heap's model");
+        let mut solver = CpuSolver::<f32>::new(&model, &scene.params).expect("solver");
+        let (mut kept, mut built) = (0, 0);
+        for step in 1..=240 {
+            solver.step().expect("step");
+            let sys = &solver.sys;
+            let c = sys.self_collision.as_ref().expect("self-collision");
+            let x = &solver.state.x;
+            let clock = solver.work.clock;
+            let mut reused = solver.work.contacts.clone().expect("the triangle method");
+            let before = reused.candidates.builds;
+            find(sys, c, x, x, clock, &mut reused);
+            if reused.candidates.builds == before {
+                kept += 1;
+            } else {
+                built += 1;
+            }
+            let topo = c.triangles.as_ref().expect("the triangle method");
+            let mut fresh = Contacts::new(x.len(), &sys.triangles, topo).expect("state");
+            find(sys, c, x, x, clock, &mut fresh);
+            let bound = |k: &Contacts<f32>| k.bound.iter().map(|b| b.to_bits()).collect::<Vec<_>>();
+            for (what, same) in [
+                ("vt", all(&reused.vt) == all(&fresh.vt)),
+                ("tv", all(&reused.tv) == all(&fresh.tv)),
+                ("ee", all(&reused.ee) == all(&fresh.ee)),
+                ("bound", bound(&reused) == bound(&fresh)),
+            ] {
+                assert!(same, "step {step}: the {what} differ from a search's");
+            }
+        }
+        assert!(kept > 0 && built > 0, "kept {kept}, built {built}");
+    }
 
     fn v(x: f64, y: f64, z: f64) -> Vec3<f64> {
         Vec3::from_f64(glam::DVec3::new(x, y, z))
