@@ -4,8 +4,10 @@
 //! layers at a thickness of 2 mm (a fifteenth of its spacing) falls and
 //! lands with no edge through a triangle at any step, where without
 //! self-collision its layers pass through one another; a fold slammed shut
-//! at 5 m/s crosses nothing; a hanging sheet moves bit for bit as without
-//! it; thicknesses out of range, and the GPU, are refused naming the key.
+//! at 5 m/s crosses nothing; a hanging sheet, a thrown sheet and a stack
+//! of two falling whole move bit for bit as without it; a sheet thrown
+//! along another slides several bounds a step; thicknesses out of range,
+//! and the GPU, are refused naming the key.
 
 mod common;
 
@@ -635,4 +637,62 @@ fn a_stack_falling_whole_moves_exactly_as_without_it() {
             "{integrator}: the premise: falling at {speed} m/s"
         );
     }
+}
+
+/// How fast the upper sheet of the slide is thrown along the lower [m/s]:
+/// 4.2 mm a step at 1/240 s, 4.6 of its bound (0.45 of the thickness
+/// between them).
+const SLIDE_SPEED: f64 = 1.0;
+
+/// A small sheet (9² over 0.2 m) lying a thickness above a large one (17²
+/// over 0.8 m) on the ground, thrown along it at `SLIDE_SPEED` with no
+/// friction between them, for 0.1 s at 1/240 s: each round takes it its
+/// bound along the lower sheet (its way there with what would close on
+/// it taken out), so it slides more than three bounds a step, where one
+/// round held it to one; and it crosses nothing.
+#[test]
+fn a_sheet_slides_along_another_several_bounds_a_step() {
+    let sheet = |n: usize, size: f64, y: f64| {
+        format!(
+            "[[cloth]]\nresolution = [{n}, {n}]\nsize = [{size}, {size}]\n\
+             origin = [{}, {y}, {}]\norientation = \"horizontal\"\nmass = 0.1\npins = []\n",
+            -size / 2.0,
+            -size / 2.0
+        )
+    };
+    let text = format!(
+        "[simulation]\nintegrator = \"implicit\"\ndt = {}\n\n{}\n{}\n\
+         [ground]\nheight = 0.0\nfriction = 0.8\n\n\
+         [self_collision]\nmethod = \"triangles\"\nthickness = {THICKNESS}\nfriction = 0.0\n",
+        1.0 / 240.0,
+        sheet(17, 0.8, 0.0),
+        sheet(9, 0.2, THICKNESS),
+    );
+    let scene =
+        wgcloth::Scene::from_toml(&text, std::path::Path::new("slide.toml")).expect("scene");
+    let model = scene.model().expect("model");
+    let lower = 17 * 17;
+    let x = model.rest_positions.clone();
+    let v: Vec<DVec3> = (0..x.len())
+        .map(|p| DVec3::new(if p >= lower { SLIDE_SPEED } else { 0.0 }, 0.0, 0.0))
+        .collect();
+    let mut s = solver::<f32>(&model, &scene.params, &x, &v);
+    let steps = 24;
+    let checks = scene_checks(&model);
+    if let Err(e) = run_checked(&mut s, &checks, steps, THICKNESS, true) {
+        panic!("{e}");
+    }
+    let moved = positions(&s)[lower..]
+        .iter()
+        .zip(&x[lower..])
+        .map(|(a, b)| a.x - b.x)
+        .sum::<f64>()
+        / (x.len() - lower) as f64;
+    // Its bound a step, a thickness from the lower sheet.
+    let bounds = moved / (BOUND_FRACTION * THICKNESS * steps as f64);
+    println!("slid {moved} m in {steps} steps: {bounds} bounds a step");
+    assert!(
+        bounds > 3.0,
+        "the upper sheet slid {moved} m, {bounds} bounds a step, not three"
+    );
 }

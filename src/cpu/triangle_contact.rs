@@ -80,13 +80,14 @@
 //!    the thickness exceeds the triangles' height), and the pins and
 //!    colliders, which move vertices after this.
 //!
-//! 5. **Rounds**: where the bound stopped a vertex in open cloth (no pair
-//!    of its that could touch) short of its prediction, another round
-//!    searches again from where this one left the vertices (as safe a
-//!    start as the step's) and takes those vertices on, up to
-//!    [`MAX_ROUNDS`]; a vertex with such a pair stays where the last round
-//!    left it (pursued again, a prediction through a layer would close the
-//!    pair by the bound once a round).
+//! 5. **Rounds**: where the bound stopped a vertex short of its
+//!    prediction, another round searches again from where this one left
+//!    the vertices (as safe a start as the step's) and takes them on, up
+//!    to [`MAX_ROUNDS`]: a vertex in open cloth (no pair of its that could
+//!    touch) towards its prediction, one with such a pair only along its
+//!    layers (its way there less the part along each pair's normal that
+//!    closes the pair; pursued whole, a prediction through a layer would
+//!    close the pair by the bound once a round).
 //!
 //! The bound is what limits speed wherever the cloth does not move as a
 //! whole. A translation of everything (the particle method's reference
@@ -802,6 +803,56 @@ fn invert<R: Real>(
     }
 }
 
+/// Calls `pair(v, l, slot)` for each listed pair vertex `p` is part of, in
+/// a fixed order: the pair's vertices `v`, its listing `l` and `p`'s place
+/// in `v`.
+fn each_pair<R: Real>(
+    sys: &System<R>,
+    topo: &TriangleTopology<R>,
+    k: &Contacts<R>,
+    p: usize,
+    mut pair: impl FnMut([usize; 4], &Listed<R>, usize),
+) {
+    for l in k.vt.of(p) {
+        let t = sys.triangles[l.other as usize].map(|i| i as usize);
+        pair([p, t[0], t[1], t[2]], l, 0);
+    }
+    for &t in sys.triangle_adj.of(p) {
+        let tri = sys.triangles[t as usize].map(|i| i as usize);
+        let slot = 1 + tri.iter().position(|&i| i == p).unwrap_or(0);
+        for l in k.tv.of(t as usize) {
+            pair([l.other as usize, tri[0], tri[1], tri[2]], l, slot);
+        }
+    }
+    for &e in topo.vertex_edges.of(p) {
+        let ends = topo.edges[e as usize];
+        for l in k.ee.of(e as usize) {
+            let v = edge_pair_vertices((e, ends), (l.other, topo.edges[l.other as usize]));
+            let slot = v.iter().position(|&i| i == p).unwrap_or(0);
+            pair(v, l, slot);
+        }
+    }
+}
+
+/// What is left of vertex `p`'s way `d` \[m\] to its prediction once every
+/// part of it that closes one of its pairs (along the pair's normal at
+/// the round's start) is taken out: the way along its layers.
+fn along_layers<R: Real>(
+    sys: &System<R>,
+    topo: &TriangleTopology<R>,
+    k: &Contacts<R>,
+    p: usize,
+    mut d: Vec3<R>,
+) -> Vec3<R> {
+    each_pair(sys, topo, k, p, |_, l, slot| {
+        let dn = d.dot(l.n);
+        if l.g[slot] * dn < R::ZERO {
+            d -= l.n * dn;
+        }
+    });
+    d
+}
+
 /// Vertex `p`'s new position after one pass from the snapshot `y` (step 3
 /// of the module), `None` without a contact.
 pub fn respond<R: Real>(
@@ -820,33 +871,14 @@ pub fn respond<R: Real>(
     let mut depths = R::ZERO;
     let mut slip = Vec3::ZERO;
     let mut contacts = 0u32;
-    let mut add = |v: [usize; 4], l: &Listed<R>, slot: usize| {
+    each_pair(sys, topo, k, p, |v, l, slot| {
         if let Some((push, s, depth)) = response(&k.weight, c, y, x_old, v, l.g, l.n, slot) {
             sum += push * depth;
             depths += depth;
             slip += s;
             contacts += 1;
         }
-    };
-    for l in k.vt.of(p) {
-        let t = sys.triangles[l.other as usize].map(|i| i as usize);
-        add([p, t[0], t[1], t[2]], l, 0);
-    }
-    for &t in sys.triangle_adj.of(p) {
-        let tri = sys.triangles[t as usize].map(|i| i as usize);
-        let slot = 1 + tri.iter().position(|&i| i == p).unwrap_or(0);
-        for l in k.tv.of(t as usize) {
-            add([l.other as usize, tri[0], tri[1], tri[2]], l, slot);
-        }
-    }
-    for &e in topo.vertex_edges.of(p) {
-        let ends = topo.edges[e as usize];
-        for l in k.ee.of(e as usize) {
-            let v = edge_pair_vertices((e, ends), (l.other, topo.edges[l.other as usize]));
-            let slot = v.iter().position(|&i| i == p).unwrap_or(0);
-            add(v, l, slot);
-        }
-    }
+    });
     (contacts > 0).then(|| {
         let push = if depths > R::ZERO {
             sum / depths
@@ -955,13 +987,18 @@ pub fn apply<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], w: &mut Workspace<R>) 
                 });
         }
         if round > 0 {
-            // Only a vertex with no such pair goes on towards its
-            // prediction; one in contact stays where the last round left
-            // it, as with a single round (pursued again, a prediction
-            // through a layer would close the pair by the bound once a
-            // round).
+            // A vertex with no such pair goes on towards its prediction;
+            // one in contact only along its layers (pursued whole, a
+            // prediction through a layer closed the pair by the bound
+            // once a round, to within rounding of touching).
+            let topo = c.triangles.as_ref();
             for (p, xp) in x.iter_mut().enumerate() {
-                *xp = if k.near[p] { k.start[p] } else { k.target[p] };
+                *xp = match topo {
+                    Some(topo) if k.near[p] => {
+                        k.start[p] + along_layers(sys, topo, k, p, k.target[p] - k.start[p])
+                    }
+                    _ => k.target[p],
+                };
             }
         }
         let shift = common_translation(sys, k, x);
@@ -979,9 +1016,7 @@ pub fn apply<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], w: &mut Workspace<R>) 
                     let cap = k.bound[p];
                     if l2 > cap * cap {
                         *xp = (k.start[p] + shift) + dx * (cap / l2.sqrt());
-                        // Another round can take it further only if it is
-                        // in open cloth.
-                        short |= !k.near[p];
+                        short = true;
                     }
                 }
             }
