@@ -225,6 +225,18 @@ impl<R: Real> Vec3<R> {
         self.x.is_finite() && self.y.is_finite() && self.z.is_finite()
     }
 
+    /// The smaller of each component.
+    #[inline]
+    pub fn min(self, o: Self) -> Self {
+        Self::new(self.x.min(o.x), self.y.min(o.y), self.z.min(o.z))
+    }
+
+    /// The larger of each component.
+    #[inline]
+    pub fn max(self, o: Self) -> Self {
+        Self::new(self.x.max(o.x), self.y.max(o.y), self.z.max(o.z))
+    }
+
     /// Component `k` (0 = x, 1 = y, 2 = z).
     #[inline]
     pub fn get(self, k: usize) -> R {

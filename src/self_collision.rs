@@ -125,14 +125,10 @@ pub struct TriangleTopology<R> {
 
 /// The box of points `corners` of `x`: lowest and highest corner.
 pub(crate) fn box_of<R: Real>(x: &[Vec3<R>], corners: &[u32]) -> (Vec3<R>, Vec3<R>) {
-    let mut lo = x[corners[0] as usize];
-    let mut hi = lo;
-    for &i in &corners[1..] {
-        let x = x[i as usize];
-        lo = Vec3::new(lo.x.min(x.x), lo.y.min(x.y), lo.z.min(x.z));
-        hi = Vec3::new(hi.x.max(x.x), hi.y.max(x.y), hi.z.max(x.z));
-    }
-    (lo, hi)
+    let first = x[corners[0] as usize];
+    corners[1..].iter().fold((first, first), |(lo, hi), &i| {
+        (lo.min(x[i as usize]), hi.max(x[i as usize]))
+    })
 }
 
 /// Whether boxes `a` and `b` lie at least `gap` apart along an axis (so

@@ -585,6 +585,17 @@ fn a_thrown_sheet_moves_exactly_as_without_it() {
     }
 }
 
+/// A `[[cloth]]` table: a free horizontal sheet of `n²` particles over
+/// `size` \[m\], centred on the vertical axis at height `y` \[m\].
+fn sheet(n: usize, size: f64, y: f64) -> String {
+    format!(
+        "[[cloth]]\nresolution = [{n}, {n}]\nsize = [{size}, {size}]\n\
+         origin = [{}, {y}, {}]\norientation = \"horizontal\"\nmass = 0.1\npins = []\n",
+        -size / 2.0,
+        -size / 2.0
+    )
+}
+
 /// Gap \[m\] between the two sheets of the stack that falls whole: two
 /// thicknesses, so every vertex has a pair 4 mm away and its bound is
 /// 1.8 mm a step.
@@ -598,20 +609,14 @@ const STACK_GAP: f64 = 2.0 * THICKNESS;
 /// integrator.
 #[test]
 fn a_stack_falling_whole_moves_exactly_as_without_it() {
-    let sheet = |y: f64| {
-        format!(
-            "[[cloth]]\nresolution = [17, 17]\nsize = [0.5, 0.5]\norigin = [0.0, {y}, 0.0]\n\
-             orientation = \"horizontal\"\nmass = 0.1\npins = []\n"
-        )
-    };
     for integrator in Integrator::ALL {
         let text = format!(
             "[simulation]\nintegrator = \"{}\"\ndt = {}\n\n{}\n{}\n\
              [self_collision]\nmethod = \"triangles\"\nthickness = {THICKNESS}\n",
             integrator.as_str(),
             1.0 / 240.0,
-            sheet(1.0),
-            sheet(1.0 + STACK_GAP),
+            sheet(17, 0.5, 1.0),
+            sheet(17, 0.5, 1.0 + STACK_GAP),
         );
         let scene =
             wgcloth::Scene::from_toml(&text, std::path::Path::new("stack.toml")).expect("scene");
@@ -652,14 +657,6 @@ const SLIDE_SPEED: f64 = 1.0;
 /// round held it to one; and it crosses nothing.
 #[test]
 fn a_sheet_slides_along_another_several_bounds_a_step() {
-    let sheet = |n: usize, size: f64, y: f64| {
-        format!(
-            "[[cloth]]\nresolution = [{n}, {n}]\nsize = [{size}, {size}]\n\
-             origin = [{}, {y}, {}]\norientation = \"horizontal\"\nmass = 0.1\npins = []\n",
-            -size / 2.0,
-            -size / 2.0
-        )
-    };
     let text = format!(
         "[simulation]\nintegrator = \"implicit\"\ndt = {}\n\n{}\n{}\n\
          [ground]\nheight = 0.0\nfriction = 0.8\n\n\

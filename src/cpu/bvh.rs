@@ -50,11 +50,7 @@ pub struct Bvh<R> {
 }
 
 fn union<R: Real>(a: Aabb<R>, b: Aabb<R>) -> Aabb<R> {
-    let (lo, hi) = (a.0, a.1);
-    (
-        Vec3::new(lo.x.min(b.0.x), lo.y.min(b.0.y), lo.z.min(b.0.z)),
-        Vec3::new(hi.x.max(b.1.x), hi.y.max(b.1.y), hi.z.max(b.1.z)),
-    )
+    (a.0.min(b.0), a.1.max(b.1))
 }
 
 /// Whether boxes `a` and `b` overlap (touching counts).

@@ -684,7 +684,7 @@ impl<R: Real> CpuSolver<R> {
         };
         if let (Some(c), Some(t), true) = (&mut sys.self_collision, thickness, triangles) {
             let topo = crate::self_collision::TriangleTopology::new(model, t)?;
-            work.contacts = Some(triangle_contact::Contacts::new(n, &sys.triangles, &topo)?);
+            work.contacts = Some(triangle_contact::Contacts::new(&sys.triangles, &topo)?);
             c.triangles = Some(topo);
         }
         let mut solver = CpuSolver {

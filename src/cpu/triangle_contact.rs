@@ -266,14 +266,11 @@ pub struct Candidates<R> {
 }
 
 impl<R: Real> Contacts<R> {
-    /// The state for `particles` vertices, `triangles` and `topo`'s
-    /// edges (the hierarchies cut from their rest positions).
-    pub fn new(
-        particles: usize,
-        triangles: &[[u32; 3]],
-        topo: &TriangleTopology<R>,
-    ) -> Result<Self> {
+    /// The state for `topo`'s vertices and edges and `triangles` (the
+    /// hierarchies cut from their rest positions).
+    pub fn new(triangles: &[[u32; 3]], topo: &TriangleTopology<R>) -> Result<Self> {
         const WHAT: &str = "the triangle contacts";
+        let particles = topo.rest.len();
         let rest = |i: u32| DVec3::from_array(topo.rest[i as usize].to_f64());
         let centroid = |corners: &[u32]| {
             corners.iter().map(|&i| rest(i)).sum::<DVec3>() / corners.len() as f64
@@ -511,22 +508,26 @@ pub const SKIN_FRACTION: f64 = 0.25;
 /// at any scene's scale).
 const SKIN_SLACK: f64 = 0.9;
 
+/// The middle of the box of `displacements` \[m\]; `None` where there are
+/// none or one is not finite.
+fn middle<R: Real>(mut displacements: impl Iterator<Item = Vec3<R>>) -> Option<Vec3<R>> {
+    let first = displacements.next()?;
+    let (mut lo, mut hi) = (first, first);
+    for u in std::iter::once(first).chain(displacements) {
+        if !u.is_finite() {
+            return None;
+        }
+        (lo, hi) = (lo.min(u), hi.max(u));
+    }
+    Some((lo + hi) * R::from_f64(0.5))
+}
+
 /// The largest displacement \[m\] of a vertex from `at` to `x` relative to
 /// a common translation (the middle of the displacements' box): two points
 /// of the cloth have closed by at most twice it. `None` where a position
 /// is not finite.
 fn deformation<R: Real>(at: &[Vec3<R>], x: &[Vec3<R>]) -> Option<R> {
-    let mut moved = at.iter().zip(x).map(|(&a, &b)| b - a);
-    let first = moved.next()?;
-    let (mut lo, mut hi) = (first, first);
-    for u in std::iter::once(first).chain(moved) {
-        if !u.is_finite() {
-            return None;
-        }
-        lo = Vec3::new(lo.x.min(u.x), lo.y.min(u.y), lo.z.min(u.z));
-        hi = Vec3::new(hi.x.max(u.x), hi.y.max(u.y), hi.z.max(u.z));
-    }
-    let common = (lo + hi) * R::from_f64(0.5);
+    let common = middle(at.iter().zip(x).map(|(&a, &b)| b - a))?;
     let most = at
         .iter()
         .zip(x)
@@ -905,23 +906,11 @@ pub fn respond<R: Real>(
 fn common_translation<R: Real>(sys: &System<R>, k: &Contacts<R>, x: &[Vec3<R>]) -> Vec3<R> {
     let moved = |p: usize| x[p] - k.start[p];
     let free = |p: usize| sys.inv_mass[p] > R::ZERO && k.weight[p] > R::ZERO;
-    let mut range: Option<(Vec3<R>, Vec3<R>)> = None;
-    for p in (0..x.len()).filter(|&p| free(p)) {
-        let u = moved(p);
-        range = Some(match range {
-            None => (u, u),
-            Some((lo, hi)) => (
-                Vec3::new(lo.x.min(u.x), lo.y.min(u.y), lo.z.min(u.z)),
-                Vec3::new(hi.x.max(u.x), hi.y.max(u.y), hi.z.max(u.z)),
-            ),
-        });
-    }
-    let Some((lo, hi)) = range else {
+    // None where a displacement is not finite.
+    let Some(wanted) = middle((0..x.len()).filter(|&p| free(p)).map(moved)) else {
         return Vec3::ZERO;
     };
-    let wanted = (lo + hi) * R::from_f64(0.5);
     let cc = wanted.dot(wanted);
-    // Written so that a displacement that is not a number leaves none.
     if !(cc > R::ZERO && cc.is_finite()) {
         return Vec3::ZERO;
     }
@@ -959,6 +948,9 @@ pub fn apply<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], w: &mut Workspace<R>) 
     let (Some(c), Some(k)) = (&sys.self_collision, &mut w.contacts) else {
         return false;
     };
+    let Some(topo) = &c.triangles else {
+        return false;
+    };
     k.target.copy_from_slice(x);
     k.start.copy_from_slice(&w.x_old);
     for round in 0..MAX_ROUNDS {
@@ -971,33 +963,22 @@ pub fn apply<R: Real>(sys: &System<R>, x: &mut [Vec3<R>], w: &mut Workspace<R>) 
         find(sys, c, &start, &target, w.clock, k);
         (k.start, k.target) = (start, target);
         // A vertex with a pair that could touch this round.
-        let topo = c.triangles.as_ref();
-        for (p, near) in k.near.iter_mut().enumerate() {
-            *near = !k.vt.of(p).is_empty()
-                || sys
-                    .triangle_adj
-                    .of(p)
-                    .iter()
-                    .any(|&t| !k.tv.of(t as usize).is_empty())
-                || topo.is_some_and(|topo| {
-                    topo.vertex_edges
-                        .of(p)
-                        .iter()
-                        .any(|&e| !k.ee.of(e as usize).is_empty())
-                });
+        let mut near = std::mem::take(&mut k.near);
+        for (p, near) in near.iter_mut().enumerate() {
+            *near = false;
+            each_pair(sys, topo, k, p, |_, _, _| *near = true);
         }
+        k.near = near;
         if round > 0 {
             // A vertex with no such pair goes on towards its prediction;
             // one in contact only along its layers (pursued whole, a
             // prediction through a layer closed the pair by the bound
             // once a round, to within rounding of touching).
-            let topo = c.triangles.as_ref();
             for (p, xp) in x.iter_mut().enumerate() {
-                *xp = match topo {
-                    Some(topo) if k.near[p] => {
-                        k.start[p] + along_layers(sys, topo, k, p, k.target[p] - k.start[p])
-                    }
-                    _ => k.target[p],
+                *xp = if k.near[p] {
+                    k.start[p] + along_layers(sys, topo, k, p, k.target[p] - k.start[p])
+                } else {
+                    k.target[p]
                 };
             }
         }
@@ -1090,7 +1071,7 @@ mod tests {
                 built += 1;
             }
             let topo = c.triangles.as_ref().expect("the triangle method");
-            let mut fresh = Contacts::new(x.len(), &sys.triangles, topo).expect("state");
+            let mut fresh = Contacts::new(&sys.triangles, topo).expect("state");
             find(sys, c, x, x, clock, &mut fresh);
             let bound = |k: &Contacts<f32>| k.bound.iter().map(|b| b.to_bits()).collect::<Vec<_>>();
             for (what, same) in [
